@@ -1,0 +1,194 @@
+"""The Maker (paper, Algorithm 1): one generic loop for every generator.
+
+Inputs are three item sources (objects, joints, transformations), the number
+of objects N and the seed. At iteration n the Maker draws an item from each
+source (a finite set: the seeded rng picks one; a sequence: its n-th item),
+lets the generator attach the new object to the puzzle built so far, and keeps
+the candidate only if
+
+1. the puzzle is NOT solvable with the new object fixed at its creation pose
+   (otherwise the object would be superfluous), and
+2. the puzzle IS solvable with the object free.
+
+Solvability is asked of a :class:`Validator` (the solver package provides the
+OMPL one), so the core stays free of planner imports. Objects with a fixed
+joint (walls, corridors, rooms) have nothing to fix: for them only check 2
+applies, otherwise Algorithm 1 would loop forever on them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from .objects import PuzzleObject
+from .puzzle import Goal
+
+Path = Sequence[Sequence[float]]
+
+
+class GenerationError(RuntimeError):
+    """A generator could not build a puzzle within its bounded number of tries."""
+
+
+# -- item sources ------------------------------------------------------------
+class ItemSource(Protocol):
+    def get(self, n: int, rng: np.random.Generator) -> Any: ...
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A finite set: the seeded rng picks an item."""
+
+    items: tuple
+
+    def get(self, n: int, rng: np.random.Generator) -> Any:
+        return self.items[int(rng.integers(len(self.items)))]
+
+
+@dataclass(frozen=True)
+class Uniform:
+    """A continuous set, a box [low, high] per coordinate: the seeded rng draws a point."""
+
+    low: tuple[float, ...]
+    high: tuple[float, ...]
+
+    def get(self, n: int, rng: np.random.Generator) -> tuple[float, ...]:
+        return tuple(float(rng.uniform(lo, hi)) for lo, hi in zip(self.low, self.high, strict=True))
+
+
+@dataclass(frozen=True)
+class Sequence_:
+    """An infinite sequence: item n (1-based) is ``items[n-1]``; past the end the
+    tail repeats cyclically from ``repeat_from`` (e.g. Cuboid, Disk, Cuboid, ...)."""
+
+    items: tuple
+    repeat_from: int = 0
+
+    def get(self, n: int, rng: np.random.Generator) -> Any:
+        i = n - 1
+        if i >= len(self.items):
+            period = len(self.items) - self.repeat_from
+            i = self.repeat_from + (i - self.repeat_from) % period
+        return self.items[i]
+
+
+# -- validation interface ----------------------------------------------------
+@dataclass(frozen=True)
+class SolveResult:
+    solved: bool
+    path: tuple[tuple[float, ...], ...] = ()
+    checks: int = 0
+
+
+class Validator(Protocol):
+    """Answers ValidatePuzzle: can the target reach its goal?"""
+
+    def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult: ...
+
+    def blocked_by(self, objects: Sequence[PuzzleObject], new_object: PuzzleObject, path: Path) -> list[str]:
+        """Names of objects whose motion along ``path`` hits ``new_object`` at its creation pose."""
+        ...
+
+
+# -- the algorithm -----------------------------------------------------------
+@dataclass(frozen=True)
+class Draft:
+    """The puzzle built so far plus whatever a generator needs to extend it."""
+
+    objects: tuple[PuzzleObject, ...] = ()
+    context: Any = None
+
+
+Attach = Callable[[Draft, Any, Any, Any, int, np.random.Generator], Draft | None]
+"""NewKinematicChain: (draft, object item, joint item, transformation item, n, rng)
+-> the extended draft, or None when this combination cannot be placed."""
+
+
+@dataclass(frozen=True)
+class MakerInput:
+    """A generator, defined as its input tuple to the Maker (paper Table I)."""
+
+    objects: ItemSource
+    joints: ItemSource
+    transforms: ItemSource
+    n_objects: int
+    attach: Attach
+    goal: Callable[[Draft], Goal]
+    initial: Draft = field(default_factory=Draft)
+    max_tries: int = 50  # candidates per iteration
+    max_restarts: int = 10  # whole-puzzle restarts when an iteration runs out of tries
+    fixed_budget_scale: float = 1.5  # the prototype gave FixJoint 1.5x the UnfixJoint time
+
+
+@dataclass(frozen=True)
+class MakerResult:
+    objects: tuple[PuzzleObject, ...]
+    goal: Goal
+    certificate: tuple[tuple[float, ...], ...]
+    dependencies: tuple[tuple[str, str], ...]
+    context: Any = None
+
+
+def rng_for(generator: str, seed: int, stream: str = "maker") -> np.random.Generator:
+    """A numpy Generator seeded from a stable hash of (generator, seed, stream)."""
+    digest = hashlib.sha256(f"{generator}:{seed}:{stream}".encode()).digest()
+    return np.random.default_rng(int.from_bytes(digest[:8], "little"))
+
+
+def make(spec: MakerInput, seed: int, validator: Validator, generator: str = "generator",
+         progress: Callable[[int, int], None] | None = None) -> MakerResult:
+    """Run Algorithm 1. Raises :class:`GenerationError` when tries run out."""
+    rng = rng_for(generator, seed)
+    last_failure = ""
+    for restart in range(spec.max_restarts):
+        try:
+            return _make_once(spec, rng, validator, generator, seed, progress)
+        except _IterationExhausted as exc:
+            last_failure = str(exc)
+    raise GenerationError(
+        f"generator {generator!r}, seed {seed}: gave up after {spec.max_restarts} restarts; last: {last_failure}"
+    )
+
+
+class _IterationExhausted(Exception):
+    pass
+
+
+def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator, generator: str,
+               seed: int, progress: Callable[[int, int], None] | None) -> MakerResult:
+    draft = spec.initial
+    path: tuple[tuple[float, ...], ...] = ()
+    dependencies: list[tuple[str, str]] = []
+    for n in range(1, spec.n_objects + 1):
+        for _ in range(spec.max_tries):
+            obj_item = spec.objects.get(n, rng)
+            joint_item = spec.joints.get(n, rng)
+            tf_item = spec.transforms.get(n, rng)
+            candidate = spec.attach(draft, obj_item, joint_item, tf_item, n, rng)
+            if candidate is None:
+                continue
+            new_objects = candidate.objects[len(draft.objects):]
+            goal = spec.goal(candidate)
+            movable = [o for o in new_objects if o.is_movable]
+            if movable:
+                fixed = tuple(o.fixed() if o in movable else o for o in candidate.objects)
+                if validator.solve(fixed, goal, budget_scale=spec.fixed_budget_scale).solved:
+                    continue  # superfluous: solvable without moving it
+            result = validator.solve(candidate.objects, goal)
+            if not result.solved:
+                continue
+            if path and movable:
+                for new in movable:
+                    dependencies += [(new.name, b) for b in validator.blocked_by(draft.objects, new, path)]
+            draft, path = candidate, result.path
+            break
+        else:
+            raise _IterationExhausted(f"iteration {n}: no valid candidate in {spec.max_tries} tries")
+        if progress:
+            progress(n, spec.n_objects)
+    return MakerResult(draft.objects, spec.goal(draft), path, tuple(dependencies), draft.context)
