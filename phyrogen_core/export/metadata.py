@@ -1,0 +1,121 @@
+"""``puzzle.json``: everything about a puzzle that the URDF does not say.
+
+Provenance (generator, parameters, seed, package versions) so the puzzle can
+be regenerated; the planning problem (joint order, limits, start, goal); the
+objects and the dependency graph; and the solution certificate. There is no
+timestamp: the same puzzle always gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import json
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from ..puzzle import Puzzle
+
+FORMAT_VERSION = 1
+"""Bumped when a key changes meaning; readers check it."""
+
+
+def puzzle_metadata(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> dict[str, Any]:
+    """The JSON-ready description of ``puzzle``.
+
+    ``versions`` names the package versions to record; by default only
+    PhyRoGen's own. Raises ValueError when the goal or the certificate do not
+    fit the puzzle's joints, or a parameter cannot be written as JSON.
+    """
+    chain = puzzle.chain
+    joint_order = list(puzzle.joint_order)
+    for joint_name in puzzle.goal.values:
+        if joint_name not in joint_order:
+            raise ValueError(f"goal joint {joint_name!r} is not an active joint; valid: {joint_order}")
+    for index, state in enumerate(puzzle.certificate):
+        if len(state) != len(joint_order):
+            raise ValueError(f"certificate state {index} has {len(state)} values, "
+                             f"expected {len(joint_order)} (one per joint in {joint_order})")
+    return {
+        "format_version": FORMAT_VERSION,
+        "generator": puzzle.generator,
+        "name": puzzle.name,
+        "seed": puzzle.seed,
+        "parameters": _jsonable(_parameters_dict(puzzle.parameters), "parameters"),
+        "joint_order": joint_order,
+        "joint_limits": {
+            name: {"type": chain.joint(name).type.value, "lower": _float(chain.joint(name).lower),
+                   "upper": _float(chain.joint(name).upper)}
+            for name in joint_order
+        },
+        "start": [_float(v) for v in puzzle.start],
+        "goal": {
+            "target": puzzle.goal.target,
+            "values": {name: _float(v) for name, v in puzzle.goal.values.items()},
+            "tolerance": _float(puzzle.goal.tolerance),
+        },
+        "objects": [
+            {"name": o.name, "motion": o.motion.value, "role": o.role.value, "joints": list(o.joint_names)}
+            for o in puzzle.objects
+        ],
+        "dependency_graph": {
+            "nodes": [o.name for o in puzzle.objects],
+            "edges": [[str(blocker), str(blocked)] for blocker, blocked in puzzle.dependencies],
+        },
+        "certificate": [[_float(v) for v in state] for state in puzzle.certificate],
+        "versions": dict(versions) if versions is not None else {"phyrogen": _phyrogen_version()},
+    }
+
+
+def metadata_json(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> str:
+    """:func:`puzzle_metadata` as JSON text: sorted keys, indent 2, trailing newline."""
+    return json.dumps(puzzle_metadata(puzzle, versions), sort_keys=True, indent=2, allow_nan=False) + "\n"
+
+
+def _phyrogen_version() -> str:
+    # Imported here: the package's __init__ may one day import this module.
+    from .. import __version__
+
+    return __version__
+
+
+def _parameters_dict(parameters: Any) -> Mapping[str, Any]:
+    if dataclasses.is_dataclass(parameters) and not isinstance(parameters, type):
+        return dataclasses.asdict(parameters)
+    if isinstance(parameters, Mapping):
+        return parameters
+    raise TypeError(f"puzzle parameters must be a dataclass instance or a mapping, "
+                    f"got {type(parameters).__name__}")
+
+
+def _float(value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"cannot write {value!r} to puzzle.json: only finite numbers are valid")
+    return value + 0.0  # -0.0 -> 0.0
+
+
+def _jsonable(value: Any, where: str) -> Any:
+    """``value`` as plain JSON data (numpy scalars and arrays, enums and tuples converted)."""
+    if isinstance(value, enum.Enum):
+        return _jsonable(value.value, where)
+    if value is None or isinstance(value, bool | str):
+        return value
+    if isinstance(value, int):
+        return int(value)
+    if isinstance(value, float):
+        return _float(value)
+    if hasattr(value, "tolist") and callable(value.tolist):  # numpy scalars and arrays
+        return _jsonable(value.tolist(), where)
+    if isinstance(value, Mapping):
+        out = {}
+        for key, item in value.items():
+            if not isinstance(key, str):
+                raise ValueError(f"{where}: key {key!r} must be a string to be written as JSON")
+            out[key] = _jsonable(item, f"{where}.{key}")
+        return out
+    if isinstance(value, list | tuple):
+        return [_jsonable(item, f"{where}[{i}]") for i, item in enumerate(value)]
+    raise ValueError(f"{where}: {value!r} ({type(value).__name__}) cannot be written as JSON; "
+                     "valid: numbers, strings, booleans, None, lists, mappings, enums")

@@ -1,0 +1,97 @@
+"""Wavefront OBJ text for one convex piece of a :class:`~phyrogen_core.geometry.ConvexPrism`.
+
+URDF has no prism primitive, and URDF loaders (PyBullet among them) turn a
+collision mesh into the convex hull of its vertices. A non-convex prism such
+as the slot disc is therefore written as one closed mesh per convex piece.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..geometry import Point2
+from .formatting import number
+
+
+def prism_piece_obj(piece: tuple[Point2, ...], height: float, name: str) -> str:
+    """A closed prism over the counter-clockwise polygon ``piece``, z in [-height/2, height/2].
+
+    Vertices: the bottom ring, then the top ring, each in the piece's order.
+    Faces are triangles (fans, valid because the piece is convex) wound
+    counter-clockwise seen from outside, so every normal points outwards.
+    """
+    n = len(piece)
+    half = height / 2
+    lines = [f"# convex prism piece, {n} sides, height {number(height)}", f"o {name}"]
+    for z in (-half, half):
+        lines += [f"v {number(x)} {number(y)} {number(z)}" for x, y in piece]
+    bottom = [1 + i for i in range(n)]
+    top = [1 + n + i for i in range(n)]
+    # Top seen from +z is counter-clockwise; the bottom, seen from -z, must be reversed.
+    lines += [f"f {top[0]} {top[i]} {top[i + 1]}" for i in range(1, n - 1)]
+    lines += [f"f {bottom[0]} {bottom[i + 1]} {bottom[i]}" for i in range(1, n - 1)]
+    for i in range(n):
+        j = (i + 1) % n
+        lines.append(f"f {bottom[i]} {bottom[j]} {top[j]}")
+        lines.append(f"f {bottom[i]} {top[j]} {top[i]}")
+    return "\n".join(lines) + "\n"
+
+
+def read_prism_piece(text: str) -> tuple[tuple[Point2, ...], float]:
+    """The (piece, height) of a prism mesh: its distinct (x, y) ring, counter-clockwise.
+
+    Raises ValueError when the mesh is not a prism centred on z = 0 over a
+    convex polygon.
+    """
+    vertices: list[tuple[float, float, float]] = []
+    for number_, line in enumerate(text.splitlines(), start=1):
+        fields = line.split()
+        if not fields or fields[0] != "v":
+            continue
+        if len(fields) < 4:
+            raise ValueError(f"line {number_}: vertex needs x y z, got {line!r}")
+        try:
+            vertices.append((float(fields[1]), float(fields[2]), float(fields[3])))
+        except ValueError:
+            raise ValueError(f"line {number_}: vertex coordinates must be numbers, got {line!r}") from None
+    if len(vertices) < 6:
+        raise ValueError(f"a prism needs at least 6 vertices, found {len(vertices)}")
+    low = min(v[2] for v in vertices)
+    high = max(v[2] for v in vertices)
+    if high <= low or abs(low + high) > 1e-9 * max(1.0, high):
+        raise ValueError(f"a prism must span z in [-h/2, h/2] with h > 0, found z in [{low!r}, {high!r}]")
+    ring: list[Point2] = []
+    seen: set[Point2] = set()
+    for x, y, _ in vertices:
+        if (x, y) not in seen:
+            seen.add((x, y))
+            ring.append((x, y))
+    if len(ring) < 3:
+        raise ValueError(f"a prism needs at least 3 distinct (x, y) corners, found {len(ring)}")
+    if not _is_convex_ccw(ring):
+        # Written by another tool: order the corners by angle about their centroid.
+        cx = sum(p[0] for p in ring) / len(ring)
+        cy = sum(p[1] for p in ring) / len(ring)
+        ring.sort(key=lambda p: math.atan2(p[1] - cy, p[0] - cx))
+        if not _is_convex_ccw(ring):
+            raise ValueError(f"the (x, y) corners do not form a convex polygon: {ring}")
+    return tuple(ring), high - low
+
+
+def _is_convex_ccw(ring: list[Point2]) -> bool:
+    """True when ``ring`` walks once, counter-clockwise, around a convex polygon.
+
+    Collinear corners are allowed (clipped outlines have them); the turning
+    angles must sum to one full turn, which excludes star-shaped walks.
+    """
+    n = len(ring)
+    scale = max(max(abs(x), abs(y)) for x, y in ring) or 1.0
+    turning = 0.0
+    for i in range(n):
+        (ax, ay), (bx, by), (cx, cy) = ring[i], ring[(i + 1) % n], ring[(i + 2) % n]
+        cross = (bx - ax) * (cy - by) - (by - ay) * (cx - bx)
+        if cross < -1e-12 * scale * scale:
+            return False
+        dot = (bx - ax) * (cx - bx) + (by - ay) * (cy - by)
+        turning += math.atan2(cross, dot)
+    return abs(turning - 2 * math.pi) < 1e-6
