@@ -1,0 +1,248 @@
+"""Grid World (paper Table I): cuboids on a unit grid, each parked in a cell another one needs."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..chain import Geometry
+from ..geometry import Box, Pose
+from ..maker import Choice, Draft, MakerInput
+from ..objects import Motion, PuzzleObject
+from ..puzzle import Goal, paper_goal
+from ..registry import ParameterError, register
+from .parts import MAX_OBJECTS, box_handle, hinge, movable_role, object_name, role_color, unit
+
+Cell = tuple[int, int]
+"""Grid cell (i, j): the unit square [i, i+1] x [j, j+1], centre (i + 0.5, j + 0.5)."""
+
+ORIGIN: Cell = (0, 0)
+PRISMATIC_CELLS = 2
+REVOLUTE_CELLS = 3
+HANDLE_FRACTION = 0.375
+"""A revolute bar's handle sits this fraction of its length from the hinge (prototype)."""
+HINGE_RADIUS = 0.1
+TRANSFORMS = (0.0, 90.0, 180.0, 270.0)
+CCW, CW = 1, -1
+
+
+def min_clearance() -> float:
+    """Smallest clearance e for which a turning bar never reaches a box in a cell next to its
+    sweep: the bar's corner radius sqrt((1.5 - e/2)^2 + (0.5 - e/2)^2) must stay below
+    1.5 + e/2, i.e. h^2 - 7h + 1/4 < 0 with h = e/2."""
+    return 7.0 - math.sqrt(48.0)
+
+
+@dataclass(frozen=True)
+class GridWorldParams:
+    """``n_objects`` cuboids (Table I: 5); ``branching`` extra start cells a turning bar may
+    open in total (the prototype's branching_factor_target); ``clearance`` the prototype's e
+    (each box is one cell minus e per side pair); ``allow_clockwise`` lets bars turn clockwise."""
+
+    n_objects: int = 5
+    branching: int = 6
+    clearance: float = 0.1
+    allow_clockwise: bool = True
+
+    def validate(self, seed: int) -> None:
+        if not 1 <= self.n_objects < MAX_OBJECTS:
+            raise ParameterError(f"n_objects must be in 1..{MAX_OBJECTS - 1}, got {self.n_objects}")
+        if self.branching < 0:
+            raise ParameterError(f"branching must be >= 0, got {self.branching}")
+        low = min_clearance()
+        if not low < self.clearance < 0.5:
+            raise ParameterError(
+                f"clearance must lie in ({low:.4f}, 0.5): below, a turning bar hits boxes beside "
+                f"its sweep; from 0.5 on, a box no longer blocks its neighbour; got {self.clearance}"
+            )
+
+
+@dataclass(frozen=True)
+class GridState:
+    """What the grid generator remembers between iterations (immutable).
+
+    ``occupied``: every cell some object covers or sweeps. ``queue``: start cells, FIFO;
+    each is a cell an earlier object must move into, so whatever is parked there blocks it.
+    ``branches_left``: how many extra start cells turning bars may still open.
+    """
+
+    occupied: frozenset[Cell]
+    queue: tuple[Cell, ...]
+    branches_left: int
+
+
+def _add(a: Cell, *others: Cell) -> Cell:
+    return (a[0] + sum(o[0] for o in others), a[1] + sum(o[1] for o in others))
+
+
+def _scale(a: Cell, k: int) -> Cell:
+    return (a[0] * k, a[1] * k)
+
+
+def _left(u: Cell) -> Cell:
+    return (-u[1], u[0])
+
+
+def prismatic_cells(start: Cell, u: Cell) -> tuple[Cell, ...]:
+    """Cells besides ``start`` that a box in (start, start + u) sliding one cell along u needs."""
+    return (_add(start, u), _add(start, _scale(u, 2)))
+
+
+def revolute_cells(start: Cell, u: Cell, sense: int) -> tuple[Cell, ...]:
+    """Cells besides ``start`` that a bar over (start, start+u, start+2u), hinged at its middle
+    and turning 90 degrees (``sense`` CCW or CW), needs: its other two cells, its two final
+    cells and the two corners its ends sweep through, in that order."""
+    v = _scale(_left(u), sense)
+    hinge_cell = _add(start, u)
+    minus_v = _scale(v, -1)
+    return (
+        hinge_cell,
+        _add(start, _scale(u, 2)),
+        _add(hinge_cell, v),
+        _add(hinge_cell, minus_v),
+        _add(start, _scale(u, 2), v),
+        _add(start, minus_v),
+    )
+
+
+def _free(cells: tuple[Cell, ...], occupied: frozenset[Cell]) -> bool:
+    return not any(c in occupied for c in cells)
+
+
+def _senses(state: GridState, start: Cell, u: Cell, allow_clockwise: bool) -> list[int]:
+    senses = (CCW, CW) if allow_clockwise else (CCW,)
+    return [s for s in senses if _free(revolute_cells(start, u, s), state.occupied)]
+
+
+def _anything_fits(state: GridState, start: Cell, allow_clockwise: bool) -> bool:
+    for angle in TRANSFORMS:
+        u = unit(angle)
+        if _free(prismatic_cells(start, u), state.occupied) or _senses(state, start, u, allow_clockwise):
+            return True
+    return False
+
+
+def _centre(cell: Cell) -> tuple[float, float]:
+    return (cell[0] + 0.5, cell[1] + 0.5)
+
+
+def _cuboid(index: int, motion: Motion, start: Cell, u: Cell, sense: int, e: float) -> PuzzleObject:
+    role = movable_role(index)
+    color = role_color(role)
+    height = 1.0 - e
+    cells = PRISMATIC_CELLS if motion is Motion.PRISMATIC else REVOLUTE_CELLS
+    length = cells - e
+    body = Geometry(Box((length, 1.0 - e, height)), Pose(), color, "body")
+    # The frame sits at the box centre: half a cell ahead of the start cell for a
+    # two-cell slider, on the middle cell (the hinge) for a three-cell bar.
+    offset = 0.5 if motion is Motion.PRISMATIC else 1.0
+    x, y = _centre(start)
+    pose = Pose.planar(x + offset * u[0], y + offset * u[1], height / 2, math.atan2(u[1], u[0]))
+    if motion is Motion.PRISMATIC:
+        handle = box_handle(0.0, 0.0, height / 2, color)
+        visuals = (body, *handle)
+        limits = ((0.0, 1.0),)
+    else:
+        handle = box_handle(HANDLE_FRACTION * length, 0.0, height / 2, color)
+        visuals = (body, *handle, hinge(HINGE_RADIUS, height))
+        quarter = math.pi / 2
+        limits = ((0.0, quarter),) if sense == CCW else ((-quarter, 0.0),)
+    return PuzzleObject(object_name(index), motion, pose, visuals, (body, *handle), role, limits)
+
+
+def _attach_for(params: GridWorldParams):
+    def attach(draft: Draft, obj_item: str, joint_item: Motion, tf_item: float, n: int,
+               rng: np.random.Generator) -> Draft | None:
+        state: GridState = draft.context
+        # A start cell where nothing fits any more is dropped (the prototype restarted the
+        # whole puzzle instead); the object that sweeps it stays blocked by the others.
+        queue = state.queue
+        while queue and not _anything_fits(state, queue[0], params.allow_clockwise):
+            queue = queue[1:]
+        if not queue:
+            return None
+        start, u = queue[0], unit(tf_item)
+        if joint_item is Motion.PRISMATIC:
+            cells = prismatic_cells(start, u)
+            if not _free(cells, state.occupied):
+                return None
+            sense, new_starts = 0, (cells[-1],)
+            branches_left = state.branches_left
+        else:
+            senses = _senses(state, start, u, params.allow_clockwise)
+            if not senses:
+                return None
+            sense = senses[int(rng.integers(len(senses)))]
+            cells = revolute_cells(start, u, sense)
+            # Each of the bar's last four cells (final places and swept corners) blocks it:
+            # one becomes a start cell, the others too while the branching budget lasts.
+            candidates = [cells[k] for k in rng.permutation(4) + 2]
+            extra = min(state.branches_left, len(candidates) - 1)
+            new_starts = tuple(candidates[: 1 + extra])
+            branches_left = state.branches_left - extra
+        new = _cuboid(len(draft.objects), joint_item, start, u, sense, params.clearance)
+        context = GridState(state.occupied | frozenset(cells), queue[1:] + new_starts, branches_left)
+        return Draft(draft.objects + (new,), context)
+
+    return attach
+
+
+def _goal(draft: Draft) -> Goal:
+    return paper_goal(draft.objects[0])
+
+
+@register("grid_world", "Grid World", GridWorldParams)
+def build(seed: int, params: GridWorldParams) -> MakerInput:
+    """Grid World: boxes on a unit grid; each new box is parked in a cell an earlier one needs.
+
+    Mechanism:
+        Objects live on a unit grid. A prismatic box covers 2 cells, (2 - e) x (1 - e)
+        x (1 - e), and slides one cell along its long axis (limits (0, 1)). A revolute
+        bar covers 3 cells, (3 - e) x (1 - e) x (1 - e), hinged at its middle cell, and
+        turns 90 degrees counter-clockwise (limits (0, 90) deg) or clockwise
+        ((-90, 0) deg); it needs its 3 cells, the 2 cells it ends in and the 2 corner
+        cells its ends sweep through. e = 0.1 leaves room between boxes in
+        neighbouring cells. A FIFO queue holds start cells, cells that an earlier
+        object must move into; each new object covers the head cell, so it blocks
+        that object. A prismatic box adds the cell it slides into; a bar adds one of
+        its last four cells (shuffled) and, while the branching budget lasts, the
+        others too, so dependencies form a tree. Solvable by moving the objects in
+        reverse order; everything else on the grid is out of each other's way.
+
+    Randomization:
+        Objects {Cuboid}, joints {Revolute, Prismatic}, transformations
+        {0, 90, 180, 270} degrees (the direction from the start cell in which the
+        object extends), N = 5. The rng also picks a bar's turning sense among
+        the free ones and shuffles its new start cells. Combinations whose cells
+        are taken are rejected (attach returns None) and the Maker draws again.
+
+    Goal:
+        The paper's rule: a prismatic target (``obj_00``) at the far end of its
+        limits (1 cell); a revolute target turned by 90 degrees in its allowed sense.
+
+    Difficulty parameters:
+        ``n_objects`` (5), ``branching`` (6: extra start cells bars may open;
+        0 gives a chain of dependencies), ``clearance`` (e = 0.1; smaller is
+        tighter, bounded below so a turning bar never reaches a box beside its
+        sweep), ``allow_clockwise`` (True).
+
+    Departures:
+        The joint of each object is drawn from {Revolute, Prismatic} as in the
+        paper, not fixed to the prototype's 3 prismatic + 2 revolute. A start cell
+        where nothing fits any more is dropped instead of restarting the puzzle.
+        A revolute box is oriented along its direction (yaw 0/90/180/270) rather
+        than the prototype's 0/90, which only moves its handle to the far end.
+        No ``link_shrink``: the collision checker treats touching as contact-free.
+    """
+    params.validate(seed)
+    return MakerInput(
+        objects=Choice(("cuboid",)),
+        joints=Choice((Motion.REVOLUTE, Motion.PRISMATIC)),
+        transforms=Choice(TRANSFORMS),
+        n_objects=params.n_objects,
+        attach=_attach_for(params),
+        goal=_goal,
+        initial=Draft((), GridState(frozenset({ORIGIN}), (ORIGIN,), params.branching)),
+    )

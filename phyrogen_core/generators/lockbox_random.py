@@ -1,0 +1,231 @@
+"""Lockbox Random (paper Table I): alternating sliders and slot discs that lock each other."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..chain import Geometry
+from ..geometry import Box, Pose, slot_disc
+from ..maker import Choice, Draft, MakerInput, Sequence_
+from ..objects import Motion, PuzzleObject
+from ..puzzle import Goal, paper_goal
+from ..registry import ParameterError, register
+from .parts import (
+    MAX_OBJECTS,
+    Circle,
+    Footprint,
+    Rect,
+    box_handle,
+    cylinder_handle,
+    hinge,
+    movable_role,
+    object_name,
+    overlaps,
+    role_color,
+    unit,
+)
+
+SLIDER_SIZE = (1.4, 0.2, 1.0)
+HEIGHT = 1.0
+"""Height of sliders and discs (their centres stand at z = HEIGHT / 2)."""
+STROKE = 1.0
+"""Upper prismatic limit of every slider (the lower one is 0)."""
+DISC_GAP = 1.0
+"""A disc's centre lies radius + DISC_GAP ahead of the centre of the slider it stops."""
+MIN_RADIUS = 1.0
+RADIUS_STEP = 0.5
+HANDLE_RADIUS_FRACTION = 0.75
+"""A disc's handle stands this fraction of its radius from the hinge, beside the slot."""
+HINGE_RADIUS_FRACTION = 0.0625
+TRANSFORMS = (0.0, 90.0, 180.0, 270.0)
+CUBOID, DISK = "cuboid", "disk"
+
+
+@dataclass(frozen=True)
+class LockboxRandomParams:
+    """``n_objects`` alternating sliders and discs (Table I: 7, i.e. the target and three
+    disc-slider pairs); disc radii are drawn from 1, 1.5, ... up to ``max_radius``."""
+
+    n_objects: int = 7
+    max_radius: float = 3.0
+
+    def validate(self, seed: int) -> None:
+        if not 1 <= self.n_objects < MAX_OBJECTS:
+            raise ParameterError(f"n_objects must be in 1..{MAX_OBJECTS - 1}, got {self.n_objects}")
+        if not MIN_RADIUS <= self.max_radius <= 10.0:
+            raise ParameterError(
+                f"max_radius must lie in [{MIN_RADIUS}, 10] (a slider sits 0.7 m deep in a slot "
+                f"as long as the radius), got {self.max_radius}"
+            )
+
+    @property
+    def radii(self) -> tuple[float, ...]:
+        count = int(math.floor((self.max_radius - MIN_RADIUS) / RADIUS_STEP + 1e-9)) + 1
+        return tuple(MIN_RADIUS + RADIUS_STEP * k for k in range(count))
+
+
+@dataclass(frozen=True)
+class _Slider:
+    centre: tuple[float, float]
+    direction: tuple[int, int]
+
+
+@dataclass(frozen=True)
+class _Disc:
+    centre: tuple[float, float]
+    radius: float
+    slot: tuple[int, int]
+
+
+_Part = _Slider | _Disc
+
+
+def _footprint(part: _Part) -> Footprint:
+    """The floor area a part covers over its whole joint range."""
+    if isinstance(part, _Disc):
+        return Circle(part.centre[0], part.centre[1], part.radius)
+    half = SLIDER_SIZE[0] / 2
+    return Rect.along(part.centre, part.direction, half, half + STROKE, SLIDER_SIZE[1] / 2)
+
+
+def _clear_of(part: _Part, others: tuple[_Part, ...]) -> bool:
+    footprint = _footprint(part)
+    return not any(overlaps(footprint, _footprint(other)) for other in others)
+
+
+def _ahead(point: tuple[float, float], direction: tuple[int, int], distance: float) -> tuple[float, float]:
+    return (point[0] + distance * direction[0], point[1] + distance * direction[1])
+
+
+def _slider_in_slot(disc: _Disc) -> _Slider:
+    # Centred on the rim: half its length inside the slot, sliding outward.
+    return _Slider(_ahead(disc.centre, disc.slot, disc.radius), disc.slot)
+
+
+def _yaw(direction: tuple[int, int]) -> float:
+    return math.atan2(direction[1], direction[0])
+
+
+def _slider_object(index: int, slider: _Slider) -> PuzzleObject:
+    role = movable_role(index)
+    color = role_color(role)
+    body = Geometry(Box(SLIDER_SIZE), Pose(), color, "body")
+    geometry = (body, *box_handle(0.0, 0.0, HEIGHT / 2, color))
+    pose = Pose.planar(slider.centre[0], slider.centre[1], HEIGHT / 2, _yaw(slider.direction))
+    return PuzzleObject(object_name(index), Motion.PRISMATIC, pose, geometry, geometry, role,
+                        ((0.0, STROKE),))
+
+
+def _disc_object(index: int, disc: _Disc) -> PuzzleObject:
+    role = movable_role(index)
+    color = role_color(role)
+    body = Geometry(slot_disc(disc.radius, HEIGHT), Pose(), color, "body")
+    handle = cylinder_handle(0.0, HANDLE_RADIUS_FRACTION * disc.radius, HEIGHT / 2, color)
+    visuals = (body, *handle, hinge(HINGE_RADIUS_FRACTION * disc.radius, HEIGHT))
+    pose = Pose.planar(disc.centre[0], disc.centre[1], HEIGHT / 2, _yaw(disc.slot))
+    return PuzzleObject(object_name(index), Motion.REVOLUTE, pose, visuals, (body, *handle), role,
+                        ((-math.pi, math.pi),))
+
+
+def _attach_for(params: LockboxRandomParams):
+    radii = params.radii
+
+    def attach(draft: Draft, obj_item: str, joint_item: Motion, tf_item: float, n: int,
+               rng: np.random.Generator) -> Draft | None:
+        parts: tuple[_Part, ...] = draft.context or ()
+        index = len(draft.objects)
+        expected = {CUBOID: Motion.PRISMATIC, DISK: Motion.REVOLUTE}.get(obj_item)
+        if expected is not joint_item:
+            raise ValueError(
+                f"lockbox_random pairs cuboid/prismatic and disk/revolute, got {obj_item}/{joint_item}"
+            )
+        if obj_item == CUBOID:
+            if not parts:
+                slider = _Slider((0.0, 0.0), unit(tf_item))
+            else:
+                # The pose is fixed by the slot of the disc just placed; the drawn
+                # transformation has nothing left to choose.
+                slider = _slider_in_slot(parts[-1])
+                if not _clear_of(slider, parts[:-1]):
+                    return None
+            new = _slider_object(index, slider)
+            return Draft(draft.objects + (new,), parts + (slider,))
+        previous = parts[-1]
+        slot = unit(tf_item)
+        if slot == (-previous.direction[0], -previous.direction[1]):
+            return None  # the slot would face the slider this disc has to stop
+        radius = radii[int(rng.integers(len(radii)))]
+        disc = _Disc(_ahead(previous.centre, previous.direction, radius + DISC_GAP), radius, slot)
+        # The disc may meet only the slider it stops; the slider that will sit in its slot
+        # must find room as well, or the next iteration would have nowhere to go.
+        if not _clear_of(disc, parts[:-1]) or not _clear_of(_slider_in_slot(disc), parts):
+            return None
+        new = _disc_object(index, disc)
+        return Draft(draft.objects + (new,), parts + (disc,))
+
+    return attach
+
+
+def _goal(draft: Draft) -> Goal:
+    return paper_goal(draft.objects[0])
+
+
+@register("lockbox_random", "Lockbox Random", LockboxRandomParams)
+def build(seed: int, params: LockboxRandomParams) -> MakerInput:
+    """Lockbox Random: a chain of sliders and slot discs, each locking its neighbours.
+
+    Mechanism:
+        Sliders are 1.4 x 0.2 x 1 boxes, prismatic along their long axis with
+        limits (0, 1). Discs are regular 32-gon prisms of radius r and height 1
+        with a slot from the centre to the rim (width r/2), revolute about their
+        centre with limits (-180, 180) deg. A disc stands radius + 1 m ahead of
+        the slider it stops, its slot turned away from it: the slider advances
+        0.3 m and hits the rim; it can advance its full 1 m only when the disc's
+        slot faces it. The next slider sits in that disc's slot, half its length
+        inside, so the disc can only turn after it has slid out. Solved from the
+        last object back: slide out, turn the disc towards the previous slider,
+        slide that one into the slot, and so on down to the target.
+
+    Randomization:
+        Objects {Cuboid, Disk, Cuboid, ...} and joints {Prismatic, Revolute,
+        Prismatic, ...} are infinite sequences (item n is fixed by n);
+        transformations {0, 90, 180, 270} degrees: the target's sliding
+        direction, and for a disc the world direction its slot faces, i.e. where
+        the chain continues. The rng draws each disc's radius from
+        {1, 1.5, 2, 2.5, 3}. A slot facing back at the slider it must stop, or a
+        disc (or the slider bound for its slot) that would reach any other
+        object's footprint, is rejected (attach returns None) and the Maker
+        draws again. N = 7.
+
+    Goal:
+        The paper's rule: the target slider (``obj_00``) at the far end of its
+        limits, 1.0.
+
+    Difficulty parameters:
+        ``n_objects`` (7; the dependency chain grows by one object per
+        iteration), ``max_radius`` (3.0; radii are 1, 1.5, ... up to it).
+
+    Departures:
+        In the prototype one iteration placed a disc and its slider together,
+        chose the direction relative to the previous one (no reversal) and
+        kept the pair if the start state was collision-free. Here, as in the
+        paper's Maker, disc and slider are separate iterations: the disc's
+        transformation is its slot's world direction (a reversal is rejected),
+        and a slider after the target takes its pose from the slot, ignoring
+        its drawn transformation. Objects must keep their swept footprints
+        apart except for the intended slider-disc pairs, which the prototype
+        did not check. The slot disc is exact convex pieces
+        (:func:`phyrogen_core.geometry.slot_disc`), not a mesh.
+    """
+    params.validate(seed)
+    return MakerInput(
+        objects=Sequence_((CUBOID, DISK)),
+        joints=Sequence_((Motion.PRISMATIC, Motion.REVOLUTE)),
+        transforms=Choice(TRANSFORMS),
+        n_objects=params.n_objects,
+        attach=_attach_for(params),
+        goal=_goal,
+    )

@@ -1,0 +1,159 @@
+"""Simple Slider (paper Table I): a staircase of T-shaped sliders, each blocking the one before."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..chain import Geometry
+from ..geometry import Box, Pose
+from ..maker import Choice, Draft, MakerInput
+from ..objects import Motion, PuzzleObject
+from ..puzzle import Goal, paper_goal
+from ..registry import ParameterError, register
+from .parts import MAX_OBJECTS, Rect, box_handle, movable_role, object_name, overlaps, role_color, unit
+
+SLIDER_WIDTH = 0.2
+SLIDER_HEIGHT = 0.2
+STROKE = 1.0
+"""Upper prismatic limit of every slider (the lower one is 0)."""
+PITCH = 1.0
+"""Distance from a slider's centre to the centre of the slider across its path."""
+BASE_ANGLES = (-90.0, 0.0)
+"""The prototype's orientation (degrees) of even and odd sliders, before the transformation."""
+TRANSFORMS = (0.0, 180.0)
+
+
+@dataclass(frozen=True)
+class SimpleSliderParams:
+    """``n_objects`` = 0 means the paper's Seed + 1; ``gap`` is the free play in front of
+    each slider (the prototype's 0.1), which also sets the slider length 1.8 - 2 * gap."""
+
+    n_objects: int = 0
+    gap: float = 0.1
+
+    def count(self, seed: int) -> int:
+        return self.n_objects if self.n_objects > 0 else seed + 1
+
+    def validate(self, seed: int) -> None:
+        if self.n_objects < 0:
+            raise ParameterError(f"n_objects must be >= 0 (0 means Seed + 1), got {self.n_objects}")
+        if self.count(seed) >= MAX_OBJECTS:
+            raise ParameterError(
+                f"simple_slider would build {self.count(seed)} sliders (seed {seed}); at most "
+                f"{MAX_OBJECTS - 1} are possible: use a seed below {MAX_OBJECTS - 1} or set n_objects"
+            )
+        # A slider must travel 1 - gap to clear the path it crosses but is stopped after
+        # ``gap`` by the next one: it only blocks when gap < 1 - gap.
+        if not 0 < self.gap < 0.5:
+            raise ParameterError(
+                f"gap must lie in (0, 0.5) so that each slider blocks the previous one, got {self.gap}"
+            )
+
+    @property
+    def slider_length(self) -> float:
+        return 1.8 - 2 * self.gap
+
+
+@dataclass(frozen=True)
+class _Slider:
+    """Where a slider sits and which way it slides (an axis-aligned unit vector)."""
+
+    centre: tuple[float, float]
+    direction: tuple[int, int]
+
+
+def _footprint(slider: _Slider, half_length: float) -> Rect:
+    """The floor area the slider covers over its whole stroke."""
+    return Rect.along(slider.centre, slider.direction, half_length, half_length + STROKE, SLIDER_WIDTH / 2)
+
+
+def _slider_object(index: int, slider: _Slider, motion: Motion, length: float) -> PuzzleObject:
+    role = movable_role(index)
+    color = role_color(role)
+    body = Geometry(Box((length, SLIDER_WIDTH, SLIDER_HEIGHT)), Pose(), color, "body")
+    geometry = (body, *box_handle(0.0, 0.0, SLIDER_HEIGHT / 2, color))
+    yaw = math.atan2(slider.direction[1], slider.direction[0])
+    pose = Pose.planar(slider.centre[0], slider.centre[1], SLIDER_HEIGHT / 2, yaw)
+    return PuzzleObject(object_name(index), motion, pose, geometry, geometry, role, ((0.0, STROKE),))
+
+
+def _attach_for(params: SimpleSliderParams):
+    half_length = params.slider_length / 2
+
+    def attach(draft: Draft, obj_item: str, joint_item: Motion, tf_item: float, n: int,
+               rng: np.random.Generator) -> Draft | None:
+        placed: tuple[_Slider, ...] = draft.context or ()
+        index = len(draft.objects)
+        direction = unit(BASE_ANGLES[index % 2] + tf_item)
+        if placed:
+            # Across the previous slider's path, PITCH ahead of its centre: the prototype's step.
+            previous = placed[-1]
+            centre = (previous.centre[0] + PITCH * previous.direction[0],
+                      previous.centre[1] + PITCH * previous.direction[1])
+        else:
+            centre = (0.0, 0.0)
+        slider = _Slider(centre, direction)
+        footprint = _footprint(slider, half_length)
+        # Only the previous slider may interact with the new one; a staircase that folds back
+        # onto an older slider would add dependencies nobody asked for.
+        if any(overlaps(footprint, _footprint(old, half_length)) for old in placed[:-1]):
+            return None
+        new = _slider_object(index, slider, joint_item, params.slider_length)
+        return Draft(draft.objects + (new,), placed + (slider,))
+
+    return attach
+
+
+def _goal(draft: Draft) -> Goal:
+    return paper_goal(draft.objects[0])
+
+
+@register("simple_slider", "Simple Slider", SimpleSliderParams)
+def build(seed: int, params: SimpleSliderParams) -> MakerInput:
+    """Simple Slider: a chain of T-shaped sliders laid out as a staircase.
+
+    Mechanism:
+        Every slider is a 1.6 x 0.2 x 0.2 box (for gap = 0.1) with a handle on top,
+        prismatic along its long axis with limits (0, 1). Each new slider lies
+        across the path of the previous one, 1 m ahead of that one's centre, so
+        the previous slider can move only ``gap`` before it hits the new one; the
+        new slider clears that path by sliding 1 m either way. Solved by moving
+        the sliders from the last to the first.
+
+    Randomization:
+        Objects {T-shaped slider}, joints {Prismatic}, transformations {0, 180}
+        degrees, N = Seed + 1. The transformation flips a slider (and thus its
+        sliding direction) relative to the prototype's orientation (-90 degrees
+        for even, 0 for odd sliders); the next slider is placed in front of
+        wherever the flipped slider now slides, so the staircase turns left or
+        right. A flip that would fold the staircase onto an older slider is
+        rejected (attach returns None) and the Maker draws again.
+
+    Goal:
+        The paper's rule: the target (``obj_00``, the first slider) at the far end
+        of its limits, 1.0.
+
+    Difficulty parameters:
+        ``n_objects`` (0: Seed + 1) sets the length of the dependency chain;
+        ``gap`` the free play between a slider and the next (0 < gap < 0.5).
+
+    Departures:
+        The prototype uses no randomness (a fixed staircase stepping down and to
+        the right). Here the placement of slider i+1 follows slider i's actual
+        sliding direction (the prototype's relative step), so that every flip
+        still yields a chain in which each slider is necessary; with all
+        transformations 0 the layout is exactly the prototype's staircase. No
+        ``link_shrink``: the collision checker treats touching as contact-free.
+    """
+    params.validate(seed)
+    return MakerInput(
+        objects=Choice(("t_slider",)),
+        joints=Choice((Motion.PRISMATIC,)),
+        transforms=Choice(TRANSFORMS),
+        n_objects=params.count(seed),
+        attach=_attach_for(params),
+        goal=_goal,
+    )
