@@ -123,6 +123,7 @@ class MakerInput:
     max_tries: int = 50  # candidates per iteration
     max_restarts: int = 10  # whole-puzzle restarts when an iteration runs out of tries
     fixed_budget_scale: float = 1.5  # the prototype gave FixJoint 1.5x the UnfixJoint time
+    budget_scale: float = 1.0  # harder families may give the validator a larger search budget
 
 
 @dataclass(frozen=True)

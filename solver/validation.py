@@ -1,0 +1,231 @@
+"""ValidatePuzzle: can the target reach its goal? RRT-Connect (OMPL) on our collision model.
+
+Budgets are counted in motion checks, never seconds, so the answer (and
+therefore every generated puzzle) is the same on any machine. OMPL's global
+RNG can be seeded only once per process; :mod:`solver.generation` therefore
+runs each puzzle in a fresh worker process and seeds it there, and the goal
+sampler draws from its own seeded numpy Generator.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from phyrogen_core.maker import SolveResult
+from phyrogen_core.objects import PuzzleObject, build_chain
+from phyrogen_core.puzzle import Goal
+
+from .collision import CollisionModel
+
+DEFAULT_BUDGET = 4000
+"""Collision queries (motion checks plus single-state checks) RRT-Connect may spend
+before a puzzle counts as unsolved."""
+DEFAULT_RESOLUTION = 0.02
+"""Metres any collision point may move between two checked states while planning."""
+FINE_RESOLUTION = 0.002
+"""Metres between checked states when a certificate is re-checked."""
+
+
+class _MotionValidator(ob.MotionValidator):
+    """Checks a whole segment in one compiled call and counts the checks."""
+
+    def __init__(self, si, model: CollisionModel, steps: np.ndarray):
+        super().__init__(si)
+        self.model = model
+        self.steps = steps
+        self.dimension = len(steps)
+        self.calls = 0
+        self._a = np.empty(self.dimension)
+        self._b = np.empty(self.dimension)
+
+    def checkMotion(self, s1, s2) -> bool:  # noqa: N802 (OMPL's name)
+        self.calls += 1
+        for i in range(self.dimension):
+            self._a[i] = s1[i]
+            self._b[i] = s2[i]
+        return self.model.check_motion(self._a, self._b, self.steps)
+
+
+class _GoalRegion(ob.GoalSampleableRegion):
+    """Target joints at their goal values; every other joint anywhere within limits."""
+
+    def __init__(self, si, goal_columns: dict[int, float], lower, upper, tolerance, rng):
+        super().__init__(si)
+        self.columns = goal_columns
+        self.lower, self.upper = lower, upper
+        self.rng = rng
+        self.setThreshold(tolerance)
+
+    def distanceGoal(self, state) -> float:  # noqa: N802
+        return max(abs(state[i] - v) for i, v in self.columns.items())
+
+    def sampleGoal(self, state) -> None:  # noqa: N802
+        values = self.rng.uniform(self.lower, self.upper)
+        for i, v in self.columns.items():
+            values[i] = v
+        for i, v in enumerate(values):
+            state[i] = float(v)
+
+    def maxSampleCount(self) -> int:  # noqa: N802
+        return 1 << 30
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A planning problem over the free joints of a chain (locked joints held at start)."""
+
+    model: CollisionModel
+    start: np.ndarray
+    goal_columns: dict[int, float]
+    lower: np.ndarray
+    upper: np.ndarray
+    tolerance: float
+
+
+def make_problem(objects: Sequence[PuzzleObject], goal: Goal) -> Problem | None:
+    """The problem for ``objects``; None when the target cannot move to its goal at all
+    (its goal joints are fixed away from the goal)."""
+    chain = build_chain(objects)
+    # Joints of fixed-range (lower == upper) count as locked: OMPL rejects empty bounds.
+    locked = {j.name: j.lower for j in chain.active_joints if j.upper - j.lower < 1e-12}
+    for name, value in goal.values.items():
+        if name not in chain.joint_order:
+            return None  # the target is fixed (FixJoint of the target)
+        if name in locked and abs(locked[name] - value) > goal.tolerance:
+            return None
+    model = CollisionModel(chain, {n: max(min(0.0, chain.joint(n).upper), chain.joint(n).lower) for n in locked})
+    order = model.joint_order
+    lower = np.array([chain.joint(n).lower for n in order])
+    upper = np.array([chain.joint(n).upper for n in order])
+    start = np.clip(np.zeros(len(order)), lower, upper)
+    columns = {order.index(n): v for n, v in goal.values.items() if n in order}
+    return Problem(model, start, columns, lower, upper, goal.tolerance)
+
+
+def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
+                resolution: float = DEFAULT_RESOLUTION) -> SolveResult:
+    """RRT-Connect until a path is found or ``budget`` collision queries are spent."""
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)  # invalid goal samples are expected, not errors
+    model = problem.model
+    if not model.is_valid(problem.start):
+        return SolveResult(False)
+    dimension = len(problem.start)
+    space = ob.RealVectorStateSpace(dimension)
+    bounds = ob.RealVectorBounds(dimension)
+    for i in range(dimension):
+        bounds.setLow(i, float(problem.lower[i]))
+        bounds.setHigh(i, float(problem.upper[i]))
+    space.setBounds(bounds)
+    si = ob.SpaceInformation(space)
+    validator = _MotionValidator(si, model, model.motion_steps(resolution))
+
+    def state_valid(s) -> bool:
+        # Counted too: with an invalid goal, RRT-Connect only samples goal states.
+        validator.calls += 1
+        return model.is_valid([s[i] for i in range(dimension)])
+
+    si.setStateValidityChecker(state_valid)
+    si.setMotionValidator(validator)
+    si.setup()
+    pdef = ob.ProblemDefinition(si)
+    start = si.allocState()
+    for i in range(dimension):
+        start[i] = float(problem.start[i])
+    pdef.addStartState(start)
+    goal = _GoalRegion(si, problem.goal_columns, problem.lower, problem.upper, problem.tolerance, rng)
+    pdef.setGoal(goal)
+    planner = og.RRTConnect(si)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+    status = planner.solve(ob.PlannerTerminationCondition(lambda: validator.calls >= budget))
+    if not pdef.hasExactSolution() or str(status) != "Exact solution":
+        return SolveResult(False, (), validator.calls)
+    path = pdef.getSolutionPath()
+    states = tuple(tuple(float(path.getState(k)[i]) for i in range(dimension)) for k in range(path.getStateCount()))
+    return SolveResult(True, states, validator.calls)
+
+
+def full_path(objects: Sequence[PuzzleObject], problem: Problem, path) -> tuple[tuple[float, ...], ...]:
+    """Expand a path over the problem's free joints to all active joints (locked ones at their value)."""
+    chain = build_chain(objects)
+    order = problem.model.joint_order
+    locked = problem.model.locked
+    rows = []
+    for state in path:
+        values = dict(zip(order, state, strict=True))
+        rows.append(tuple(float(values.get(n, locked.get(n, 0.0))) for n in chain.joint_order))
+    return tuple(rows)
+
+
+class OmplValidator:
+    """The Maker's Validator: RRT-Connect with a motion-check budget.
+
+    ``rng`` drives goal sampling; OMPL's own RNG must have been seeded by
+    the caller (see :func:`solver.generation.seed_ompl`).
+    """
+
+    def __init__(self, rng: np.random.Generator, budget: int = DEFAULT_BUDGET,
+                 resolution: float = DEFAULT_RESOLUTION):
+        self.rng = rng
+        self.budget = budget
+        self.resolution = resolution
+        self.checks = 0
+
+    def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult:
+        problem = make_problem(objects, goal)
+        if problem is None:
+            return SolveResult(False)
+        result = rrt_connect(problem, int(self.budget * budget_scale), self.rng, self.resolution)
+        self.checks += result.checks
+        if not result.solved:
+            return result
+        return SolveResult(True, full_path(objects, problem, result.path), result.checks)
+
+    def blocked_by(self, objects: Sequence[PuzzleObject], new_object: PuzzleObject, path) -> list[str]:
+        """Objects whose motion along ``path`` (a certificate of ``objects``) runs into ``new_object``."""
+        chain = build_chain([*objects, new_object.fixed()])
+        model = CollisionModel(chain)
+        states = densify(path, model.motion_steps(self.resolution))
+        hits = model.colliding_objects(states)
+        return sorted({a if b == new_object.name else b for a, b in hits if new_object.name in (a, b)})
+
+
+def densify(path, steps: np.ndarray) -> np.ndarray:
+    """All states along a piecewise-linear path with at most ``steps[j]`` per joint between rows."""
+    path = np.asarray(path, dtype=float)
+    rows = [path[:1]]
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        count = max(1, int(np.ceil(np.max(np.abs(b - a) / steps))))
+        t = np.arange(1, count + 1)[:, None] / count
+        rows.append(a + (b - a) * t)
+    return np.concatenate(rows)
+
+
+def verify_certificate(chain, path, goal: Goal, resolution: float = FINE_RESOLUTION) -> list[str]:
+    """Problems with a certificate (empty when it is valid): starts at the start state,
+    stays collision-free at ``resolution``, within limits, and ends in the goal."""
+    problems: list[str] = []
+    if len(path) < 1:
+        return ["certificate is empty"]
+    model = CollisionModel(chain)
+    states = np.asarray(path, dtype=float)
+    if states.shape[1] != len(chain.joint_order):
+        return [f"certificate states have {states.shape[1]} values, chain has {len(chain.joint_order)} joints"]
+    if np.max(np.abs(states[0])) > 1e-9:
+        problems.append("certificate does not begin at the start state")
+    lower, upper = chain.lower_limits, chain.upper_limits
+    if np.any(states < lower - 1e-9) or np.any(states > upper + 1e-9):
+        problems.append("certificate leaves the joint limits")
+    dense = densify(states, model.motion_steps(resolution))
+    bad = np.flatnonzero(~model.check(dense))
+    if bad.size:
+        problems.append(f"certificate collides at {bad.size} of {len(dense)} checked states")
+    if not goal.is_reached(chain.state_dict(states[-1])):
+        problems.append("certificate does not end in the goal")
+    return problems
