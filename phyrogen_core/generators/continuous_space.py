@@ -1,0 +1,185 @@
+"""Continuous Space (paper Table I): revolute bars placed at continuous random poses.
+
+The one generator whose placements are not designed to block: each new bar
+is dropped near the end of the swing of the bar added before it, and the
+Maker keeps it only if it is necessary (the puzzle is unsolvable with it
+fixed) and harmless (solvable with it free). Most candidates are rejected;
+the transformation mapping below is chosen so that enough survive.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry import Pose
+from ..maker import Choice, Draft, MakerInput, Uniform
+from ..objects import Motion, PuzzleObject
+from ..puzzle import Goal, paper_goal
+from ..registry import ParameterError, register
+from .components import (
+    MAX_NAMED,
+    Footprint,
+    box,
+    footprints_overlap,
+    handle,
+    hinge,
+    movable_name,
+    role_and_color,
+)
+
+HINGE_DIAMETER = 0.25
+HANDLE_FRACTION = 0.375
+"""Handle position along the bar from the hinge, as a fraction of the bar length (prototype)."""
+ARC_DEGREES = (0.0, 90.0)
+"""First transformation coordinate: where along the previous bar's quarter swing the new bar stands."""
+REACH = (0.0, 1.0)
+"""Second transformation coordinate: how far out from the previous hinge (see :func:`reach_radius`)."""
+
+
+@dataclass(frozen=True)
+class ContinuousSpaceParams:
+    """Bars are ``bar_length`` x ``bar_width`` x ``bar_height`` boxes hinged at their centre;
+    joint limits have a magnitude drawn from [``min_limit_deg``, ``max_limit_deg``]."""
+
+    n_objects: int = 4
+    bar_length: float = 3.0
+    bar_width: float = 1.0
+    bar_height: float = 1.0
+    min_limit_deg: float = 90.0
+    max_limit_deg: float = 180.0
+
+    def validate(self, seed: int) -> None:
+        if not 1 <= self.n_objects < MAX_NAMED:
+            raise ParameterError(f"n_objects must lie in 1..{MAX_NAMED - 1}, got {self.n_objects}")
+        for name in ("bar_length", "bar_width", "bar_height"):
+            if getattr(self, name) <= 0:
+                raise ParameterError(f"{name} must be positive, got {getattr(self, name)}")
+        if not self.bar_width < self.bar_length:
+            raise ParameterError(
+                f"bar_width {self.bar_width} must be smaller than bar_length {self.bar_length} "
+                f"(a bar, not a plate)"
+            )
+        # The paper's goal turns the target by 90 degrees, which its limits must allow.
+        if not 90.0 <= self.min_limit_deg <= self.max_limit_deg <= 180.0:
+            raise ParameterError(
+                f"joint limit range [{self.min_limit_deg}, {self.max_limit_deg}] degrees must satisfy "
+                f"90 <= min_limit_deg <= max_limit_deg <= 180"
+            )
+
+
+@dataclass(frozen=True)
+class _Bar:
+    x: float
+    y: float
+    yaw: float
+    sign: int  # +1: limits (0, L), turns counter-clockwise; -1: limits (-L, 0)
+
+    def footprint(self, params: ContinuousSpaceParams) -> Footprint:
+        return Footprint(self.x, self.y, self.yaw, params.bar_length / 2, params.bar_width / 2)
+
+
+def reach_radius(params: ContinuousSpaceParams, reach: float) -> float:
+    """Distance from the previous hinge to the new one for ``reach`` in [0, 1].
+
+    A new bar pointing at the previous hinge from distance r has its near end
+    at r - L/2. It must start clear of the previous bar (beyond ~W/2 off its
+    axis) and reach into the circle of radius L/2 its ends sweep: r in
+    (L/2 + W/2, L).
+    """
+    lo = params.bar_length / 2 + params.bar_width / 2
+    hi = params.bar_length
+    return lo + reach * (hi - lo)
+
+
+def _bar_object(params: ContinuousSpaceParams, index: int, bar: _Bar, limit: float) -> PuzzleObject:
+    role, color = role_and_color(index)
+    length, width, height = params.bar_length, params.bar_width, params.bar_height
+    shaft, knob = handle(height / 2, (HANDLE_FRACTION * length, 0.0), color)
+    geometry = (box((length, width, height), color), shaft, knob)
+    visuals = (*geometry, hinge(HINGE_DIAMETER / 2, 1.1 * height))
+    limits = ((0.0, limit),) if bar.sign > 0 else ((-limit, 0.0),)
+    return PuzzleObject(movable_name(index), Motion.REVOLUTE, Pose.planar(bar.x, bar.y, height / 2, bar.yaw),
+                        visuals, geometry, role, limits)
+
+
+def _attach_for(params: ContinuousSpaceParams):
+    def attach(draft: Draft, obj_item: str, joint_item: Motion, tf_item: tuple[float, float], n: int,
+               rng: np.random.Generator) -> Draft | None:
+        bars: tuple[_Bar, ...] = draft.context or ()
+        sign = 1 if rng.random() < 0.5 else -1
+        limit = math.radians(float(rng.uniform(params.min_limit_deg, params.max_limit_deg)))
+        if not bars:
+            # The prototype's target: at the origin with a random yaw.
+            bar = _Bar(0.0, 0.0, float(rng.uniform(0.0, 2 * math.pi)), sign)
+        else:
+            arc_deg, reach = tf_item
+            previous = bars[-1]
+            end = math.pi if rng.random() < 0.5 else 0.0  # either half of the previous bar
+            angle = previous.yaw + end + previous.sign * math.radians(arc_deg)
+            r = reach_radius(params, reach)
+            bar = _Bar(previous.x + r * math.cos(angle), previous.y + r * math.sin(angle), angle, sign)
+            footprint = bar.footprint(params)
+            if any(footprints_overlap(footprint, old.footprint(params)) for old in bars):
+                return None
+        new = _bar_object(params, len(bars), bar, limit)
+        return Draft(draft.objects + (new,), bars + (bar,))
+
+    return attach
+
+
+def _goal(draft: Draft) -> Goal:
+    # The target's limits allow only one direction, so the rule needs no draw.
+    return paper_goal(draft.objects[0])
+
+
+@register("continuous_space", "Continuous Space", ContinuousSpaceParams)
+def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
+    """Continuous Space: revolute bars at continuous poses, each blocking the one before.
+
+    Mechanism:
+        Every object is a 3 x 1 x 1 bar hinged at its centre (a visual hinge
+        cylinder, 0.25 across), revolute about z with one-sided limits
+        (0, L) or (-L, 0), L drawn from U(90, 180) degrees. The target
+        (``obj_00``) must turn 90 degrees; each later bar stands in the swing
+        of the bar before it and must itself be turned out of the way first.
+
+    Randomization:
+        Table I: objects {Cuboid}, joints {Revolute}, transformations
+        [0, 90] x [0, 1], 4 objects. A transformation (a, r) places the new
+        bar's hinge on the ray at angle a degrees into the previous bar's
+        swing (measured from either end of it, the rng picks), at distance
+        L/2 + W/2 + r (L/2 - W/2) from the previous hinge, pointing at it.
+        The rng also draws the limits' sign and size, the target's yaw
+        U[0, 360) degrees and which end. Candidates overlapping an earlier
+        bar are refused by attach; the Maker rejects the rest that do not
+        block or cannot be cleared.
+
+    Goal:
+        The paper's rule: the target turned 90 degrees in the direction its
+        limits allow.
+
+    Difficulty parameters:
+        ``n_objects``; the bar size; the limit range [``min_limit_deg``,
+        ``max_limit_deg``] (90 <= min <= max <= 180).
+
+    Departures:
+        Revolute bars only, as in the paper (the prototype mixed 2 prismatic
+        and 2 revolute bars). The prototype dropped a new bar uniformly in a
+        3 x 3 m square around a point 3 m out along the previous bar's
+        turned-by-90 axis, with a random yaw; here the two transformation
+        coordinates place it directly on the previous bar's swing, pointing at
+        its hinge, which blocks far more often. The handle is a box shaft
+        (the prototype's revolute bars had a cylinder) at 0.375 of the length.
+    """
+    params.validate(seed)
+    return MakerInput(
+        objects=Choice(("cuboid",)),
+        joints=Choice((Motion.REVOLUTE,)),
+        transforms=Uniform((ARC_DEGREES[0], REACH[0]), (ARC_DEGREES[1], REACH[1])),
+        n_objects=params.n_objects,
+        attach=_attach_for(params),
+        goal=_goal,
+    )

@@ -1,0 +1,285 @@
+"""Rooms (paper Table I): a robot escapes a chain of rooms laid along a self-avoiding walk.
+
+Geometry is written in cell units (a room is a 1 x 1 cell, the prototype's
+numbers) and multiplied by ``scaling`` exactly once, in :func:`_scaled`; the
+goal goes through the same function.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..chain import GREEN, RED, Role
+from ..geometry import Pose, Vec3
+from ..maker import Choice, Draft, MakerInput
+from ..objects import Motion, PuzzleObject
+from ..puzzle import Goal
+from ..registry import ParameterError, register
+from .components import (
+    MAX_NAMED,
+    box,
+    count_fixed,
+    count_movable,
+    handle,
+    hinge,
+    movable_name,
+    pillar,
+    wall,
+)
+
+Cell = tuple[int, int]
+
+ROOM = "room"
+DOOR_ROOM = "door_room"
+TRANSFORMS = (0.0, 90.0, 180.0, 270.0)
+"""Exit side of a room, degrees from +x: 0 east, 90 north, 180 west, 270 south."""
+DOOR_PANEL_FRACTION = 0.8
+"""Door panel length / doorway width (prototype); the hinge sits 0.4 doorway widths off centre."""
+ROBOT_SIZE: Vec3 = (0.09375, 0.125, 0.125)
+"""The prototype's robot (a droid mesh there) as a box, in cell units."""
+HANDLE_FRACTION = 0.75
+"""Where along the panel (from the hinge) the door's handle stands."""
+
+
+@dataclass(frozen=True)
+class RoomsParams:
+    """Lengths are in cell units (a room is 1 x 1) before ``scaling``, as in the prototype."""
+
+    n_rooms: int = 4
+    doors: int = 2
+    scaling: float = 4.0
+    wall_height: float = 0.2
+    wall_thickness: float = 0.075
+    door_width: float = 0.5
+
+    def validate(self, seed: int) -> None:
+        fixed = 9 + 8 * (self.n_rooms - 1)
+        if self.n_rooms < 1 or fixed > MAX_NAMED:
+            raise ParameterError(
+                f"n_rooms must lie in 1..{(MAX_NAMED - 9) // 8 + 1} (walls and pillars are named with two "
+                f"digits), got {self.n_rooms}"
+            )
+        if not 0 <= self.doors <= self.n_rooms:
+            raise ParameterError(f"doors must lie in 0..n_rooms = {self.n_rooms}, got {self.doors}")
+        for name in ("scaling", "wall_height", "wall_thickness", "door_width"):
+            if getattr(self, name) <= 0:
+                raise ParameterError(f"{name} must be positive, got {getattr(self, name)}")
+        if 2 * self.wall_thickness + self.door_width >= 1.0:
+            raise ParameterError(
+                f"doorway {self.door_width} plus two pillars {self.wall_thickness} must be narrower than "
+                f"a room (1): reduce door_width or wall_thickness"
+            )
+        gap = (1 - DOOR_PANEL_FRACTION) / 2 * self.door_width
+        opening = (1 + DOOR_PANEL_FRACTION) / 2 * self.door_width - self.wall_thickness / 2
+        smallest, largest = min(ROBOT_SIZE[:2]), max(ROBOT_SIZE[:2])
+        if not gap < smallest:
+            raise ParameterError(
+                f"a closed door leaves {gap:.4g} beside it, which the robot ({smallest} across) would slip "
+                f"through: make door_width smaller than {smallest / gap * self.door_width:.4g}"
+            )
+        if not largest < opening:
+            raise ParameterError(
+                f"an open door leaves {opening:.4g}, too narrow for the robot ({largest} across): "
+                f"widen door_width or thin the walls"
+            )
+
+
+@dataclass(frozen=True)
+class _Walk:
+    """The rooms placed so far (their cells, in order) and the cell the last one exits to."""
+
+    rooms: tuple[Cell, ...]
+    exit_cell: Cell
+    exits: tuple[Cell, ...]  # exit direction of every room
+    doors: int
+
+    @property
+    def cells(self) -> tuple[Cell, ...]:
+        return (*self.rooms, self.exit_cell)
+
+
+def _direction(angle_deg: float) -> Cell:
+    rad = math.radians(angle_deg)
+    return int(round(math.cos(rad))), int(round(math.sin(rad)))
+
+
+def _add(a: Cell, b: Cell) -> Cell:
+    return a[0] + b[0], a[1] + b[1]
+
+
+def _left(d: Cell) -> Cell:
+    """``d`` turned by +90 degrees."""
+    return -d[1], d[0]
+
+
+def _scaled(params: RoomsParams, value: float) -> float:
+    return value * params.scaling
+
+
+def _robot(params: RoomsParams, walk_cells: tuple[Cell, ...]) -> PuzzleObject:
+    """The target: an R^2 robot at the centre of the first room; its limits are the
+    bounding box of the cells visited so far (the prototype's rule)."""
+    size = tuple(_scaled(params, v) for v in ROBOT_SIZE)
+    xs = [c[0] for c in walk_cells]
+    ys = [c[1] for c in walk_cells]
+    limits = ((_scaled(params, min(xs) - 0.5), _scaled(params, max(xs) + 0.5)),
+              (_scaled(params, min(ys) - 0.5), _scaled(params, max(ys) + 0.5)))
+    geometry = (box(size, GREEN), *handle(size[2] / 2, color=GREEN))  # type: ignore[arg-type]
+    return PuzzleObject(movable_name(0), Motion.R2, Pose.planar(0.0, 0.0, size[2] / 2), geometry, geometry,
+                        Role.TARGET, limits)
+
+
+def _room(params: RoomsParams, cell: Cell, exit_dir: Cell, entry_dir: Cell | None,
+          first: int) -> tuple[PuzzleObject, ...]:
+    """Pillars and walls of one room, inside its own cell: a doorway on the exit side,
+    nothing on the side it is entered from, full walls elsewhere."""
+    t, dw = params.wall_thickness, params.door_width
+    h = _scaled(params, params.wall_height)
+    inset = (1 - t) / 2  # cell centre to the middle of a wall
+    out: list[PuzzleObject] = []
+
+    def place(kind, cx: float, cy: float, along: float, across: float, d: Cell) -> None:
+        # ``along`` runs parallel to the side facing ``d``.
+        sx, sy = (along, across) if d[1] != 0 else (across, along)
+        size = (_scaled(params, sx), _scaled(params, sy), h)
+        out.append(kind(first + len(out), _scaled(params, cx), _scaled(params, cy), size))
+
+    for d in ((1, 0), (0, 1), (-1, 0), (0, -1)):
+        a = _left(d)
+        px, py = cell[0] + (d[0] + a[0]) * inset, cell[1] + (d[1] + a[1]) * inset
+        place(pillar, px, py, t, t, d)
+        mx, my = cell[0] + d[0] * inset, cell[1] + d[1] * inset
+        if d == exit_dir:
+            segment = (1 - 2 * t - dw) / 2
+            offset = (segment + dw) / 2
+            for sign in (-1, 1):
+                place(wall, mx + sign * offset * a[0], my + sign * offset * a[1], segment, t, d)
+        elif d != entry_dir:
+            place(wall, mx, my, 1 - 2 * t, t, d)
+    return tuple(out)
+
+
+def _door(params: RoomsParams, index: int, cell: Cell, exit_dir: Cell) -> PuzzleObject:
+    """A revolute door in the exit doorway, hinged beside it and opening (0 .. 90 degrees)
+    into the room."""
+    t, dw = params.wall_thickness, params.door_width
+    inset = (1 - t) / 2
+    along = (exit_dir[1], -exit_dir[0])  # the doorway axis, turned -90 degrees from the exit
+    hx = cell[0] + exit_dir[0] * inset + along[0] * dw * DOOR_PANEL_FRACTION / 2
+    hy = cell[1] + exit_dir[1] * inset + along[1] * dw * DOOR_PANEL_FRACTION / 2
+    # The panel reaches from the hinge back across the doorway; turning it by +90 degrees
+    # points it at the room centre (-exit_dir), into the room.
+    yaw = math.atan2(-along[1], -along[0])
+    length = _scaled(params, dw * DOOR_PANEL_FRACTION)
+    thickness = _scaled(params, t)
+    height = _scaled(params, params.wall_height)
+    panel = box((length, thickness, height), RED, Pose((length / 2, 0.0, 0.0)))
+    shaft, knob = handle(height / 2, (HANDLE_FRACTION * length, 0.0), RED, shaft_width=min(0.2, thickness))
+    visuals = (panel, shaft, knob, hinge(0.55 * thickness, 1.1 * height))
+    return PuzzleObject(movable_name(index), Motion.REVOLUTE,
+                        Pose.planar(_scaled(params, hx), _scaled(params, hy), height / 2, yaw),
+                        visuals, (panel, shaft, knob), Role.BLOCKER, ((0.0, math.pi / 2),))
+
+
+def _attach_for(params: RoomsParams):
+    def attach(draft: Draft, obj_item: str, joint_item: Motion, tf_item: float, n: int,
+               rng: np.random.Generator) -> Draft | None:
+        walk: _Walk = draft.context
+        cell = walk.exit_cell
+        exit_dir = _direction(tf_item)
+        next_cell = _add(cell, exit_dir)
+        if next_cell in walk.cells:
+            return None  # the walk must not cross itself
+        rooms_left = params.n_rooms - n
+        if rooms_left > 0 and all(_add(next_cell, d) in walk.cells + (next_cell,)
+                                  for d in ((1, 0), (0, 1), (-1, 0), (0, -1))):
+            return None  # a dead end: the next room would have nowhere to exit
+        with_door = obj_item == DOOR_ROOM
+        doors = walk.doors + int(with_door)
+        if doors > params.doors or params.doors - doors > rooms_left:
+            return None  # keep exactly ``params.doors`` doors over all rooms
+        entry_dir = (-walk.exits[-1][0], -walk.exits[-1][1]) if walk.exits else None
+        new_walk = _Walk((*walk.rooms, cell), next_cell, (*walk.exits, exit_dir), doors)
+        room = _room(params, cell, exit_dir, entry_dir, count_fixed(draft.objects))
+        added = list(room)
+        if with_door:
+            added.append(_door(params, count_movable(draft.objects), cell, exit_dir))
+        # The robot's workspace grows with the walk: it is re-issued with wider limits,
+        # every other object is kept as it was.
+        robot = _robot(params, new_walk.cells)
+        return Draft((robot, *draft.objects[1:], *added), new_walk)
+
+    return attach
+
+
+def _goal_for(params: RoomsParams):
+    def goal(draft: Draft) -> Goal:
+        walk: _Walk = draft.context
+        robot = draft.objects[0]
+        x, y = walk.exit_cell
+        values = {f"{robot.name}_x": _scaled(params, x), f"{robot.name}_y": _scaled(params, y)}
+        return Goal(robot.name, values)
+
+    return goal
+
+
+@register("rooms", "Rooms", RoomsParams)
+def build(seed: int, params: RoomsParams) -> MakerInput:
+    """Rooms: a robot must get out of a chain of rooms, through doors it has to open.
+
+    Mechanism:
+        The target (``obj_00``) is the robot, an R^2 object (x, y; no turning),
+        0.375 x 0.5 x 0.5 after scaling, at the centre of the first room. Rooms
+        are 1 x 1 cells (4 x 4 m after scaling 4) with black corner pillars and
+        gray walls (0.075 thick, 0.2 high before scaling), placed along a
+        self-avoiding walk. Each room has a doorway (0.5 wide) on its exit
+        side, no wall on the side it is entered from, and full walls
+        elsewhere, so the robot can only leave through the chain of doorways.
+        A door room also holds a red revolute door panel (0.8 of the doorway,
+        hinged 0.4 doorway widths off centre, limits 0 .. 90 degrees, opening
+        into the room) closing its doorway: the robot must open it to pass.
+
+    Randomization:
+        Table I: objects {Room, Door Room}, joints {Fixed}, transformations
+        {0, 90, 180, 270} degrees (the room's exit side), 4 objects (rooms).
+        The seeded Maker picks each room's kind and exit; attach refuses
+        (returns None, the Maker draws again) an exit into a visited cell or a
+        dead end, and a kind that would not end with exactly ``doors`` doors.
+
+    Goal:
+        The robot at the centre of the cell the last room exits to (scaled
+        like everything else), which is outside every room and within the
+        robot's limits.
+
+    Difficulty parameters:
+        ``n_rooms`` (length of the escape), ``doors`` (how many doorways have
+        doors), ``door_width`` and ``wall_thickness`` (cell units; validated so
+        that a closed door blocks the robot and an open one lets it pass),
+        ``wall_height``, ``scaling``.
+
+    Departures:
+        The robot is not a Maker item (Table I lists only rooms): it is
+        ``MakerInput.initial``, present before the first room, since every
+        room is built around it. Its limits are the bounding box of the cells
+        visited so far (the prototype's rule), so each iteration re-issues it
+        with wider limits. Scaling is applied once, to positions, sizes and
+        the goal alike (the prototype scaled some twice and the goal not at
+        all). The prototype's SE(2) door obstacles (0 in its configuration)
+        are left out. Doors carry a handle on top (the common grasp
+        convention) rather than hooks on both faces; the hinge is visual
+        only. No ``link_shrink``: walls of neighbouring rooms touch exactly.
+    """
+    params.validate(seed)
+    start = _Walk((), (0, 0), (), 0)
+    return MakerInput(
+        objects=Choice((ROOM, DOOR_ROOM)),
+        joints=Choice((Motion.FIXED,)),
+        transforms=Choice(TRANSFORMS),
+        n_objects=params.n_rooms,
+        attach=_attach_for(params),
+        goal=_goal_for(params),
+        initial=Draft((_robot(params, ((0, 0),)),), start),
+    )
