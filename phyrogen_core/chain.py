@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
@@ -27,7 +27,7 @@ YELLOW: RGBA = (1.0, 1.0, 0.0, 1.0)
 GOAL_GREEN: RGBA = (0.0, 1.0, 0.0, 0.25)
 
 
-class Role(str, Enum):
+class Role(StrEnum):
     """What a link is in the puzzle; decides colour and how planners treat it."""
 
     TARGET = "target"
@@ -38,7 +38,7 @@ class Role(str, Enum):
     BASE = "base"
 
 
-class JointType(str, Enum):
+class JointType(StrEnum):
     FIXED = "fixed"
     PRISMATIC = "prismatic"
     REVOLUTE = "revolute"
@@ -254,7 +254,7 @@ def joint_motion(joint: Joint, q: float) -> np.ndarray:
     return m
 
 
-def rotation_to_rpy(matrix: np.ndarray) -> "Pose":
+def rotation_to_rpy(matrix: np.ndarray) -> Pose:
     """The URDF pose (xyz, rpy) of a 4x4 transform."""
     r = matrix[:3, :3]
     pitch = math.asin(max(-1.0, min(1.0, -r[2, 0])))

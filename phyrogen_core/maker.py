@@ -62,7 +62,7 @@ class Uniform:
 
 
 @dataclass(frozen=True)
-class Sequence_:
+class InfiniteSequence:
     """An infinite sequence: item n (1-based) is ``items[n-1]``; past the end the
     tail repeats cyclically from ``repeat_from`` (e.g. Cuboid, Disk, Cuboid, ...)."""
 
@@ -146,17 +146,17 @@ def make(spec: MakerInput, seed: int, validator: Validator, generator: str = "ge
     """Run Algorithm 1. Raises :class:`GenerationError` when tries run out."""
     rng = rng_for(generator, seed)
     last_failure = ""
-    for restart in range(spec.max_restarts):
+    for _ in range(spec.max_restarts):
         try:
             return _make_once(spec, rng, validator, generator, seed, progress)
-        except _IterationExhausted as exc:
+        except _IterationExhaustedError as exc:
             last_failure = str(exc)
     raise GenerationError(
         f"generator {generator!r}, seed {seed}: gave up after {spec.max_restarts} restarts; last: {last_failure}"
     )
 
 
-class _IterationExhausted(Exception):
+class _IterationExhaustedError(Exception):
     pass
 
 
@@ -189,7 +189,7 @@ def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator,
             draft, path = candidate, result.path
             break
         else:
-            raise _IterationExhausted(f"iteration {n}: no valid candidate in {spec.max_tries} tries")
+            raise _IterationExhaustedError(f"iteration {n}: no valid candidate in {spec.max_tries} tries")
         if progress:
             progress(n, spec.n_objects)
     return MakerResult(draft.objects, spec.goal(draft), path, tuple(dependencies), draft.context)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from enum import Enum
+from enum import StrEnum
 
 from .chain import Geometry, Joint, JointType, KinematicChain, Link, Role
 from .geometry import Pose, Vec3
@@ -20,7 +20,7 @@ from .geometry import Pose, Vec3
 BASE_LINK = "base_link"
 
 
-class Motion(str, Enum):
+class Motion(StrEnum):
     """How an object may move relative to the world."""
 
     FIXED = "fixed"

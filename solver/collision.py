@@ -199,6 +199,7 @@ class CollisionModel:
                 pairs.append((j, i) if a.is_circle and not b.is_circle else (i, j))  # circles second
         self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
         self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in pairs]
+        self._arguments = self._args()
 
     def _args(self) -> tuple:
         return (self._kin_int, self._kin_float, len(self._links), self._shape_link, self._shape_nv,
@@ -218,21 +219,25 @@ class CollisionModel:
 
     def check(self, states) -> np.ndarray:
         """Validity of each row of ``states`` (N, d): True = collision-free."""
-        return _kernels.check_states(self._as_states(states), *self._args())
+        return _kernels.check_states(self._as_states(states), *self._arguments)
+
+    def check_prepared(self, states: np.ndarray) -> np.ndarray:
+        """:meth:`check` without input conversion: ``states`` must be a C-contiguous float64 (N, d) array."""
+        return _kernels.check_states(states, *self._arguments)
 
     def is_valid(self, state: Sequence[float]) -> bool:
-        return bool(_kernels.check_states(self._as_states(state), *self._args())[0])
+        return bool(_kernels.check_states(self._as_states(state), *self._arguments)[0])
 
     def check_motion(self, start: Sequence[float], end: Sequence[float], steps: np.ndarray) -> bool:
         """Whether the straight joint-space segment is collision-free, sampled so that no
         joint moves more than ``steps[j]`` between samples (the start is assumed valid)."""
         a = np.asarray(start, dtype=np.float64)
         b = np.asarray(end, dtype=np.float64)
-        return bool(_kernels.check_motion(a, b, steps, *self._args()))
+        return bool(_kernels.check_motion(a, b, steps, *self._arguments))
 
     def colliding_objects(self, states) -> set[tuple[str, str]]:
         """Pairs of object names that collide at any of ``states``."""
-        hits = _kernels.pair_hits(self._as_states(states), *self._args())
+        hits = _kernels.pair_hits(self._as_states(states), *self._arguments)
         return {tuple(sorted(self._pair_objects[p])) for p in np.flatnonzero(hits)}
 
     def joint_reach(self) -> np.ndarray:

@@ -60,17 +60,23 @@ class _GoalRegion(ob.GoalSampleableRegion):
         self.columns = goal_columns
         self.lower, self.upper = lower, upper
         self.rng = rng
+        self._block = np.empty((0, len(lower)))
+        self._next = 0
         self.setThreshold(tolerance)
 
     def distanceGoal(self, state) -> float:  # noqa: N802
         return max(abs(state[i] - v) for i, v in self.columns.items())
 
     def sampleGoal(self, state) -> None:  # noqa: N802
-        values = self.rng.uniform(self.lower, self.upper)
-        for i, v in self.columns.items():
-            values[i] = v
+        # Uniform draws come in blocks: one numpy call per state would dominate the cost.
+        if self._next == len(self._block):
+            self._block = self.lower + (self.upper - self.lower) * self.rng.random((256, len(self.lower)))
+            self._block[:, list(self.columns)] = list(self.columns.values())
+            self._next = 0
+        values = self._block[self._next].tolist()
+        self._next += 1
         for i, v in enumerate(values):
-            state[i] = float(v)
+            state[i] = v
 
     def maxSampleCount(self) -> int:  # noqa: N802
         return 1 << 30
@@ -125,10 +131,15 @@ def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
     si = ob.SpaceInformation(space)
     validator = _MotionValidator(si, model, model.motion_steps(resolution))
 
+    buffer = np.empty((1, dimension))
+    row = buffer[0]
+
     def state_valid(s) -> bool:
         # Counted too: with an invalid goal, RRT-Connect only samples goal states.
         validator.calls += 1
-        return model.is_valid([s[i] for i in range(dimension)])
+        for i in range(dimension):
+            row[i] = s[i]
+        return bool(model.check_prepared(buffer)[0])
 
     si.setStateValidityChecker(state_valid)
     si.setMotionValidator(validator)

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..chain import Geometry
 from ..geometry import Box, Pose, slot_disc
-from ..maker import Choice, Draft, MakerInput, Sequence_
+from ..maker import Choice, Draft, MakerInput, InfiniteSequence
 from ..objects import Motion, PuzzleObject
 from ..puzzle import Goal, paper_goal
 from ..registry import ParameterError, register
@@ -222,8 +222,8 @@ def build(seed: int, params: LockboxRandomParams) -> MakerInput:
     """
     params.validate(seed)
     return MakerInput(
-        objects=Sequence_((CUBOID, DISK)),
-        joints=Sequence_((Motion.PRISMATIC, Motion.REVOLUTE)),
+        objects=InfiniteSequence((CUBOID, DISK)),
+        joints=InfiniteSequence((Motion.PRISMATIC, Motion.REVOLUTE)),
         transforms=Choice(TRANSFORMS),
         n_objects=params.n_objects,
         attach=_attach_for(params),

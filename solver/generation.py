@@ -1,0 +1,148 @@
+"""Generate certified puzzles, each in a fresh worker process.
+
+OMPL seeds its global RNG once per process, so a puzzle generated after
+another one in the same process would see different random numbers. Each
+puzzle therefore runs in its own process, forked from a server process that
+has imported everything but never planned; OMPL is seeded there from
+(generator, seed), and the result is the same in any process and any order.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import multiprocessing
+import time
+import traceback
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from phyrogen_core import __version__
+from phyrogen_core.maker import GenerationError, make, rng_for
+from phyrogen_core.puzzle import Puzzle
+from phyrogen_core.registry import ParameterError, get_generator
+
+from .actions import count_actions
+from .validation import OmplValidator, verify_certificate
+
+_PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.generators",
+            "phyrogen_core.export", "solver.validation", "solver._kernels"]
+
+
+def seed_ompl(generator: str, seed: int) -> None:
+    from ompl import util as ou
+
+    digest = hashlib.sha256(f"ompl:{generator}:{seed}".encode()).digest()
+    ou.RNG.setSeed(int.from_bytes(digest[:4], "little") % 2_147_483_646 + 1)
+
+
+def versions() -> dict[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {"phyrogen": __version__}
+    for package in ("numpy", "ompl"):
+        try:
+            out[package] = version(package)
+        except PackageNotFoundError:
+            pass
+    return out
+
+
+def generate_here(generator: str, seed: int, params: Any = None) -> Puzzle:
+    """Generate and certify one puzzle in THIS process.
+
+    Only deterministic in a process that has not planned before (see the
+    module docstring); use :func:`generate_puzzle` unless you manage processes.
+    """
+    spec = get_generator(generator)
+    params = spec.default_params() if params is None else params
+    spec.check(seed, params)
+    seed_ompl(generator, seed)
+    maker_input = spec.build(seed, params)
+    validator = OmplValidator(rng_for(generator, seed, "validator"))
+    validator.budget = int(validator.budget * maker_input.budget_scale)
+    result = make(maker_input, seed, validator, generator)
+    puzzle = Puzzle(result.objects, result.goal, generator, seed, params, result.dependencies, result.certificate)
+    problems = verify_certificate(puzzle.planning_chain, puzzle.certificate, puzzle.goal)
+    if problems:
+        raise GenerationError(f"generator {generator!r}, seed {seed}: certificate rejected: {'; '.join(problems)}")
+    return puzzle
+
+
+@dataclass(frozen=True)
+class Job:
+    generator: str
+    seed: int
+    overrides: Mapping[str, str] = field(default_factory=dict)
+    params: Any = None  # a parameter dataclass instance; takes precedence over ``overrides``
+
+
+@dataclass(frozen=True)
+class Report:
+    """What one job produced: a puzzle folder, or an error message."""
+
+    generator: str
+    seed: int
+    objects: int = 0
+    actions: int = 0
+    seconds: float = 0.0
+    folder: str | None = None
+    error: str | None = None
+    puzzle: Puzzle | None = None
+
+
+def _run_job(job: Job, out_root: str | None) -> Report:
+    started = time.perf_counter()
+    try:
+        spec = get_generator(job.generator)
+        params = job.params if job.params is not None else spec.parse_params(job.overrides)
+        puzzle = generate_here(job.generator, job.seed, params)
+        folder = None
+        if out_root is not None:
+            from phyrogen_core.export import write_puzzle
+
+            folder = str(write_puzzle(puzzle, Path(out_root), versions()))
+        chain = puzzle.planning_chain
+        return Report(job.generator, job.seed, sum(o.is_movable for o in puzzle.objects),
+                      count_actions(puzzle.certificate, chain.factors), time.perf_counter() - started,
+                      folder, None, puzzle)
+    except (ParameterError, GenerationError) as exc:
+        return Report(job.generator, job.seed, seconds=time.perf_counter() - started, error=str(exc))
+    except Exception as exc:  # a bug: keep the traceback for the report
+        detail = traceback.format_exc(limit=6)
+        return Report(job.generator, job.seed, seconds=time.perf_counter() - started,
+                      error=f"{type(exc).__name__}: {exc}\n{detail}")
+
+
+def _context():
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(_PRELOAD)
+    return context
+
+
+def run_jobs(jobs: Iterable[Job], out_root: Path | None = None, workers: int = 2,
+             on_done: Callable[[Report], None] | None = None) -> Iterator[Report]:
+    """Run jobs in fresh worker processes (one process per job), yielding reports as they finish."""
+    jobs = list(jobs)
+    root = None if out_root is None else str(out_root)
+    with _context().Pool(processes=max(1, min(workers, len(jobs) or 1)), maxtasksperchild=1) as pool:
+        results = [pool.apply_async(_run_job, (job, root)) for job in jobs]
+        for result in results:
+            report = result.get()
+            if on_done is not None:
+                on_done(report)
+            yield report
+
+
+def generate_puzzle(generator: str, seed: int, params: Any = None) -> Puzzle:
+    """One certified puzzle, generated deterministically in a fresh process.
+
+    ``params`` is the generator's parameter dataclass, a mapping of
+    ``key=value`` overrides, or None for the defaults.
+    """
+    job = Job(generator, seed, dict(params)) if isinstance(params, Mapping) else Job(generator, seed, {}, params)
+    (report,) = list(run_jobs([job], workers=1))
+    if report.error is not None or report.puzzle is None:
+        raise GenerationError(report.error or "generation failed")
+    return report.puzzle
