@@ -21,7 +21,7 @@ import numpy as np
 
 from ..chain import GREEN, RED, Role
 from ..geometry import Pose
-from ..maker import Draft, MakerInput, Sequence_
+from ..maker import Draft, MakerInput, InfiniteSequence
 from ..objects import Motion, PuzzleObject
 from ..puzzle import Goal
 from ..registry import ParameterError, register
@@ -264,8 +264,8 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     budget_scale = search_budget_scale(moves)
     return MakerInput(
         objects=MoveNTimesItems(moves),
-        joints=Sequence_((Motion.SE2, Motion.PRISMATIC, Motion.FIXED), repeat_from=2),
-        transforms=Sequence_((0.0, 180.0), repeat_from=0),
+        joints=InfiniteSequence((Motion.SE2, Motion.PRISMATIC, Motion.FIXED), repeat_from=2),
+        transforms=InfiniteSequence((0.0, 180.0), repeat_from=0),
         n_objects=moves + 1,
         attach=_attach,
         goal=_goal,
