@@ -24,7 +24,7 @@ from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.registry import ParameterError, get_generator
 
 from .actions import count_actions
-from .validation import OmplValidator, verify_certificate
+from .validation import OmplValidator
 
 _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.generators",
             "phyrogen_core.export", "solver.validation", "solver._kernels"]
@@ -63,11 +63,10 @@ def generate_here(generator: str, seed: int, params: Any = None) -> Puzzle:
     validator = OmplValidator(rng_for(generator, seed, "validator"))
     validator.budget = int(validator.budget * maker_input.budget_scale)
     result = make(maker_input, seed, validator, generator)
-    puzzle = Puzzle(result.objects, result.goal, generator, seed, params, result.dependencies, result.certificate)
-    problems = verify_certificate(puzzle.planning_chain, puzzle.certificate, puzzle.goal)
-    if problems:
-        raise GenerationError(f"generator {generator!r}, seed {seed}: certificate rejected: {'; '.join(problems)}")
-    return puzzle
+    certificate = validator.certify(result.objects, result.goal, result.certificate)
+    if certificate is None:
+        raise GenerationError(f"generator {generator!r}, seed {seed}: no certificate holds at fine resolution")
+    return Puzzle(result.objects, result.goal, generator, seed, params, result.dependencies, certificate)
 
 
 @dataclass(frozen=True)

@@ -198,6 +198,19 @@ class OmplValidator:
             return result
         return SolveResult(True, full_path(objects, problem, result.path), result.checks)
 
+    def certify(self, objects: Sequence[PuzzleObject], goal: Goal, path, *, budget_scale: float = 1.0):
+        """A certificate that holds at :data:`FINE_RESOLUTION`: ``path`` itself when it does,
+        else a path planned again at that resolution (a path planned coarsely can clip a
+        corner between two checked states). Returns None when none is found."""
+        if not verify_certificate(build_chain(objects), path, goal):
+            return tuple(path)
+        fine = OmplValidator(self.rng, self.budget, FINE_RESOLUTION)
+        result = fine.solve(objects, goal, budget_scale=budget_scale)
+        self.checks += fine.checks
+        if result.solved and not verify_certificate(build_chain(objects), result.path, goal):
+            return result.path
+        return None
+
     def blocked_by(self, objects: Sequence[PuzzleObject], new_object: PuzzleObject, path) -> list[str]:
         """Objects whose motion along ``path`` (a certificate of ``objects``) runs into ``new_object``."""
         chain = build_chain([*objects, new_object.fixed()])

@@ -1,0 +1,110 @@
+"""Validity checks per second: our collision model vs. the prototype's PyBullet method.
+
+The prototype loaded the URDF in PyBullet and, per state, reset every joint and
+asked for closest points at distance 0 between every moving link and every
+other link. We run both on the same random states of the same puzzles, in one
+process, and print the ratio.
+
+    python benchmarks/collision_speed.py [PUZZLES_ROOT] [--states N]
+
+PUZZLES_ROOT holds exported puzzle folders (default: output/, as written by
+the README's main command).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+
+from phyrogen_core.export import read_puzzle_dir
+from solver.collision import CollisionModel
+
+
+def prototype_checker(folder: Path, chain):
+    """The prototype's validity check, as a closure over a loaded PyBullet scene."""
+    client = pb.connect(pb.DIRECT)
+    urdf = next((folder / "urdf").glob("*.urdf"))
+    body = pb.loadURDF(str(urdf), useFixedBase=True, physicsClientId=client)
+    joint_of, link_of = {}, {chain.root: -1}
+    for i in range(pb.getNumJoints(body, physicsClientId=client)):
+        info = pb.getJointInfo(body, i, physicsClientId=client)
+        joint_of[info[1].decode()] = i
+        link_of[info[12].decode()] = i
+    joints = [joint_of[name] for name in chain.joint_order]
+    parent = {j.child: j.parent for j in chain.joints}
+    moving = [link for link in link_of if chain.link(link).collisions and any(
+        chain.joint(n).child == link or _is_descendant(chain, link, chain.joint(n).child) for n in chain.joint_order)]
+    others = [link for link in link_of if chain.link(link).collisions]
+    pairs = sorted({tuple(sorted((a, b))) for a in moving for b in others
+                    if a != b and parent.get(a) != b and parent.get(b) != a})
+    pairs = [(link_of[a], link_of[b]) for a, b in pairs]
+
+    def is_valid(state) -> bool:
+        for index, value in zip(joints, state, strict=True):
+            pb.resetJointState(body, index, float(value), physicsClientId=client)
+        for a, b in pairs:
+            if pb.getClosestPoints(body, body, 0.0, a, b, physicsClientId=client):
+                return False
+        return True
+
+    return is_valid, client
+
+
+def _is_descendant(chain, link, ancestor) -> bool:
+    while True:
+        joint = chain.parent_joint(link)
+        if joint is None:
+            return False
+        if joint.parent == ancestor:
+            return True
+        link = joint.parent
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("root", nargs="?", default="output")
+    parser.add_argument("--states", type=int, default=2000, help="random states per puzzle")
+    args = parser.parse_args()
+    folders = sorted(p.parent for p in Path(args.root).glob("*/*/puzzle.json"))
+    if not folders:
+        print(f"no puzzle folders under {args.root!r}; run the README's main command first", file=sys.stderr)
+        return 2
+    rng = np.random.default_rng(0)
+    print(f"{'puzzle':22s} {'prototype/s':>12s} {'ours, one/s':>12s} {'ours, batch/s':>14s} "
+          f"{'ratio one':>9s} {'ratio batch':>11s}")
+    totals = np.zeros(3)
+    for folder in folders:
+        chain = read_puzzle_dir(folder).chain
+        states = rng.uniform(chain.lower_limits, chain.upper_limits, (args.states, len(chain.joint_order)))
+        model = CollisionModel(chain)
+        model.check(states[:2])  # compile outside the timing
+        baseline, client = prototype_checker(folder, chain)
+        n_slow = min(len(states), 500)
+        started = time.perf_counter()
+        expected = [baseline(s) for s in states[:n_slow]]
+        proto_rate = n_slow / (time.perf_counter() - started)
+        pb.disconnect(client)
+        started = time.perf_counter()
+        single = [model.is_valid(s) for s in states]
+        one_rate = len(states) / (time.perf_counter() - started)
+        started = time.perf_counter()
+        batch = model.check(states)
+        batch_rate = len(states) / (time.perf_counter() - started)
+        assert list(batch) == single
+        agree = np.mean(np.array(expected) == batch[:n_slow])
+        totals += (proto_rate, one_rate, batch_rate)
+        print(f"{folder.name:22s} {proto_rate:12.0f} {one_rate:12.0f} {batch_rate:14.0f} "
+              f"{one_rate / proto_rate:9.1f} {batch_rate / proto_rate:11.1f}   (verdicts agree on {agree:.1%})")
+    mean = totals / len(folders)
+    print(f"{'mean':22s} {mean[0]:12.0f} {mean[1]:12.0f} {mean[2]:14.0f} {mean[1] / mean[0]:9.1f} "
+          f"{mean[2] / mean[0]:11.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
