@@ -9,7 +9,7 @@ import numpy as np
 
 from ..chain import Geometry
 from ..geometry import Box, Pose, slot_disc
-from ..maker import Choice, Draft, MakerInput, InfiniteSequence
+from ..maker import Choice, Draft, InfiniteSequence, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..puzzle import Goal, paper_goal
 from ..registry import ParameterError, register
