@@ -114,6 +114,14 @@ def cmd_check(args) -> int:
     return 0
 
 
+def cmd_manipulate(args) -> int:
+    from manipulation.batch import manipulate_folders
+
+    reports = manipulate_folders([Path(p) for p in args.puzzle_dirs], Path(args.out), video=not args.no_video,
+                                 table=Path(args.table) if args.table else None, gui=args.gui, quiet=args.quiet)
+    return 0 if all(r.success for r in reports) else 1
+
+
 def _progress(total: int, quiet: bool):
     from tqdm import tqdm
 
@@ -135,6 +143,14 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="re-validate an exported puzzle folder")
     check.add_argument("puzzle_dir")
     check.set_defaults(func=cmd_check)
+    manipulate = sub.add_parser("manipulate", help="execute puzzles' solutions with a mobile KUKA iiwa in PyBullet")
+    manipulate.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR", help="puzzle folder(s)")
+    manipulate.add_argument("--out", default="output/manipulation", help="output folder (default: output/manipulation)")
+    manipulate.add_argument("--no-video", action="store_true", help="frames and report only")
+    manipulate.add_argument("--table", metavar="FILE", help="also write a Markdown summary table here")
+    manipulate.add_argument("--gui", action="store_true", help="show the simulation in a PyBullet window")
+    manipulate.add_argument("--quiet", action="store_true", help="no progress bar")
+    manipulate.set_defaults(func=cmd_manipulate)
     return parser
 
 

@@ -1,0 +1,289 @@
+"""Executing a puzzle's solution with the mobile iiwa, action by action, in physics.
+
+For each action: pick the grasp point on the moving object, solve IK there
+(with a look-ahead so the grasp is not singular a moment later), plan the
+robot's motion with BIT*, drive there, grasp (a fixed constraint), and pull
+the object along its path by Jacobian control. When the monitor stops the
+motion (joint flip, low manipulability, joint limit) the robot releases,
+regrasps where it is well-conditioned for the object's next positions, and
+goes on. At the end the target must be at its goal and the robot must never
+have penetrated the puzzle.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+
+from phyrogen_core.chain import JointType, KinematicChain
+from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
+from solver.validation import densify
+
+from .following import FollowSettings, Stop, drive_along, follow, time_trajectory
+from .grasp import GraspPoint, grasp_point
+from .ik import IkSettings, best_grasp_configuration
+from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value_scale, link_pose, scale_chain
+from .reaching import ReachingError, plan_motion
+from .robot import ARM_REST, RobotSpec
+from .scene import World, temporary_folder, write_scene_files
+from .solution import Action, load_solution, split_actions
+from .transforms import inverse, matrix, quaternion
+
+PENETRATION_TOLERANCE = 0.002
+"""Metres of robot-puzzle contact depth that still count as touching, not penetrating."""
+LOOKAHEAD_SECONDS = (0.4, 0.8, 1.6)
+"""How far ahead along the object's path a new grasp must stay well-conditioned."""
+HOME_BASE = (-1.0, 0.0, 0.0)
+"""Where the base starts (x, y, yaw), outside the puzzle's square."""
+
+
+class ExecutionError(RuntimeError):
+    """The robot could not execute an action (no grasp, no motion, too many regrasps)."""
+
+
+@dataclass(frozen=True)
+class ExecutionSettings:
+    max_extent: float = DEFAULT_MAX_EXTENT
+    robot: RobotSpec = RobotSpec()
+    follow: FollowSettings = FollowSettings()
+    ik: IkSettings = IkSettings()
+    reach_time_limit: float = 5.0
+    max_regrasps_per_action: int = 12
+    record_every: int = 8
+    """Record the scene for frames and video every this many physics steps."""
+
+
+@dataclass(frozen=True)
+class ActionReport:
+    object_name: str
+    regrasps: int
+    stops: tuple[str, ...]
+    final_error: float
+    """Largest joint error (puzzle units) of the object at the end of the action."""
+
+
+@dataclass(frozen=True)
+class ManipulationReport:
+    puzzle: str
+    generator: str
+    seed: int
+    scale: float
+    solution_source: str
+    actions: int
+    regrasps: int
+    planning_seconds: float
+    execution_seconds: float
+    simulated_seconds: float
+    success: bool
+    target_at_goal: bool
+    max_penetration: float
+    message: str
+    action_reports: tuple[ActionReport, ...] = ()
+
+
+@dataclass
+class Recording:
+    """Snapshots of the simulation: robot joints, puzzle joints (scene units), action index."""
+
+    robot: list[np.ndarray] = field(default_factory=list)
+    puzzle: list[np.ndarray] = field(default_factory=list)
+    action: list[int] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class SceneSetup:
+    """What a renderer needs to rebuild the scene: the scaled chain and its placement."""
+
+    chain: KinematicChain
+    placement: Placement
+    robot: RobotSpec
+
+
+class _Run:
+    """The state of one execution: both worlds, clocks, counters and the recording."""
+
+    def __init__(self, loaded: LoadedPuzzle, chain: KinematicChain, placement: Placement, sim: World,
+                 planner: World, value_scale: np.ndarray, settings: ExecutionSettings):
+        self.loaded, self.chain, self.placement = loaded, chain, placement
+        self.sim, self.planner = sim, planner
+        self.value_scale = value_scale
+        self.settings = settings
+        self.planning = 0.0
+        self.execution = 0.0
+        self.steps = 0
+        self.max_penetration = 0.0
+        self.recording = Recording()
+        self.action_index = 0
+        self.offset = np.eye(4)
+        self.offset[:2, 3] = placement.offset
+
+    # -- bookkeeping -------------------------------------------------------
+    def on_step(self) -> None:
+        self.steps += 1
+        self.max_penetration = max(self.max_penetration, self.sim.penetration())
+        if self.steps % self.settings.record_every == 0:
+            self.record()
+
+    def record(self) -> None:
+        self.recording.robot.append(self.sim.robot_state())
+        self.recording.puzzle.append(self.sim.puzzle_state())
+        self.recording.action.append(self.action_index)
+
+    def link_world(self, link: str, state: np.ndarray) -> np.ndarray:
+        return self.offset @ link_pose(self.chain, link, state)
+
+    def tool_pose(self, link: str, tool_at_link: np.ndarray, state: np.ndarray) -> np.ndarray:
+        return self.link_world(link, state) @ tool_at_link
+
+    # -- one action ----------------------------------------------------------
+    def execute(self, action: Action) -> ActionReport:
+        grasp = grasp_point(self.chain, action.object_name)
+        link_index = self.sim.puzzle_link[grasp.link]
+        states = densify(action.states * self.value_scale, self._check_steps())
+        point = np.array([*grasp.point, 1.0])
+        positions = np.array([(self.link_world(grasp.link, s) @ point)[:3] for s in states])
+        revolute = [i for i, j in enumerate(self.chain.active_joints) if j.type is JointType.REVOLUTE]
+        revolute = [i for i in revolute if i in action.columns]
+        trajectory = time_trajectory(states, positions, revolute, self.settings.follow)
+        columns = list(action.columns)
+        end = states[-1]
+        tolerance = 0.4 * self.loaded.goal.tolerance * self.value_scale[columns]
+
+        def object_done() -> bool:
+            return bool(np.all(np.abs(self.sim.puzzle_state()[columns] - end[columns]) <= tolerance))
+
+        t, regrasps, stops = 0.0, 0, []
+        failed_base: np.ndarray | None = None
+        while True:
+            tool_at_link = self.grasp_here(grasp, trajectory, t, failed_base)
+            constraint = self.attach(link_index, tool_at_link)
+            started = time.perf_counter()
+            result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
+                            self.settings.follow, self.on_step, object_done)
+            self.execution += time.perf_counter() - started
+            pb.removeConstraint(constraint, physicsClientId=self.sim.client)
+            if result.stop is Stop.DONE:
+                break
+            stops.append(f"{result.stop.value} at t={result.time:.2f}s")
+            regrasps += 1
+            if regrasps > self.settings.max_regrasps_per_action:
+                raise ExecutionError(f"moving {action.object_name}: more than "
+                                     f"{self.settings.max_regrasps_per_action} regrasps ({'; '.join(stops)})")
+            t = result.time
+            failed_base = self.sim.robot_state()[:2]
+        error = np.abs(self.sim.puzzle_state()[columns] - end[columns]) / self.value_scale[columns]
+        return ActionReport(action.object_name, regrasps, tuple(stops), float(np.max(error)))
+
+    def _check_steps(self) -> np.ndarray:
+        # Fine enough that the grasp point moves a few millimetres between trajectory states.
+        return np.array([0.004 if j.type is JointType.PRISMATIC else 0.01 for j in self.chain.active_joints])
+
+    def grasp_here(self, grasp: GraspPoint, trajectory, t: float, failed_base: np.ndarray | None) -> np.ndarray:
+        """Plan to and drive to a grasp of the object as it stands now; returns the grasp offset
+        (tool pose in the grasped link's frame)."""
+        started = time.perf_counter()
+        now = self.sim.puzzle_state()
+        self.planner.set_puzzle(now)
+        link_now = self.link_world(grasp.link, now)
+        point = (link_now @ np.array([*grasp.point, 1.0]))[:3]
+        futures = [trajectory.state_at(t + dt) for dt in LOOKAHEAD_SECONDS]
+
+        def lookahead(pose: np.ndarray) -> list[np.ndarray]:
+            offset = inverse(link_now) @ pose
+            return [self.link_world(grasp.link, s) @ offset for s in futures]
+
+        solution = best_grasp_configuration(self.planner, point, lookahead, self.settings.ik, failed_base)
+        if solution is None or solution.score <= 0:
+            solution = best_grasp_configuration(self.planner, point, lambda pose: [], self.settings.ik, None)
+        if solution is None:
+            raise ExecutionError(f"no collision-free IK solution at the grasp point of {grasp.link} "
+                                 f"({np.round(point, 3).tolist()})")
+        start = self.sim.robot_state()
+        try:
+            path = plan_motion(self.planner, start, solution.q, self.settings.reach_time_limit)
+        except ReachingError as exc:
+            raise ExecutionError(f"reaching the grasp on {grasp.link}: {exc}") from None
+        self.planning += time.perf_counter() - started
+        started = time.perf_counter()
+        drive_along(self.sim, path, self.on_step)
+        self.execution += time.perf_counter() - started
+        tool = matrix(*self.sim.tool_pose())
+        return inverse(self.link_world(grasp.link, self.sim.puzzle_state())) @ tool
+
+    def attach(self, link_index: int, tool_at_link: np.ndarray) -> int:
+        """A fixed constraint between the tool and the link, at their current relative pose."""
+        c = self.sim.client
+        com = pb.getLinkState(self.sim.puzzle, link_index, computeForwardKinematics=True, physicsClientId=c)
+        link_frame = matrix(com[4], com[5])
+        com_frame = matrix(com[0], com[1])
+        tool_in_com = inverse(com_frame) @ link_frame @ tool_at_link
+        constraint = pb.createConstraint(self.sim.robot, self.sim.tool, self.sim.puzzle, link_index,
+                                         pb.JOINT_FIXED, (0, 0, 0), (0, 0, 0), tuple(tool_in_com[:3, 3]),
+                                         (0, 0, 0, 1), quaternion(tool_in_com), physicsClientId=c)
+        pb.changeConstraint(constraint, maxForce=5000, physicsClientId=c)
+        return constraint
+
+
+def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings(), gui: bool = False,
+                   progress: Callable[[int, int], None] | None = None) -> tuple[ManipulationReport, Recording,
+                                                                                 SceneSetup]:
+    """Execute the puzzle in ``folder``; returns the report, the recording and the scene setup.
+
+    Execution failures are reported (``success`` False, ``message``), not raised;
+    a malformed puzzle folder raises.
+    """
+    folder = Path(folder)
+    loaded = read_puzzle_dir(folder)
+    chain = loaded.chain
+    solution = load_solution(folder, loaded.joint_order, loaded.certificate)
+    factors = {name: cols for name, cols in chain.factors.items() if name != "goal"}
+    actions = split_actions(solution.path, factors)
+    placement = fit_placement(chain, solution.path, settings.max_extent)
+    scaled = scale_chain(chain, placement.scale)
+    value_scale = joint_value_scale(chain, placement.scale)
+    setup = SceneSetup(scaled, placement, settings.robot)
+    name = loaded.metadata.get("name", folder.name)
+    with temporary_folder() as tmp:
+        files = write_scene_files(Path(tmp), scaled, settings.robot)
+        sim = World(files, scaled, placement, gui=gui)
+        planner = World(files, scaled, placement, self_collision=True)
+        run = _Run(loaded, scaled, placement, sim, planner, value_scale, settings)
+        try:
+            home = np.array([*HOME_BASE, *ARM_REST])
+            sim.set_robot(home)
+            pb.setJointMotorControlArray(sim.robot, sim.robot_joints, pb.POSITION_CONTROL,
+                                         targetPositions=home.tolist(), physicsClientId=sim.client)
+            run.record()
+            reports: list[ActionReport] = []
+            message = "ok"
+            for index, action in enumerate(actions):
+                run.action_index = index
+                try:
+                    reports.append(run.execute(action))
+                except ExecutionError as exc:
+                    message = f"action {index + 1}/{len(actions)} ({action.object_name}): {exc}"
+                    break
+                if progress is not None:
+                    progress(index + 1, len(actions))
+            run.record()
+            final = sim.puzzle_state() / value_scale
+            at_goal = loaded.goal.is_reached(chain.state_dict(final))
+            if message == "ok" and not at_goal:
+                message = "the target did not reach its goal"
+            if message == "ok" and run.max_penetration > PENETRATION_TOLERANCE:
+                message = f"the robot penetrated the puzzle by {run.max_penetration * 1000:.1f} mm"
+        finally:
+            sim.close()
+            planner.close()
+    report = ManipulationReport(
+        name, str(loaded.metadata.get("generator", "")), int(loaded.metadata.get("seed", 0)), placement.scale,
+        "la_rrt_best" if solution.source != "certificate" else "certificate", len(actions),
+        sum(r.regrasps for r in reports), run.planning, run.execution, run.steps / 240.0,
+        message == "ok", at_goal, run.max_penetration, message, tuple(reports))
+    return report, run.recording, setup

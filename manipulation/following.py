@@ -1,0 +1,167 @@
+"""Moving a grasped object along its path: damped-least-squares Jacobian control in physics.
+
+Each simulation step the tool's desired pose comes from the object's path
+(where the grasped link will be, times the grasp offset); the joint velocity
+is the weighted damped least-squares answer to feed-forward twist plus a
+proportional correction, and the joint motors track it. The puzzle joints
+are never set: the object moves because the grasp constraint pulls it.
+
+A monitor watches for joint flips (an arm joint jumping), low arm
+manipulability and arm joints at their limits; any of them stops the
+motion so the caller can regrasp.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+import pybullet as pb
+
+from .linalg import damped_least_squares, manipulability
+from .scene import World
+from .transforms import matrix, rotation_error
+
+TIME_STEP = 1 / 240
+
+
+@dataclass(frozen=True)
+class FollowSettings:
+    linear_speed: float = 0.15
+    """Metres per second of the grasp point along the object's path."""
+    angular_speed: float = 0.6
+    """Radians per second of the object's rotation."""
+    damping: float = 0.02
+    base_weight: float = 8.0
+    """How much costlier a base joint's motion is than an arm joint's."""
+    gain: float = 12.0
+    """Per second: proportional correction of the tool pose error."""
+    flip_step: float = 0.02
+    """Radians an arm joint may move in one step before it counts as a flip."""
+    min_manipulability: float = 1e-3
+    limit_margin: float = 0.03
+    settle_steps: int = 240
+    """Steps allowed at the end for the object to settle on its final state."""
+    motor_force: float = 600.0
+
+
+class Stop(StrEnum):
+    DONE = "done"
+    FLIP = "joint flip"
+    SINGULAR = "low manipulability"
+    LIMIT = "joint limit"
+
+
+@dataclass(frozen=True)
+class FollowResult:
+    stop: Stop
+    time: float
+    """Where along the trajectory (seconds) the motion stopped."""
+    steps: int
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Desired grasped-link poses over time: ``times`` (seconds) and object states (scene units)."""
+
+    times: np.ndarray
+    states: np.ndarray
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    def state_at(self, t: float) -> np.ndarray:
+        t = min(max(t, 0.0), self.duration)
+        k = int(np.searchsorted(self.times, t, side="right")) - 1
+        k = min(max(k, 0), len(self.times) - 2)
+        span = self.times[k + 1] - self.times[k]
+        u = 0.0 if span <= 0 else (t - self.times[k]) / span
+        return self.states[k] + u * (self.states[k + 1] - self.states[k])
+
+
+def time_trajectory(states: np.ndarray, grasp_positions: np.ndarray, revolute_columns: list[int],
+                    settings: FollowSettings) -> Trajectory:
+    """Time stamps for ``states`` so the grasp point and the object's rotation keep their speed limits."""
+    times = [0.0]
+    for k in range(1, len(states)):
+        distance = float(np.linalg.norm(grasp_positions[k] - grasp_positions[k - 1]))
+        turn = float(np.max(np.abs(states[k, revolute_columns] - states[k - 1, revolute_columns]), initial=0.0))
+        times.append(times[-1] + max(distance / settings.linear_speed, turn / settings.angular_speed, TIME_STEP))
+    return Trajectory(np.array(times), np.asarray(states, dtype=float))
+
+
+def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndarray], np.ndarray],
+           start_time: float, settings: FollowSettings, on_step: Callable[[], None],
+           object_done: Callable[[], bool]) -> FollowResult:
+    """Track ``tool_pose_at(trajectory.state_at(t))`` from ``start_time`` to the end, stepping physics.
+
+    ``on_step`` runs after every physics step (recording, contact checks);
+    ``object_done`` says whether the object has reached its final state.
+    """
+    c = world.client
+    joints = world.robot_joints
+    arm = world.arm_columns
+    weights = np.ones(len(joints))
+    weights[:3] = settings.base_weight
+    forces = [settings.motor_force * 4] * 3 + [settings.motor_force] * len(arm)
+    t = start_time
+    q = world.robot_state()
+    steps = 0
+    end = trajectory.duration + settings.settle_steps * TIME_STEP
+    while t < end:
+        t_next = t + TIME_STEP
+        desired = tool_pose_at(trajectory.state_at(t_next))
+        ahead = tool_pose_at(trajectory.state_at(t_next + TIME_STEP))
+        actual = matrix(*world.tool_pose())
+        feed_forward = np.concatenate([(ahead[:3, 3] - desired[:3, 3]) / TIME_STEP,
+                                       rotation_error(ahead[:3, :3], desired[:3, :3]) / TIME_STEP])
+        error = np.concatenate([desired[:3, 3] - actual[:3, 3], rotation_error(desired[:3, :3], actual[:3, :3])])
+        twist = feed_forward + settings.gain * error
+        jacobian = world.jacobian(q)
+        q_dot = damped_least_squares(jacobian, weights, settings.damping, twist)
+        target = np.clip(q + q_dot * TIME_STEP, world.lower, world.upper)
+        pb.setJointMotorControlArray(world.robot, joints, pb.POSITION_CONTROL, targetPositions=target.tolist(),
+                                     targetVelocities=q_dot.tolist(), forces=forces, physicsClientId=c)
+        pb.stepSimulation(physicsClientId=c)
+        steps += 1
+        t = t_next
+        on_step()
+        q_new = world.robot_state()
+        if np.max(np.abs(q_new[arm] - q[arm])) > settings.flip_step:
+            return FollowResult(Stop.FLIP, t, steps)
+        q = q_new
+        lower, upper = world.lower[arm], world.upper[arm]
+        if np.any(q[arm] < lower + settings.limit_margin) or np.any(q[arm] > upper - settings.limit_margin):
+            return FollowResult(Stop.LIMIT, t, steps)
+        if manipulability(np.ascontiguousarray(jacobian[:, arm])) < settings.min_manipulability:
+            return FollowResult(Stop.SINGULAR, t, steps)
+        if t >= trajectory.duration and object_done():
+            break
+    return FollowResult(Stop.DONE, t, steps)
+
+
+def drive_along(world: World, path: np.ndarray, on_step: Callable[[], None], max_step: float = 0.004,
+                motor_force: float = 600.0, settle_tolerance: float = 2e-3, settle_steps: int = 240) -> int:
+    """Drive the (released) robot along a joint path with position control; returns steps taken."""
+    c = world.client
+    forces = [motor_force * 4] * 3 + [motor_force] * (len(world.robot_joints) - 3)
+    steps = 0
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        count = max(1, int(np.ceil(np.max(np.abs(b - a)) / max_step)))
+        for k in range(1, count + 1):
+            target = a + (b - a) * k / count
+            pb.setJointMotorControlArray(world.robot, world.robot_joints, pb.POSITION_CONTROL,
+                                         targetPositions=target.tolist(), forces=forces, physicsClientId=c)
+            pb.stepSimulation(physicsClientId=c)
+            on_step()
+            steps += 1
+    for _ in range(settle_steps):
+        if np.max(np.abs(world.robot_state() - path[-1])) < settle_tolerance:
+            break
+        pb.stepSimulation(physicsClientId=c)
+        on_step()
+        steps += 1
+    return steps

@@ -1,0 +1,122 @@
+"""Inverse kinematics at a grasp pose, respecting joint limits, and choosing among solutions.
+
+PyBullet's IK ignores joint limits unless it is given the null-space
+arguments (limits, ranges, rest pose); it is run from several base rest
+poses around the grasp point, a few iterations each, and every answer is
+re-checked: pose error, distance from the limits, collisions with the puzzle
+and the robot itself, and manipulability now and at the next object poses
+(so that a grasp is not chosen where the robot would be singular a moment
+later).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as pb
+
+from .linalg import manipulability
+from .robot import ARM_REST
+from .scene import World
+from .transforms import matrix, quaternion, rotation_error, tool_down
+
+POSITION_TOLERANCE = 1e-3
+ORIENTATION_TOLERANCE = 1e-2
+LIMIT_MARGIN = 0.08
+"""Radians an IK answer must keep from every arm joint limit."""
+
+
+@dataclass(frozen=True)
+class IkSettings:
+    distances: tuple[float, ...] = (0.5, 0.65)
+    """Metres from the grasp point to the base centre in the candidate rest poses."""
+    directions: int = 12
+    """Candidate directions (evenly spaced) from the grasp point to the base."""
+    iterations: int = 4
+
+
+@dataclass(frozen=True)
+class IkSolution:
+    q: np.ndarray
+    score: float
+    """The smallest arm manipulability over the grasp pose and the look-ahead poses."""
+
+
+def solve_at(world: World, pose: np.ndarray, seed: Sequence[float], iterations: int = 4) -> np.ndarray | None:
+    """Joint values putting the tool at ``pose`` (4x4), starting from ``seed``; None if IK misses.
+
+    Leaves the planning world's robot at the answer.
+    """
+    lower, upper = world.lower, world.upper
+    position, orientation = list(pose[:3, 3]), quaternion(pose)
+    world.set_robot(seed)
+    q = np.asarray(seed, dtype=float)
+    for _ in range(iterations):
+        q = np.array(pb.calculateInverseKinematics(
+            world.robot, world.tool, position, orientation,
+            lowerLimits=list(lower), upperLimits=list(upper), jointRanges=list(upper - lower),
+            restPoses=list(map(float, seed)), maxNumIterations=40, residualThreshold=1e-5,
+            physicsClientId=world.client))
+        q = np.clip(q, lower, upper)
+        world.set_robot(q)
+        position_error, angle_error = _pose_error(world, pose)
+        if position_error < POSITION_TOLERANCE / 4 and angle_error < ORIENTATION_TOLERANCE / 4:
+            break
+    position_error, angle_error = _pose_error(world, pose)
+    if position_error > POSITION_TOLERANCE or angle_error > ORIENTATION_TOLERANCE:
+        return None
+    return q
+
+
+def _pose_error(world: World, pose: np.ndarray) -> tuple[float, float]:
+    actual = matrix(*world.tool_pose())
+    return (float(np.linalg.norm(actual[:3, 3] - pose[:3, 3])),
+            float(np.linalg.norm(rotation_error(pose[:3, :3], actual[:3, :3]))))
+
+
+def arm_quality(world: World, q: np.ndarray) -> float:
+    """Arm manipulability at ``q``, or 0 when an arm joint is within LIMIT_MARGIN of a limit."""
+    arm = world.arm_columns
+    if np.any(q[arm] < world.lower[arm] + LIMIT_MARGIN) or np.any(q[arm] > world.upper[arm] - LIMIT_MARGIN):
+        return 0.0
+    return manipulability(np.ascontiguousarray(world.jacobian(q)[:, arm]))
+
+
+def best_grasp_configuration(world: World, point: np.ndarray,
+                             lookahead: Callable[[np.ndarray], Sequence[np.ndarray]] = lambda pose: (),
+                             settings: IkSettings = IkSettings(),
+                             exclude_near: np.ndarray | None = None) -> IkSolution | None:
+    """The best collision-free IK answer for a tool-down grasp at ``point`` over candidate base poses.
+
+    ``lookahead(pose)`` gives the tool poses a grasp at ``pose`` must reach
+    next (the object's coming positions); a candidate that cannot follow them
+    by IK scores 0. ``exclude_near``: base (x, y) of the configuration that
+    just failed, so that a regrasp really changes the robot's posture.
+    """
+    best: IkSolution | None = None
+    for distance in settings.distances:
+        for k in range(settings.directions):
+            angle = 2 * math.pi * k / settings.directions
+            base = point[:2] + distance * np.array([math.cos(angle), math.sin(angle)])
+            if exclude_near is not None and np.linalg.norm(base - exclude_near) < 0.15:
+                continue
+            heading = math.remainder(angle + math.pi, 2 * math.pi)  # face the grasp point
+            # At the rest pose the tool's x axis points back at the base: tool yaw = heading + pi.
+            pose = tool_down(point, heading + math.pi)
+            seed = np.array([base[0], base[1], heading, *ARM_REST])
+            q = solve_at(world, pose, seed, settings.iterations)
+            if q is None or world.in_collision():
+                continue
+            score = arm_quality(world, q)
+            current = q
+            for future in lookahead(pose):
+                if score <= (best.score if best else 0.0):
+                    break
+                current = solve_at(world, future, current, settings.iterations)
+                score = 0.0 if current is None else min(score, arm_quality(world, current))
+            if best is None or score > best.score:
+                best = IkSolution(q, score)
+    return best

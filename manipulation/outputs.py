@@ -1,0 +1,52 @@
+"""Per-puzzle output folders (frames, video, report) and the summary table."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+from phyrogen_core.export import atomic_directory
+
+from .execution import ManipulationReport, Recording, SceneSetup
+from .media import Renderer, figure_indices, write_frames, write_video
+
+
+def write_outputs(out_root: Path, report: ManipulationReport, recording: Recording, setup: SceneSetup,
+                  video: bool = True) -> Path:
+    """``<out_root>/<puzzle>/``: frames/frame_1..4.png, <puzzle>.mp4, report.json (written atomically)."""
+    final = Path(out_root) / report.puzzle
+    with atomic_directory(final) as folder, Renderer(setup) as renderer:
+        write_frames(renderer, recording, folder / "frames", figure_indices(recording))
+        if video:
+            write_video(renderer, recording, folder / f"{report.puzzle}.mp4")
+        (folder / "report.json").write_text(report_json(report), encoding="utf-8")
+    return final
+
+
+def report_json(report: ManipulationReport) -> str:
+    return json.dumps(dataclasses.asdict(report), indent=2, sort_keys=True) + "\n"
+
+
+TABLE_HEADER = ("| puzzle | solution | scale | actions | regrasps | planning [s] | execution [s] | "
+                "total [s] | simulated [s] | max penetration [mm] | result |")
+
+
+def summary_table(reports: Sequence[ManipulationReport]) -> str:
+    """A Markdown table, one row per puzzle, and a closing line with counts and the median total time."""
+    lines = [TABLE_HEADER, "|" + "---|" * TABLE_HEADER.count(" | ") + "---|"]
+    for r in reports:
+        total = r.planning_seconds + r.execution_seconds
+        result = "success" if r.success else "FAILED: " + r.message.replace("|", "/")
+        lines.append(f"| {r.puzzle} | {r.solution_source} | {r.scale:.3f} | {r.actions} | {r.regrasps} | "
+                     f"{r.planning_seconds:.1f} | {r.execution_seconds:.1f} | {total:.1f} | "
+                     f"{r.simulated_seconds:.1f} | {r.max_penetration * 1000:.2f} | {result} |")
+    if reports:
+        totals = sorted(r.planning_seconds + r.execution_seconds for r in reports)
+        middle = len(totals) // 2
+        median = totals[middle] if len(totals) % 2 else (totals[middle - 1] + totals[middle]) / 2
+        ok = sum(r.success for r in reports)
+        lines += ["", f"{ok}/{len(reports)} executed successfully; planning + execution per puzzle: "
+                      f"median {median:.1f} s, range {totals[0]:.1f}-{totals[-1]:.1f} s."]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,84 @@
+"""BIT* (OMPL) over the robot's 10 joints: to a grasp, and from one grasp to the next.
+
+Validity is a PyBullet query in the planning world (robot against the
+puzzle as it stands now, and against itself). The planner stops at its
+first solution, which is then shortened; BIT*'s informed search already
+makes that first path direct in open space.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from .scene import World
+
+BASE_MARGIN = 0.8
+"""Metres the base may drive beyond the box spanned by start, goal and the puzzle's square."""
+CHECK_STEP = 0.02
+"""Radians (or metres) between collision-checked states along a motion."""
+
+
+class ReachingError(RuntimeError):
+    """BIT* found no collision-free robot motion within its time limit."""
+
+
+def plan_motion(world: World, start: np.ndarray, goal: np.ndarray, time_limit: float = 5.0,
+                area: float = 1.2) -> np.ndarray:
+    """A collision-free joint path from ``start`` to ``goal`` (rows of 10 values).
+
+    ``area`` is the half-width of the square (around the origin) the base may
+    use beyond the start and goal positions.
+    """
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    dimension = len(start)
+    lower, upper = world.lower.copy(), world.upper.copy()
+    for axis in (0, 1):
+        lower[axis] = max(lower[axis], min(start[axis], goal[axis], -area) - BASE_MARGIN)
+        upper[axis] = min(upper[axis], max(start[axis], goal[axis], area) + BASE_MARGIN)
+    lower[2] = max(lower[2], min(start[2], goal[2]) - math.pi)
+    upper[2] = min(upper[2], max(start[2], goal[2]) + math.pi)
+    space = ob.RealVectorStateSpace(dimension)
+    bounds = ob.RealVectorBounds(dimension)
+    for i in range(dimension):
+        bounds.setLow(i, float(lower[i]))
+        bounds.setHigh(i, float(upper[i]))
+    space.setBounds(bounds)
+    si = ob.SpaceInformation(space)
+
+    def valid(state) -> bool:
+        world.set_robot([state[i] for i in range(dimension)])
+        return not world.in_collision()
+
+    si.setStateValidityChecker(valid)
+    si.setStateValidityCheckingResolution(CHECK_STEP / space.getMaximumExtent())
+    si.setup()
+    pdef = ob.ProblemDefinition(si)
+    start_state, goal_state = si.allocState(), si.allocState()
+    for i in range(dimension):
+        start_state[i] = float(start[i])
+        goal_state[i] = float(goal[i])
+    pdef.addStartState(start_state)
+    pdef.setGoalState(goal_state)
+    objective = ob.PathLengthOptimizationObjective(si)
+    objective.setCostThreshold(ob.Cost(math.inf))  # the first solution is enough
+    pdef.setOptimizationObjective(objective)
+    for name, values in (("start", start), ("goal", goal)):
+        world.set_robot(values)
+        if world.in_collision():
+            raise ReachingError(f"the {name} configuration {np.round(values, 3).tolist()} is in collision")
+    if si.checkMotion(start_state, goal_state):
+        return np.array([start, goal], dtype=float)
+    planner = og.BITstar(si)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+    planner.solve(ob.timedPlannerTerminationCondition(time_limit))
+    if not pdef.hasExactSolution():
+        raise ReachingError(f"BIT* found no robot motion in {time_limit} s")
+    path = pdef.getSolutionPath()
+    og.PathSimplifier(si).reduceVertices(path, 0, 0, 0.33)
+    return np.array([[path.getState(k)[i] for i in range(dimension)] for k in range(path.getStateCount())])

@@ -1,0 +1,191 @@
+"""A PyBullet world holding the mobile iiwa and a (scaled) puzzle.
+
+Two worlds are used per run: the *simulation*, where everything moves by
+physics only (the robot by its joint motors, puzzle objects only when the
+robot pulls them through a grasp constraint), and a *planning* copy, where
+IK and collision queries may set joint values freely without disturbing the
+simulation.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+
+from phyrogen_core.chain import KinematicChain
+from phyrogen_core.export.urdf import chain_to_urdf
+
+from .placement import Placement
+from .robot import ARM_JOINTS, ROBOT_JOINTS, TOOL_LINK, RobotSpec, mobile_iiwa_urdf
+
+PUZZLE_JOINT_FRICTION = 20.0
+"""Newtons (or N m) the puzzle joints resist with, so a released object stays where it was left."""
+COLLISION_MARGIN = 0.004
+"""Metres: closer than this, robot and puzzle count as colliding while planning."""
+
+SELF_COLLISION_SKIP = 2
+"""Robot links this close along the chain touch by construction; their contacts are ignored."""
+
+
+@dataclass(frozen=True)
+class SceneFiles:
+    """The URDF files a world loads (written once per run into a temporary folder)."""
+
+    robot_urdf: Path
+    puzzle_urdf: Path
+
+
+def write_scene_files(folder: Path, chain: KinematicChain, spec: RobotSpec) -> SceneFiles:
+    """Write the robot URDF and the scaled puzzle URDF (with its meshes) under ``folder``."""
+    folder = Path(folder)
+    robot = folder / "mobile_iiwa.urdf"
+    robot.write_text(mobile_iiwa_urdf(spec), encoding="utf-8")
+    urdf_text, meshes = chain_to_urdf(chain, "meshes")
+    puzzle = folder / f"{chain.name}.urdf"
+    puzzle.write_text(urdf_text, encoding="utf-8")
+    if meshes:
+        (folder / "meshes").mkdir(exist_ok=True)
+        for name, text in meshes.items():
+            (folder / "meshes" / name).write_text(text, encoding="utf-8")
+    return SceneFiles(robot, puzzle)
+
+
+class World:
+    """One PyBullet client with the robot, the puzzle and a floor (visual only)."""
+
+    def __init__(self, files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False,
+                 self_collision: bool = False):
+        self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
+        self.chain = chain
+        self.placement = placement
+        c = self.client
+        pb.setGravity(0, 0, -9.81, physicsClientId=c)
+        pb.setTimeStep(1 / 240, physicsClientId=c)
+        self.floor = _floor(c)
+        flags = pb.URDF_USE_INERTIA_FROM_FILE
+        if self_collision:
+            flags |= pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
+        self.robot = pb.loadURDF(str(files.robot_urdf), useFixedBase=True, physicsClientId=c, flags=flags)
+        ox, oy = placement.offset
+        self.puzzle = pb.loadURDF(str(files.puzzle_urdf), basePosition=(ox, oy, 0.0), useFixedBase=True,
+                                  physicsClientId=c)
+        self.robot_link = _link_indices(self.robot, c)
+        self.robot_joints = [self.robot_link[_child_of(self.robot, name, c)] for name in ROBOT_JOINTS]
+        self.arm_columns = [ROBOT_JOINTS.index(n) for n in ARM_JOINTS]
+        self.tool = self.robot_link[TOOL_LINK]
+        self.puzzle_link = _link_indices(self.puzzle, c)
+        self.puzzle_joints = [self.puzzle_link[chain.joint(n).child] for n in chain.joint_order]
+        info = [pb.getJointInfo(self.robot, j, physicsClientId=c) for j in self.robot_joints]
+        self.lower = np.array([i[8] for i in info])
+        self.upper = np.array([i[9] for i in info])
+        for j in self.puzzle_joints:
+            pb.setJointMotorControl2(self.puzzle, j, pb.VELOCITY_CONTROL, targetVelocity=0.0,
+                                     force=PUZZLE_JOINT_FRICTION, physicsClientId=c)
+        if self_collision:
+            _ignore_near_links(self.robot, c)
+
+    def close(self) -> None:
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)
+
+    # -- state -------------------------------------------------------------
+    def robot_state(self) -> np.ndarray:
+        states = pb.getJointStates(self.robot, self.robot_joints, physicsClientId=self.client)
+        return np.array([s[0] for s in states])
+
+    def set_robot(self, q: Sequence[float]) -> None:
+        """Place the robot (planning world, or the simulation's initial state only)."""
+        pb.resetJointStatesMultiDof(self.robot, self.robot_joints, [[float(v)] for v in q],
+                                    physicsClientId=self.client)
+
+    def puzzle_state(self) -> np.ndarray:
+        """Puzzle joint values in the scaled scene's units (joint order)."""
+        states = pb.getJointStates(self.puzzle, self.puzzle_joints, physicsClientId=self.client)
+        return np.array([s[0] for s in states])
+
+    def set_puzzle(self, values: Sequence[float]) -> None:
+        """Planning world only: the simulation moves puzzle joints by physics alone."""
+        for j, v in zip(self.puzzle_joints, values, strict=True):
+            pb.resetJointState(self.puzzle, j, float(v), physicsClientId=self.client)
+
+    def tool_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        state = pb.getLinkState(self.robot, self.tool, computeForwardKinematics=True, physicsClientId=self.client)
+        return np.array(state[4]), np.array(state[5])
+
+    def link_pose(self, link: int) -> tuple[np.ndarray, np.ndarray]:
+        state = pb.getLinkState(self.puzzle, link, computeForwardKinematics=True, physicsClientId=self.client)
+        return np.array(state[4]), np.array(state[5])
+
+    # -- queries -----------------------------------------------------------
+    def in_collision(self, margin: float = COLLISION_MARGIN) -> bool:
+        """Robot against puzzle (closer than ``margin``) or against itself, at the current joint values.
+
+        One broad-phase pass answers both (self contacts need a world made with ``self_collision``).
+        """
+        c = self.client
+        pb.performCollisionDetection(physicsClientId=c)
+        for point in pb.getContactPoints(self.robot, physicsClientId=c):
+            other, distance = point[2], point[8]
+            if (other == self.puzzle and distance < margin) or (other == self.robot and distance < 0.0):
+                return True
+        return False
+
+    def penetration(self) -> float:
+        """Deepest robot-puzzle penetration (metres, >= 0) among the last step's contacts."""
+        points = pb.getContactPoints(self.robot, self.puzzle, physicsClientId=self.client)
+        return max([0.0] + [-p[8] for p in points])
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """6 x 10 tool Jacobian (linear rows first) at robot joints ``q``."""
+        zeros = [0.0] * len(q)
+        linear, angular = pb.calculateJacobian(self.robot, self.tool, (0.0, 0.0, 0.0), list(map(float, q)),
+                                               zeros, zeros, physicsClientId=self.client)
+        return np.vstack([np.asarray(linear), np.asarray(angular)])
+
+
+def _floor(client: int) -> int:
+    shape = pb.createVisualShape(pb.GEOM_BOX, halfExtents=(4, 4, 0.005), rgbaColor=(0.85, 0.85, 0.82, 1),
+                                 physicsClientId=client)
+    # Visual only: the puzzle and the robot stand on their own fixed roots.
+    return pb.createMultiBody(0, -1, shape, (0, 0, -0.006), physicsClientId=client)
+
+
+def _ignore_near_links(robot: int, client: int) -> None:
+    count = pb.getNumJoints(robot, physicsClientId=client)
+    parent = {j: pb.getJointInfo(robot, j, physicsClientId=client)[16] for j in range(count)}
+    parent[-1] = None
+
+    def ancestors(link: int) -> list[int]:
+        out = []
+        while parent[link] is not None and len(out) < SELF_COLLISION_SKIP:
+            link = parent[link]
+            out.append(link)
+        return out
+
+    for link in parent:
+        for other in ancestors(link):
+            pb.setCollisionFilterPair(robot, robot, link, other, 0, physicsClientId=client)
+
+
+def _link_indices(body: int, client: int) -> dict[str, int]:
+    out = {pb.getBodyInfo(body, physicsClientId=client)[0].decode(): -1}
+    for j in range(pb.getNumJoints(body, physicsClientId=client)):
+        out[pb.getJointInfo(body, j, physicsClientId=client)[12].decode()] = j
+    return out
+
+
+def _child_of(body: int, joint_name: str, client: int) -> str:
+    for j in range(pb.getNumJoints(body, physicsClientId=client)):
+        info = pb.getJointInfo(body, j, physicsClientId=client)
+        if info[1].decode() == joint_name:
+            return info[12].decode()
+    raise ValueError(f"robot has no joint {joint_name!r}")
+
+
+def temporary_folder() -> tempfile.TemporaryDirectory:
+    return tempfile.TemporaryDirectory(prefix="phyrogen_manipulation_")
