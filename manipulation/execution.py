@@ -27,7 +27,7 @@ from solver.validation import densify
 
 from .following import FollowSettings, Stop, drive_along, follow, time_trajectory
 from .grasp import GraspPoint, grasp_point
-from .ik import IkSettings, best_grasp_configuration
+from .ik import IkSettings, best_grasp_configuration, solve_at
 from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value_scale, link_pose, scale_chain
 from .reaching import ReachingError, plan_motion
 from .robot import ARM_REST, RobotSpec
@@ -39,6 +39,8 @@ PENETRATION_TOLERANCE = 0.002
 """Metres of robot-puzzle contact depth that still count as touching, not penetrating."""
 LOOKAHEAD_SECONDS = (0.4, 0.8, 1.6)
 """How far ahead along the object's path a new grasp must stay well-conditioned."""
+LIFT_HEIGHTS = (0.03, 0.06, 0.1)
+"""Metres the tool may rise straight up after a release, to clear the planning margin."""
 HOME_BASE = (-1.0, 0.0, 0.0)
 """Where the base starts (x, y, yaw), outside the puzzle's square."""
 
@@ -198,7 +200,8 @@ class _Run:
             offset = inverse(link_now) @ pose
             return [self.link_world(grasp.link, s) @ offset for s in futures]
 
-        solution = best_grasp_configuration(self.planner, point, lookahead, self.settings.ik, failed_base)
+        here = self.sim.robot_state()[:2]
+        solution = best_grasp_configuration(self.planner, point, lookahead, self.settings.ik, failed_base, here)
         if solution is None or solution.score <= 0:
             solution = best_grasp_configuration(self.planner, point, lambda pose: [], self.settings.ik, None)
         if solution is None:
@@ -206,7 +209,9 @@ class _Run:
                                  f"({np.round(point, 3).tolist()})")
         start = self.sim.robot_state()
         try:
-            path = plan_motion(self.planner, start, solution.q, self.settings.reach_time_limit)
+            lift = self.lift_off(start)
+            path = plan_motion(self.planner, lift[-1], solution.q, self.settings.reach_time_limit)
+            path = np.vstack([lift[:-1], path])
         except ReachingError as exc:
             raise ExecutionError(f"reaching the grasp on {grasp.link}: {exc}") from None
         self.planning += time.perf_counter() - started
@@ -215,6 +220,22 @@ class _Run:
         self.execution += time.perf_counter() - started
         tool = matrix(*self.sim.tool_pose())
         return inverse(self.link_world(grasp.link, self.sim.puzzle_state())) @ tool
+
+    def lift_off(self, start: np.ndarray) -> np.ndarray:
+        """A short straight path lifting the tool clear of the puzzle, when the released robot is
+        closer to it than the planning margin; else just ``start``."""
+        self.planner.set_robot(start)
+        if not self.planner.in_collision():
+            return start[None, :]
+        tool = matrix(*self.sim.tool_pose())
+        for height in LIFT_HEIGHTS:
+            above = tool.copy()
+            above[2, 3] += height
+            q = solve_at(self.planner, above, start)
+            if q is not None and not self.planner.in_collision():
+                return np.array([start, q])
+        raise ReachingError("the released robot is closer to the puzzle than the planning margin "
+                            "and cannot lift its tool clear")
 
     def attach(self, link_index: int, tool_at_link: np.ndarray) -> int:
         """A fixed constraint between the tool and the link, at their current relative pose."""

@@ -36,6 +36,8 @@ class IkSettings:
     directions: int = 12
     """Candidate directions (evenly spaced) from the grasp point to the base."""
     iterations: int = 4
+    good_enough: float = 0.06
+    """Arm manipulability at which the search stops early (candidates nearest the robot come first)."""
 
 
 @dataclass(frozen=True)
@@ -88,35 +90,43 @@ def arm_quality(world: World, q: np.ndarray) -> float:
 def best_grasp_configuration(world: World, point: np.ndarray,
                              lookahead: Callable[[np.ndarray], Sequence[np.ndarray]] = lambda pose: (),
                              settings: IkSettings = IkSettings(),
-                             exclude_near: np.ndarray | None = None) -> IkSolution | None:
+                             exclude_near: np.ndarray | None = None,
+                             prefer_near: np.ndarray | None = None) -> IkSolution | None:
     """The best collision-free IK answer for a tool-down grasp at ``point`` over candidate base poses.
 
     ``lookahead(pose)`` gives the tool poses a grasp at ``pose`` must reach
     next (the object's coming positions); a candidate that cannot follow them
     by IK scores 0. ``exclude_near``: base (x, y) of the configuration that
     just failed, so that a regrasp really changes the robot's posture.
+    ``prefer_near``: the base (x, y) now; candidates closest to it come first.
     """
+    candidates = [(2 * math.pi * k / settings.directions, distance)
+                  for distance in settings.distances for k in range(settings.directions)]
+    bases = [point[:2] + d * np.array([math.cos(a), math.sin(a)]) for a, d in candidates]
+    order = list(range(len(candidates)))
+    if prefer_near is not None:
+        order.sort(key=lambda i: float(np.linalg.norm(bases[i] - prefer_near)))
     best: IkSolution | None = None
-    for distance in settings.distances:
-        for k in range(settings.directions):
-            angle = 2 * math.pi * k / settings.directions
-            base = point[:2] + distance * np.array([math.cos(angle), math.sin(angle)])
-            if exclude_near is not None and np.linalg.norm(base - exclude_near) < 0.15:
-                continue
-            heading = math.remainder(angle + math.pi, 2 * math.pi)  # face the grasp point
-            # At the rest pose the tool's x axis points back at the base: tool yaw = heading + pi.
-            pose = tool_down(point, heading + math.pi)
-            seed = np.array([base[0], base[1], heading, *ARM_REST])
-            q = solve_at(world, pose, seed, settings.iterations)
-            if q is None or world.in_collision():
-                continue
-            score = arm_quality(world, q)
-            current = q
-            for future in lookahead(pose):
-                if score <= (best.score if best else 0.0):
-                    break
-                current = solve_at(world, future, current, settings.iterations)
-                score = 0.0 if current is None else min(score, arm_quality(world, current))
-            if best is None or score > best.score:
-                best = IkSolution(q, score)
+    for i in order:
+        if best is not None and best.score >= settings.good_enough:
+            break
+        angle, base = candidates[i][0], bases[i]
+        if exclude_near is not None and np.linalg.norm(base - exclude_near) < 0.15:
+            continue
+        heading = math.remainder(angle + math.pi, 2 * math.pi)  # face the grasp point
+        # At the rest pose the tool's x axis points back at the base: tool yaw = heading + pi.
+        pose = tool_down(point, heading + math.pi)
+        seed = np.array([base[0], base[1], heading, *ARM_REST])
+        q = solve_at(world, pose, seed, settings.iterations)
+        if q is None or world.in_collision():
+            continue
+        score = arm_quality(world, q)
+        current = q
+        for future in lookahead(pose):
+            if score <= (best.score if best else 0.0):
+                break
+            current = solve_at(world, future, current, settings.iterations)
+            score = 0.0 if current is None else min(score, arm_quality(world, current))
+        if best is None or score > best.score:
+            best = IkSolution(q, score)
     return best

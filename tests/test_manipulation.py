@@ -1,0 +1,134 @@
+"""Manipulation: solution splitting, scaling, grasp points, the robot model, and one puzzle end to end."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pybullet as pb
+import pytest
+
+from manipulation.grasp import grasp_point
+from manipulation.linalg import damped_least_squares, manipulability
+from manipulation.placement import fit_placement, joint_value_scale, link_pose, scale_chain
+from manipulation.robot import ROBOT_JOINTS, RobotSpec, mobile_iiwa_urdf
+from manipulation.solution import SOLUTION_FILE, load_solution, split_actions
+from phyrogen_core.chain import Geometry, JointType, KinematicChain, Role
+from phyrogen_core.geometry import Box, Pose
+from phyrogen_core.objects import Motion, PuzzleObject, build_chain
+from solver.actions import count_actions
+
+
+def _two_sliders() -> KinematicChain:
+    body = Geometry(Box((1.0, 0.2, 0.2)))
+    knob = Geometry(Box((0.05, 0.05, 0.2)), Pose((0.1, 0.0, 0.3)), name="knob")
+    return build_chain([
+        PuzzleObject("obj_00", Motion.PRISMATIC, Pose.planar(0, 0, 0.1), (body, knob), (body,), Role.TARGET,
+                     ((0.0, 1.0),)),
+        PuzzleObject("obj_01", Motion.SE2, Pose.planar(3, 0, 0.1), (body,), (body,), Role.BLOCKER,
+                     ((-1.0, 1.0), (-1.0, 1.0), (-3.0, 3.0))),
+    ])
+
+
+def test_split_actions_moves_one_object_per_action_and_matches_the_action_count():
+    chain = _two_sliders()
+    path = np.array([[0, 0, 0, 0], [0.5, 0.2, 0.1, 0.0], [0.5, 0.4, 0.1, 0.3], [1.0, 0.4, 0.1, 0.3]], dtype=float)
+    actions = split_actions(path, chain.factors)
+    assert len(actions) == count_actions(path, chain.factors) == 3
+    assert [a.object_name for a in actions] == ["obj_00", "obj_01", "obj_00"]
+    for action in actions:
+        others = [i for i in range(4) if i not in action.columns]
+        assert np.allclose(action.states[:, others], action.states[0, others])
+    assert np.allclose(actions[0].start, path[0]) and np.allclose(actions[-1].end, path[-1])
+    for before, after in zip(actions, actions[1:], strict=False):
+        assert np.allclose(before.end, after.start)
+        assert before.object_name != after.object_name
+
+
+def test_solution_file_is_preferred_and_reordered_by_joint_name(tmp_path):
+    order = ("a", "b")
+    certificate = ((0.0, 0.0), (1.0, 1.0))
+    assert load_solution(tmp_path, order, certificate).source == "certificate"
+    (tmp_path / SOLUTION_FILE).parent.mkdir()
+    (tmp_path / SOLUTION_FILE).write_text(json.dumps({"joint_order": ["b", "a"], "path": [[0, 0], [2, 1]]}))
+    solution = load_solution(tmp_path, order, certificate)
+    assert solution.source != "certificate"
+    assert solution.path.tolist() == [[0.0, 0.0], [1.0, 2.0]]
+    (tmp_path / SOLUTION_FILE).write_text(json.dumps({"joint_order": ["b", "c"], "path": [[0, 0], [2, 1]]}))
+    with pytest.raises(ValueError, match="does not match"):
+        load_solution(tmp_path, order, certificate)
+
+
+def test_scaled_chain_moves_points_by_the_scale():
+    chain = _two_sliders()
+    state = np.array([0.7, 0.3, -0.2, 0.5])
+    placement = fit_placement(chain, [np.zeros(4), state], max_extent=1.0)
+    assert 0 < placement.scale < 1
+    scaled = scale_chain(chain, placement.scale)
+    scaled_state = state * joint_value_scale(chain, placement.scale)
+    assert [j.type for j in scaled.active_joints].count(JointType.PRISMATIC) == 3
+    for link in ("obj_00", "obj_01"):
+        original = chain.link_transforms(state)[link]
+        moved = link_pose(scaled, link, scaled_state)
+        assert np.allclose(moved[:3, 3], placement.scale * original[:3, 3])
+        assert np.allclose(moved[:3, :3], original[:3, :3])
+
+
+def test_grasp_point_is_the_top_of_the_knob_else_the_top_of_the_body():
+    chain = _two_sliders()
+    knob = grasp_point(chain, "obj_00")
+    assert knob.on_knob and knob.link == "obj_00" and np.allclose(knob.point, (0.1, 0.0, 0.4))
+    body = grasp_point(chain, "obj_01")
+    assert not body.on_knob and np.allclose(body.point, (0.0, 0.0, 0.1))
+    with pytest.raises(ValueError, match="obj_99"):
+        grasp_point(chain, "obj_99")
+
+
+def test_damped_least_squares_matches_the_closed_form():
+    rng = np.random.default_rng(0)
+    jacobian, twist = rng.normal(size=(6, 10)), rng.normal(size=6)
+    weights = np.array([8.0] * 3 + [1.0] * 7)
+    w_inv = np.diag(1 / weights)
+    expected = w_inv @ jacobian.T @ np.linalg.solve(jacobian @ w_inv @ jacobian.T + 0.02**2 * np.eye(6), twist)
+    assert np.allclose(damped_least_squares(jacobian, weights, 0.02, twist), expected)
+    arm = np.ascontiguousarray(jacobian[:, 3:])
+    assert manipulability(arm) == pytest.approx(np.sqrt(np.linalg.det(arm @ arm.T)))
+    arm[5] = arm[4]  # two equal rows: singular
+    assert manipulability(arm) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_mobile_iiwa_is_one_fixed_base_body_with_ten_joints(tmp_path):
+    path = tmp_path / "robot.urdf"
+    path.write_text(mobile_iiwa_urdf(RobotSpec()))
+    client = pb.connect(pb.DIRECT)
+    try:
+        robot = pb.loadURDF(str(path), useFixedBase=True, physicsClientId=client)
+        count = pb.getNumJoints(robot, physicsClientId=client)
+        infos = [pb.getJointInfo(robot, j, physicsClientId=client) for j in range(count)]
+        movable = [i[1].decode() for i in infos if i[2] != pb.JOINT_FIXED]
+        assert tuple(movable) == ROBOT_JOINTS
+        linear, _ = pb.calculateJacobian(robot, len(infos) - 1, (0, 0, 0), [0.0] * 10, [0.0] * 10, [0.0] * 10,
+                                         physicsClientId=client)
+        assert np.asarray(linear).shape == (3, 10)
+    finally:
+        pb.disconnect(client)
+
+
+@pytest.mark.slow
+def test_robot_executes_a_simple_slider_end_to_end(tmp_path):
+    from manipulation.execution import execute_puzzle
+    from manipulation.outputs import write_outputs
+    from phyrogen_core.export import write_puzzle
+    from solver.generation import generate_puzzle, seed_ompl
+
+    puzzle = generate_puzzle("simple_slider", 1)
+    folder = write_puzzle(puzzle, tmp_path / "puzzles")
+    seed_ompl("manipulation-test", 1)
+    report, recording, setup = execute_puzzle(folder)
+    assert report.success, report.message
+    assert report.target_at_goal
+    assert report.max_penetration <= 0.002
+    assert report.actions == count_actions(puzzle.certificate, puzzle.planning_chain.factors)
+    out = write_outputs(tmp_path / "out", report, recording, setup, video=False)
+    assert sorted(p.name for p in (out / "frames").iterdir()) == [f"frame_{i}.png" for i in range(1, 5)]
+    assert json.loads((out / "report.json").read_text())["success"] is True
