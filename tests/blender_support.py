@@ -1,0 +1,48 @@
+"""Shared set-up for the Blender tests: a private Blender configuration and sample puzzles."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+
+from phyrogen_core.chain import BLACK, GREEN, RED, Geometry, Role
+from phyrogen_core.geometry import Box, Cylinder, Pose, slot_disc
+from phyrogen_core.objects import Motion, PuzzleObject
+from phyrogen_core.puzzle import Goal, Puzzle
+
+
+def private_blender_home() -> None:
+    """Keep Blender from writing under the home folder (must run before ``import bpy``)."""
+    home = tempfile.mkdtemp(prefix="phyrogen-blender-test-")
+    os.environ.setdefault("BLENDER_USER_CONFIG", os.path.join(home, "config"))
+    os.environ.setdefault("BLENDER_USER_RESOURCES", os.path.join(home, "resources"))
+
+
+def every_shape_puzzle() -> Puzzle:
+    """A small puzzle using every shape, motion and role, with awkward numbers."""
+    disc = slot_disc(1.5, 1.0)
+    return Puzzle(
+        (
+            PuzzleObject("obj_00", Motion.PRISMATIC, Pose.planar(0.1, 0.2, 0.3, 0.7),
+                         (Geometry(Box((1.6, 0.2, 0.2)), color=GREEN),),
+                         (Geometry(Box((1.6, 0.2, 0.2)), color=GREEN),), Role.TARGET, ((0.0, 1.0),),
+                         (0.6, 0.8, 0.0)),
+            PuzzleObject("obj_01", Motion.REVOLUTE, Pose.planar(2, 0, 0.5, -2.9),
+                         (Geometry(disc, color=RED), Geometry(Cylinder(0.1, 1.1), Pose((0, 0.3, 0.6)), BLACK, "hinge")),
+                         (Geometry(disc, color=RED),), Role.BLOCKER, ((-3.14, 3.14),)),
+            PuzzleObject("obj_02", Motion.SE2, Pose.planar(-2, 1 / 3, 0.25, 1.0),
+                         (Geometry(Box((0.375, 0.5, 0.5)), color=(0.1, 0.2, 0.3, 1.0)),),
+                         (Geometry(Box((0.375, 0.5, 0.5)), color=RED),), Role.BLOCKER,
+                         ((-1, 1), (-2, 0.5), (-3.14, 3.14))),
+            PuzzleObject("fixed_00_wall", Motion.FIXED, Pose.planar(5, 5, 0.25, 0.1),
+                         (Geometry(Box((2, 0.1, 0.5))),), (Geometry(Box((2, 0.1, 0.5))),), Role.STATIC),
+        ),
+        Goal("obj_00", {"obj_00": 1.0}),
+        "every_shape",
+        1,
+    )
+
+
+def tool(name: str) -> str | None:
+    return shutil.which(name)
