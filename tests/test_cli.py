@@ -1,0 +1,59 @@
+"""The command line: bad input gets one clear line and exit code 2, and no partial output."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from solver.cli import main
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["generate", "--generator", "no_such", "--out", "{out}"], "unknown generator 'no_such'"),
+        (["generate", "--generator", "grid_world", "--seeds", "0", "--out", "{out}"], "positive"),
+        (["generate", "--generator", "grid_world", "--seeds", "4-1", "--out", "{out}"], "bad seed list"),
+        (["generate", "--generator", "grid_world", "--set", "colour=red", "--out", "{out}"], "no parameter 'colour'"),
+        (["generate", "--generator", "grid_world", "--set", "n_objects=many", "--out", "{out}"], "must be int"),
+        (["generate", "--generator", "grid_world", "--set", "n_objects", "--out", "{out}"], "expected key=value"),
+        (["check", "{out}/missing"], "missing"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_code_2(argv, message, tmp_path, capsys):
+    out = tmp_path / "out"
+    code = main([a.replace("{out}", str(out)) for a in argv])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and message in err
+    assert not out.exists() or not any(out.rglob("puzzle.json"))
+
+
+def test_infeasible_parameters_are_refused_before_any_work(tmp_path, capsys):
+    code = main(["generate", "--generator", "simple_slider", "--set", "n_objects=500", "--out", str(tmp_path)])
+    assert code == 2
+    assert "n_objects" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
+
+
+def test_list_names_every_generator(capsys):
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in ("simple_slider", "continuous_space", "grid_world", "lockbox_random", "move_n_times", "rooms"):
+        assert name in out
+
+
+@pytest.mark.slow
+def test_generate_then_check_and_detect_tampering(tmp_path, capsys):
+    assert main(["generate", "--generator", "grid_world", "--seeds", "1", "--out", str(tmp_path), "--quiet"]) == 0
+    folder = tmp_path / "grid_world" / "grid_world_1"
+    assert main(["check", str(folder)]) == 0
+    metadata = json.loads((folder / "puzzle.json").read_text())
+    # Drop the middle of the certificate: the straight shortcut must run through a blocker.
+    path = metadata["certificate"]
+    metadata["certificate"] = [path[0], path[-1]]
+    (folder / "puzzle.json").write_text(json.dumps(metadata))
+    capsys.readouterr()
+    assert main(["check", str(folder)]) == 1
+    assert "INVALID" in capsys.readouterr().out
