@@ -28,8 +28,6 @@ import numpy as np
 from .objects import PuzzleObject
 from .puzzle import Goal
 
-Path = Sequence[Sequence[float]]
-
 
 class GenerationError(RuntimeError):
     """A generator could not build a puzzle within its bounded number of tries."""
@@ -90,10 +88,6 @@ class Validator(Protocol):
 
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult: ...
 
-    def blocked_by(self, objects: Sequence[PuzzleObject], new_object: PuzzleObject, path: Path) -> list[str]:
-        """Names of objects whose motion along ``path`` hits ``new_object`` at its creation pose."""
-        ...
-
 
 # -- the algorithm -----------------------------------------------------------
 @dataclass(frozen=True)
@@ -131,7 +125,6 @@ class MakerResult:
     objects: tuple[PuzzleObject, ...]
     goal: Goal
     certificate: tuple[tuple[float, ...], ...]
-    dependencies: tuple[tuple[str, str], ...]
     context: Any = None
 
 
@@ -164,7 +157,6 @@ def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator,
                seed: int, progress: Callable[[int, int], None] | None) -> MakerResult:
     draft = spec.initial
     path: tuple[tuple[float, ...], ...] = ()
-    dependencies: list[tuple[str, str]] = []
     for n in range(1, spec.n_objects + 1):
         for _ in range(spec.max_tries):
             obj_item = spec.objects.get(n, rng)
@@ -183,13 +175,10 @@ def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator,
             result = validator.solve(candidate.objects, goal)
             if not result.solved:
                 continue
-            if path and movable:
-                for new in movable:
-                    dependencies += [(new.name, b) for b in validator.blocked_by(draft.objects, new, path)]
             draft, path = candidate, result.path
             break
         else:
             raise _IterationExhaustedError(f"iteration {n}: no valid candidate in {spec.max_tries} tries")
         if progress:
             progress(n, spec.n_objects)
-    return MakerResult(draft.objects, spec.goal(draft), path, tuple(dependencies), draft.context)
+    return MakerResult(draft.objects, spec.goal(draft), path, draft.context)

@@ -24,7 +24,7 @@ from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.registry import ParameterError, get_generator
 
 from .actions import count_actions
-from .validation import OmplValidator
+from .validation import OmplValidator, dependency_graph
 
 _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.generators",
             "phyrogen_core.export", "solver.validation", "solver._kernels"]
@@ -66,7 +66,8 @@ def generate_here(generator: str, seed: int, params: Any = None) -> Puzzle:
     certificate = validator.certify(result.objects, result.goal, result.certificate)
     if certificate is None:
         raise GenerationError(f"generator {generator!r}, seed {seed}: no certificate holds at fine resolution")
-    return Puzzle(result.objects, result.goal, generator, seed, params, result.dependencies, certificate)
+    dependencies = dependency_graph(result.objects, certificate)
+    return Puzzle(result.objects, result.goal, generator, seed, params, dependencies, certificate)
 
 
 @dataclass(frozen=True)

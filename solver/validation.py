@@ -211,14 +211,6 @@ class OmplValidator:
             return result.path
         return None
 
-    def blocked_by(self, objects: Sequence[PuzzleObject], new_object: PuzzleObject, path) -> list[str]:
-        """Objects whose motion along ``path`` (a certificate of ``objects``) runs into ``new_object``."""
-        chain = build_chain([*objects, new_object.fixed()])
-        model = CollisionModel(chain)
-        states = densify(path, model.motion_steps(self.resolution))
-        hits = model.colliding_objects(states)
-        return sorted({a if b == new_object.name else b for a, b in hits if new_object.name in (a, b)})
-
 
 def densify(path, steps: np.ndarray) -> np.ndarray:
     """All states along a piecewise-linear path with at most ``steps[j]`` per joint between rows."""
@@ -253,3 +245,21 @@ def verify_certificate(chain, path, goal: Goal, resolution: float = FINE_RESOLUT
     if not goal.is_reached(chain.state_dict(states[-1])):
         problems.append("certificate does not end in the goal")
     return problems
+
+
+def dependency_graph(objects: Sequence[PuzzleObject], certificate, resolution: float = DEFAULT_RESOLUTION
+                     ) -> tuple[tuple[str, str], ...]:
+    """(blocker, blocked) pairs read off a certificate.
+
+    Object B blocks object A when A's motion along the certificate would run
+    into B had B stayed at its start pose: B had to get out of A's way.
+    """
+    chain = build_chain(objects)
+    model = CollisionModel(chain)
+    states = densify(certificate, model.motion_steps(resolution))
+    edges: set[tuple[str, str]] = set()
+    for blocker, columns in chain.factors.items():
+        frozen = states.copy()
+        frozen[:, list(columns)] = 0.0
+        edges |= {(blocker, a if b == blocker else b) for a, b in model.colliding_objects(frozen) if blocker in (a, b)}
+    return tuple(sorted(edges))
