@@ -167,7 +167,7 @@ class _Run:
             constraint = self.attach(link_index, tool_at_link)
             started = time.perf_counter()
             result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
-                            self.settings.follow, self.on_step, object_done)
+                            self.settings.follow, self.on_step, object_done, self.sim.puzzle_state)
             self.execution += time.perf_counter() - started
             pb.removeConstraint(constraint, physicsClientId=self.sim.client)
             if result.stop is Stop.DONE:

@@ -45,6 +45,8 @@ class FollowSettings:
     settle_steps: int = 240
     """Steps allowed at the end for the object to settle on its final state."""
     motor_force: float = 600.0
+    integral_gain: float = 4.0
+    """Per second: integral correction of the object's own joint error (grasp compliance, friction)."""
 
 
 class Stop(StrEnum):
@@ -95,11 +97,13 @@ def time_trajectory(states: np.ndarray, grasp_positions: np.ndarray, revolute_co
 
 def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndarray], np.ndarray],
            start_time: float, settings: FollowSettings, on_step: Callable[[], None],
-           object_done: Callable[[], bool]) -> FollowResult:
+           object_done: Callable[[], bool], object_state: Callable[[], np.ndarray]) -> FollowResult:
     """Track ``tool_pose_at(trajectory.state_at(t))`` from ``start_time`` to the end, stepping physics.
 
     ``on_step`` runs after every physics step (recording, contact checks);
-    ``object_done`` says whether the object has reached its final state.
+    ``object_done`` says whether the object has reached its final state;
+    ``object_state`` gives the puzzle's joint values now, whose lag behind
+    the trajectory is integrated into the commanded object state.
     """
     c = world.client
     joints = world.robot_joints
@@ -111,10 +115,12 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     q = world.robot_state()
     steps = 0
     end = trajectory.duration + settings.settle_steps * TIME_STEP
+    bias = np.zeros(trajectory.states.shape[1])
     while t < end:
         t_next = t + TIME_STEP
-        desired = tool_pose_at(trajectory.state_at(t_next))
-        ahead = tool_pose_at(trajectory.state_at(t_next + TIME_STEP))
+        bias += settings.integral_gain * TIME_STEP * (trajectory.state_at(t) - object_state())
+        desired = tool_pose_at(trajectory.state_at(t_next) + bias)
+        ahead = tool_pose_at(trajectory.state_at(t_next + TIME_STEP) + bias)
         actual = matrix(*world.tool_pose())
         feed_forward = np.concatenate([(ahead[:3, 3] - desired[:3, 3]) / TIME_STEP,
                                        rotation_error(ahead[:3, :3], desired[:3, :3]) / TIME_STEP])

@@ -31,7 +31,7 @@ LIMIT_MARGIN = 0.08
 
 @dataclass(frozen=True)
 class IkSettings:
-    distances: tuple[float, ...] = (0.5, 0.65)
+    distances: tuple[float, ...] = (0.5, 0.65, 0.8)
     """Metres from the grasp point to the base centre in the candidate rest poses."""
     directions: int = 12
     """Candidate directions (evenly spaced) from the grasp point to the base."""

@@ -23,7 +23,7 @@ from phyrogen_core.export.urdf import chain_to_urdf
 from .placement import Placement
 from .robot import ARM_JOINTS, ROBOT_JOINTS, TOOL_LINK, RobotSpec, mobile_iiwa_urdf
 
-PUZZLE_JOINT_FRICTION = 20.0
+PUZZLE_JOINT_FRICTION = 2.0
 """Newtons (or N m) the puzzle joints resist with, so a released object stays where it was left."""
 COLLISION_MARGIN = 0.004
 """Metres: closer than this, robot and puzzle count as colliding while planning."""
