@@ -122,6 +122,34 @@ def cmd_manipulate(args) -> int:
     return 0 if all(r.success for r in reports) else 1
 
 
+def cmd_render(args) -> int:
+    from blender_addon.gallery import write_gallery
+    from blender_addon.render_worker import parse_size
+    from blender_addon.rendering import RenderError, find_puzzle_dirs, render_puzzles
+    from blender_addon.views import parse_views
+
+    views = parse_views(args.views)
+    if not args.gallery_only:
+        size = parse_size(args.size)
+        folders = find_puzzle_dirs(Path(args.out))
+        if not folders:
+            raise UsageError(f"no puzzle folders under {args.out}; run 'phyrogen generate --out {args.out}' first")
+        progress = _progress(len(folders), args.quiet)
+        try:
+            report = render_puzzles(folders, args.engine, size, views, args.workers,
+                                    on_done=lambda _: progress.update(1))
+        except RenderError as exc:
+            print(f"phyrogen: render failed: {exc}", file=sys.stderr)
+            return 1
+        finally:
+            progress.close()
+        engines = sorted({r.engine for r in report.rendered})
+        print(f"{len(report.rendered)} puzzles, {report.images} images ({size[0]}x{size[1]}, {', '.join(engines)}) "
+              f"in {report.seconds:.1f} s: {report.seconds_per_image:.2f} s per image, with {args.workers} workers")
+    print(f"gallery: {write_gallery(Path(args.out), views)}")
+    return 0
+
+
 def _progress(total: int, quiet: bool):
     from tqdm import tqdm
 
@@ -151,6 +179,17 @@ def build_parser() -> argparse.ArgumentParser:
     manipulate.add_argument("--gui", action="store_true", help="show the simulation in a PyBullet window")
     manipulate.add_argument("--quiet", action="store_true", help="no progress bar")
     manipulate.set_defaults(func=cmd_manipulate)
+    render = sub.add_parser("render", help="render every puzzle folder under --out and write <out>/index.html")
+    render.add_argument("--out", default="output", help="output folder holding the puzzles (default: output)")
+    render.add_argument("--engine", default="auto", choices=("auto", "workbench", "cycles"),
+                        help="auto: Workbench, Cycles (CPU) where Workbench cannot run (default)")
+    render.add_argument("--size", default="480x360", help="image size WIDTHxHEIGHT (default 480x360)")
+    render.add_argument("--views", default="top,oblique,oblique_back",
+                        help="comma-separated views: top, oblique, oblique_back, side")
+    render.add_argument("--workers", type=int, default=1, help="render processes (default 1)")
+    render.add_argument("--gallery-only", action="store_true", help="only (re)write index.html")
+    render.add_argument("--quiet", action="store_true", help="no progress bar")
+    render.set_defaults(func=cmd_render)
     return parser
 
 

@@ -5,20 +5,18 @@ from __future__ import annotations
 import math
 
 import pytest
-
 from blender_support import every_shape_puzzle, private_blender_home
 
 private_blender_home()
 bpy = pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
 
-from phyrogen_core.chain import Role  # noqa: E402
-from phyrogen_core.export import chain_to_urdf, read_puzzle_dir, write_puzzle  # noqa: E402
-from phyrogen_core.generators import PAPER_GENERATORS  # noqa: E402
-
 from blender_addon import annotations as keys  # noqa: E402
 from blender_addon.export import export_collection  # noqa: E402
 from blender_addon.phobos import phobostype  # noqa: E402
 from blender_addon.scene import build_chain, build_puzzle, build_puzzle_folder, read_chain  # noqa: E402
+from phyrogen_core.chain import Role  # noqa: E402
+from phyrogen_core.export import chain_to_urdf, read_puzzle_dir, write_puzzle  # noqa: E402
+from phyrogen_core.generators import PAPER_GENERATORS  # noqa: E402
 
 pytestmark = pytest.mark.blender
 

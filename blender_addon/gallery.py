@@ -1,0 +1,109 @@
+"""The HTML gallery of an output folder, laid out like the paper's Fig. 3.
+
+Generators are columns (the paper's order first), seeds are rows; each cell
+shows the puzzle's oblique view and links its other views, URDF, puzzle.json
+and .blend. Paths are relative, so the folder can be moved or served as is.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from .rendering import find_puzzle_dirs
+from .views import DEFAULT_VIEWS, GALLERY_VIEW, VIEWS, image_name
+
+
+def write_gallery(out_root: str | Path, views: tuple[str, ...] = DEFAULT_VIEWS) -> Path:
+    """Write ``<out_root>/index.html`` (atomically) and return its path."""
+    root = Path(out_root)
+    cells: dict[tuple[str, int], Path] = {}
+    for folder in find_puzzle_dirs(root):
+        metadata = json.loads((folder / "puzzle.json").read_text(encoding="utf-8"))
+        cells[(str(metadata["generator"]), int(metadata["seed"]))] = folder
+    generators = _ordered_generators({g for g, _ in cells})
+    seeds = sorted({s for _, s in cells})
+    titles = _titles()
+    rows = []
+    for seed in seeds:
+        row = [f'<th class="seed">Seed {seed}</th>']
+        for generator in generators:
+            folder = cells.get((generator, seed))
+            row.append("<td></td>" if folder is None else _cell(root, folder, titles.get(generator, generator),
+                                                               seed, views))
+        rows.append("<tr>" + "".join(row) + "</tr>")
+    header = "".join(f"<th>{html.escape(titles.get(g, g))}</th>" for g in generators)
+    page = _PAGE.format(count=len(cells), header=header, rows="\n".join(rows))
+    target = root / "index.html"
+    descriptor, temporary = tempfile.mkstemp(prefix=".index.", suffix=".html.tmp", dir=root)
+    with os.fdopen(descriptor, "w", encoding="utf-8") as stream:
+        stream.write(page)
+    os.chmod(temporary, 0o644)
+    os.replace(temporary, target)
+    return target
+
+
+def _cell(root: Path, folder: Path, title: str, seed: int, views: tuple[str, ...]) -> str:
+    name = folder.name
+    relative = folder.relative_to(root).as_posix()
+    images = [(VIEWS[v].title, f"{relative}/images/{image_name(name, i)}") for i, v in enumerate(views)]
+    present = [(t, p) for t, p in images if (root / p).is_file()]
+    shown = dict(zip(views, images, strict=True)).get(GALLERY_VIEW, images[0] if images else None)
+    if shown is not None and (root / shown[1]).is_file():
+        picture = f'<a href="{html.escape(shown[1])}"><img src="{html.escape(shown[1])}" alt="{html.escape(name)}"></a>'
+    else:
+        picture = '<div class="missing">not rendered</div>'
+    links = [f'<a href="{html.escape(p)}">{html.escape(t)}</a>' for t, p in present]
+    links.append(f'<a href="{html.escape(relative)}/urdf/{html.escape(name)}.urdf">URDF</a>')
+    links.append(f'<a href="{html.escape(relative)}/puzzle.json">metadata</a>')
+    if (folder / f"{name}.blend").is_file():
+        links.append(f'<a href="{html.escape(relative)}/{html.escape(name)}.blend">.blend</a>')
+    caption = f"{html.escape(title)} {seed}"
+    return f'<td><figure>{picture}<figcaption>{caption}<br>{" · ".join(links)}</figcaption></figure></td>'
+
+
+def _ordered_generators(names: set[str]) -> list[str]:
+    try:
+        from phyrogen_core.generators import PAPER_GENERATORS
+    except ImportError:  # the gallery does not need the generators themselves
+        PAPER_GENERATORS = ()  # noqa: N806
+    return [g for g in PAPER_GENERATORS if g in names] + sorted(names - set(PAPER_GENERATORS))
+
+
+def _titles() -> dict[str, str]:
+    from phyrogen_core.registry import all_generators
+
+    return {name: spec.title for name, spec in all_generators().items()}
+
+
+_PAGE = """<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>PhyRoGen puzzles</title>
+<style>
+body {{ font-family: sans-serif; margin: 1em; background: #fff; color: #222; }}
+table {{ border-collapse: collapse; }}
+th {{ font-weight: 600; padding: 4px; }}
+th.seed {{ writing-mode: vertical-rl; transform: rotate(180deg); white-space: nowrap; }}
+td {{ padding: 4px; vertical-align: top; }}
+figure {{ margin: 0; text-align: center; }}
+img {{ width: 240px; height: auto; display: block; border: 1px solid #ccc; }}
+figcaption {{ font-size: 12px; margin-top: 2px; }}
+.missing {{ width: 240px; height: 180px; line-height: 180px; background: #eee; color: #888; }}
+</style>
+</head>
+<body>
+<h1>PhyRoGen puzzles</h1>
+<p>{count} puzzles. Generators as columns, seeds as rows (as in the paper's Fig. 3). The goal of each
+green target is shown as a translucent green copy.</p>
+<table>
+<tr><th></th>{header}</tr>
+{rows}
+</table>
+</body>
+</html>
+"""

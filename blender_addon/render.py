@@ -1,0 +1,182 @@
+"""Rendering a puzzle scene: stage (floor, light), cameras framing the puzzle, engines.
+
+Workbench is the fast engine, but without an OpenGL context (Mesa through
+EGL on a headless machine) it aborts the whole process; callers that cannot
+know beforehand render in a subprocess (see :mod:`.rendering`) and fall back
+to Cycles on the CPU.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import bpy
+import numpy as np
+from mathutils import Euler, Vector
+
+from .scene import phobostype
+from .views import DEFAULT_VIEWS, VIEWS, View, image_name
+
+STAGE = "phyrogen_stage"
+FLOOR_COLOR = (1.0, 1.0, 1.0, 1.0)
+CYCLES_SAMPLES = 16
+
+
+def visual_bounds(collection: bpy.types.Collection) -> tuple[np.ndarray, np.ndarray]:
+    """World bounding box (low, high) of the rendered objects of a puzzle."""
+    bpy.context.view_layer.update()
+    corners = [
+        np.array(obj.matrix_world) @ np.array([*corner, 1.0])
+        for obj in collection.all_objects
+        if obj.type == "MESH" and phobostype(obj) == "visual" and not obj.hide_render
+        for corner in obj.bound_box
+    ]
+    if not corners:
+        raise ValueError(f"collection {collection.name!r} has no visual objects to frame")
+    points = np.array(corners)[:, :3]
+    return points.min(axis=0), points.max(axis=0)
+
+
+def setup_stage(scene: bpy.types.Scene, collection: bpy.types.Collection, engine: str,
+                size: tuple[int, int]) -> None:
+    """Floor, light, world and render settings for ``engine`` ('WORKBENCH' or 'CYCLES')."""
+    valid = ("WORKBENCH", "CYCLES")
+    if engine not in valid:
+        raise ValueError(f"render engine {engine!r} is not supported here; valid: {valid}")
+    low, high = visual_bounds(collection)
+    stage = bpy.data.collections.get(STAGE) or bpy.data.collections.new(STAGE)
+    if stage.name not in scene.collection.children:
+        scene.collection.children.link(stage)
+    for obj in list(stage.objects):
+        bpy.data.objects.remove(obj)
+    centre = (low + high) / 2
+    extent = float(max(high[0] - low[0], high[1] - low[1], 1.0))
+    _floor(stage, centre, extent * 20, float(low[2]))
+    sun = bpy.data.objects.new("phyrogen_sun", bpy.data.lights.new("phyrogen_sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.data.angle = math.radians(10)
+    sun.rotation_euler = Euler((math.radians(40), math.radians(10), math.radians(-30)))
+    stage.objects.link(sun)
+
+    render = scene.render
+    render.engine = "BLENDER_WORKBENCH" if engine == "WORKBENCH" else "CYCLES"
+    render.resolution_x, render.resolution_y = size
+    render.resolution_percentage = 100
+    render.film_transparent = False
+    render.image_settings.file_format = "PNG"
+    render.image_settings.color_mode = "RGB"
+    render.image_settings.color_depth = "8"
+    # Stamped metadata (date, render time) would make identical pixels differ in bytes.
+    for flag in ("use_stamp", "use_stamp_date", "use_stamp_time", "use_stamp_render_time", "use_stamp_frame",
+                 "use_stamp_memory", "use_stamp_hostname", "use_stamp_camera", "use_stamp_lens",
+                 "use_stamp_scene", "use_stamp_filename", "use_stamp_marker", "use_stamp_frame_range",
+                 "use_stamp_sequencer_strip", "use_stamp_note"):
+        if hasattr(render, flag):
+            setattr(render, flag, False)
+    world = scene.world or bpy.data.worlds.new("phyrogen_world")
+    scene.world = world
+    world.color = (0.9, 0.92, 0.95)
+    scene.view_settings.view_transform = "Standard"
+    if engine == "WORKBENCH":
+        shading = scene.display.shading
+        shading.light = "STUDIO"
+        shading.color_type = "MATERIAL"
+        shading.show_shadows = True
+        shading.show_cavity = False
+        scene.display.render_aa = "8"
+        scene.display.light_direction = (0.35, -0.45, 0.82)
+        scene.display.shadow_shift = 0.1
+    else:
+        cycles = scene.cycles
+        cycles.device = "CPU"
+        cycles.samples = CYCLES_SAMPLES
+        cycles.use_denoising = False
+        cycles.seed = 0
+        cycles.use_animated_seed = False
+        world.use_nodes = True
+        background = world.node_tree.nodes.get("Background")
+        if background is not None:
+            background.inputs["Color"].default_value = (0.9, 0.92, 0.95, 1.0)
+            background.inputs["Strength"].default_value = 0.8
+
+
+def _floor(stage: bpy.types.Collection, centre: np.ndarray, size: float, z: float) -> None:
+    mesh = bpy.data.meshes.get("phyrogen_floor") or bpy.data.meshes.new("phyrogen_floor")
+    if not mesh.vertices:
+        mesh.from_pydata([(-0.5, -0.5, 0), (0.5, -0.5, 0), (0.5, 0.5, 0), (-0.5, 0.5, 0)], [], [(0, 1, 2, 3)])
+        material = bpy.data.materials.new("phyrogen_floor")
+        material.diffuse_color = FLOOR_COLOR
+        material.use_nodes = True
+        bsdf = material.node_tree.nodes.get("Principled BSDF")
+        if bsdf is not None:
+            bsdf.inputs["Base Color"].default_value = FLOOR_COLOR
+            bsdf.inputs["Roughness"].default_value = 0.9
+        mesh.materials.append(material)
+    floor = bpy.data.objects.new("phyrogen_floor", mesh)
+    floor.location = (float(centre[0]), float(centre[1]), z - 1e-3)
+    floor.scale = (size, size, 1.0)
+    stage.objects.link(floor)
+
+
+def add_camera(scene: bpy.types.Scene, collection: bpy.types.Collection, view: View) -> bpy.types.Object:
+    """A camera looking along ``view`` that frames the puzzle's visual bounding box."""
+    low, high = visual_bounds(collection)
+    centre = (low + high) / 2
+    radius = float(np.linalg.norm(high - low) / 2)
+    stage = bpy.data.collections[STAGE]
+    camera = bpy.data.objects.new(f"phyrogen_camera_{view.name}", bpy.data.cameras.new(f"camera_{view.name}"))
+    stage.objects.link(camera)
+    azimuth, elevation = math.radians(view.azimuth), math.radians(view.elevation)
+    direction = np.array([math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth),
+                          math.sin(elevation)])
+    aspect = scene.render.resolution_x / scene.render.resolution_y
+    data = camera.data
+    data.clip_start = 0.01
+    data.clip_end = 1000.0
+    if view.elevation >= 89.0:
+        data.type = "ORTHO"
+        width, depth = float(high[0] - low[0]), float(high[1] - low[1])
+        data.ortho_scale = 1.1 * max(width, depth * aspect, 0.5)
+        distance = radius + 10.0
+        rotation = Euler((0.0, 0.0, 0.0))
+    else:
+        data.lens_unit = "FOV"
+        data.sensor_fit = "HORIZONTAL"
+        data.angle = math.radians(40)
+        rotation = Vector(tuple(-direction)).to_track_quat("-Z", "Y").to_euler()
+        distance = _fitting_distance(low, high, centre, rotation, data.angle, aspect)
+    camera.location = tuple(float(v) for v in centre + direction * distance)
+    camera.rotation_euler = rotation
+    return camera
+
+
+def _fitting_distance(low: np.ndarray, high: np.ndarray, centre: np.ndarray, rotation: Euler,
+                      horizontal_fov: float, aspect: float, margin: float = 1.08) -> float:
+    """Distance from ``centre`` at which a perspective camera sees every corner of the box."""
+    basis = np.array(rotation.to_matrix())  # columns: camera right, up, backwards
+    tan_x = math.tan(horizontal_fov / 2)
+    tan_y = tan_x / aspect
+    distance = 0.0
+    for corner in np.array(np.meshgrid(*zip(low, high, strict=True))).reshape(3, -1).T:
+        x, y, z = (corner - centre) @ basis
+        distance = max(distance, z + abs(x) * margin / tan_x, z + abs(y) * margin / tan_y)
+    return distance
+
+
+def render_views(scene: bpy.types.Scene, collection: bpy.types.Collection, folder: Path, name: str,
+                 views: Sequence[str] = DEFAULT_VIEWS) -> list[Path]:
+    """Render ``views`` to ``folder/<name>_NN.png`` (NN = position in ``views``)."""
+    unknown = [v for v in views if v not in VIEWS]
+    if unknown:
+        raise ValueError(f"unknown views {unknown}; valid: {list(VIEWS)}")
+    paths = []
+    for index, view_name in enumerate(views):
+        camera = add_camera(scene, collection, VIEWS[view_name])
+        scene.camera = camera
+        path = Path(folder) / image_name(name, index)
+        scene.render.filepath = str(path)
+        bpy.ops.render.render(write_still=True, scene=scene.name)
+        paths.append(path)
+    return paths

@@ -1,0 +1,265 @@
+"""The sidebar panel, its settings and the operators Generate, Validate, Export URDF, Render.
+
+The parameter fields are made from the registry: one property group per
+generator, one property per field of its parameter dataclass, so a new
+generator appears in the panel without touching this file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import multiprocessing
+import typing
+from pathlib import Path
+
+import bpy
+
+from phyrogen_core.registry import ParameterError, all_generators
+
+from .environment import worker_python
+from .phobos import ensure_phobostype, remove_phobostype
+
+_PROPERTY_OF_TYPE = {bool: bpy.props.BoolProperty, int: bpy.props.IntProperty, float: bpy.props.FloatProperty,
+                     str: bpy.props.StringProperty}
+
+
+def editable_fields(params_type: type) -> list[dataclasses.Field]:
+    """The fields of a parameter dataclass the panel can show (bool, int, float, str)."""
+    hints = typing.get_type_hints(params_type)
+    return [f for f in dataclasses.fields(params_type) if hints[f.name] in _PROPERTY_OF_TYPE]
+
+
+def _parameter_group(name: str, params_type: type) -> type:
+    hints = typing.get_type_hints(params_type)
+    annotations = {f.name: _PROPERTY_OF_TYPE[hints[f.name]](name=f.name.replace("_", " ").capitalize(),
+                                                            default=f.default)
+                   for f in editable_fields(params_type)}
+    return type(f"PHYROGEN_PG_{name}", (bpy.types.PropertyGroup,), {"__annotations__": annotations})
+
+
+def _settings_class(groups: dict[str, type]) -> type:
+    generators = all_generators()
+    annotations = {
+        "generator": bpy.props.EnumProperty(
+            name="Generator",
+            items=[(n, s.title, s.doc.splitlines()[0] if s.doc else "") for n, s in generators.items()]),
+        "seed": bpy.props.IntProperty(name="Seed", default=1, min=1),
+        "output": bpy.props.StringProperty(name="Output", default="output", subtype="DIR_PATH",
+                                           description="Folder for exported puzzles and renders"),
+        "engine": bpy.props.EnumProperty(name="Engine", items=[("WORKBENCH", "Workbench", "fast"),
+                                                               ("CYCLES", "Cycles", "CPU path tracing")]),
+        "puzzle": bpy.props.StringProperty(name="Puzzle", description="Collection of the current puzzle"),
+    }
+    for name, group in groups.items():
+        annotations[f"params_{name}"] = bpy.props.PointerProperty(type=group)
+    return type("PHYROGEN_PG_settings", (bpy.types.PropertyGroup,), {"__annotations__": annotations})
+
+
+def chosen_params(settings):
+    """The selected generator's spec and its parameter dataclass, from the panel's fields."""
+    spec = all_generators()[settings.generator]
+    group = getattr(settings, f"params_{spec.name}")
+    values = {f.name: _exact(getattr(group, f.name)) for f in editable_fields(spec.params)}
+    return spec, spec.params(**values)
+
+
+def _exact(value):
+    # Blender keeps float properties in single precision: 0.15 comes back as 0.15000000596.
+    # Seven significant digits give back the number that was typed.
+    return float(f"{value:.7g}") if isinstance(value, float) else value
+
+
+def current_collection(context) -> bpy.types.Collection:
+    from .scene import puzzle_collections
+
+    settings = context.scene.phyrogen
+    collection = bpy.data.collections.get(settings.puzzle) if settings.puzzle else None
+    if collection is None:
+        found = puzzle_collections(context.scene)
+        if not found:
+            raise ValueError("the scene holds no puzzle; press Generate first")
+        collection = found[-1]
+    return collection
+
+
+def _output(settings) -> Path:
+    # "//" means the .blend file's folder; an unsaved file has none, so the working folder stands in.
+    text = settings.output
+    if text.startswith("//"):
+        return Path(bpy.path.abspath(text)) if bpy.data.filepath else Path(text[2:] or ".")
+    return Path(text)
+
+
+class PHYROGEN_OT_generate(bpy.types.Operator):  # noqa: N801 (Blender's naming)
+    """Generate and certify the puzzle, then build it in the scene"""
+
+    bl_idname = "phyrogen.generate"
+    bl_label = "Generate"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from phyrogen_core.maker import GenerationError
+        from solver.generation import generate_puzzle
+
+        from .scene import build_puzzle
+
+        settings = context.scene.phyrogen
+        try:
+            spec, params = chosen_params(settings)
+            spec.check(settings.seed, params)
+            # Generation runs in a fresh process (deterministic OMPL seeding); inside a Blender
+            # binary that process must be the project's Python, not Blender's.
+            multiprocessing.set_executable(worker_python())
+            puzzle = generate_puzzle(spec.name, settings.seed, params)
+        except (ParameterError, GenerationError, ValueError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        old = bpy.data.collections.get(puzzle.name)
+        if old is not None:
+            _remove_collection(old)
+        built = build_puzzle(puzzle, context.scene)
+        settings.puzzle = built.collection.name
+        self.report({"INFO"}, f"{puzzle.name}: {len(puzzle.objects)} objects, "
+                              f"certificate of {len(puzzle.certificate)} states")
+        return {"FINISHED"}
+
+
+def _remove_collection(collection: bpy.types.Collection) -> None:
+    for obj in list(collection.all_objects):
+        bpy.data.objects.remove(obj)
+    for child in list(collection.children_recursive):
+        bpy.data.collections.remove(child)
+    bpy.data.collections.remove(collection)
+
+
+class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
+    """Check the puzzle's solution certificate against the scene as it is now"""
+
+    bl_idname = "phyrogen.validate"
+    bl_label = "Validate"
+
+    def execute(self, context):
+        from phyrogen_core.puzzle import Goal
+        from solver.validation import verify_certificate
+
+        from . import annotations as keys
+        from .scene import read_chain
+
+        try:
+            collection = current_collection(context)
+            if keys.METADATA not in collection:
+                raise ValueError(f"{collection.name!r} keeps no puzzle.json: nothing to validate against")
+            metadata = json.loads(collection[keys.METADATA])
+            chain = read_chain(collection)
+            stored = metadata["goal"]
+            goal = Goal(stored["target"], stored["values"], stored["tolerance"])
+            problems = verify_certificate(chain, metadata["certificate"], goal)
+        except (ValueError, KeyError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        if problems:
+            self.report({"ERROR"}, f"{collection.name}: INVALID: " + "; ".join(problems))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{collection.name}: certificate valid ({len(metadata['certificate'])} states)")
+        return {"FINISHED"}
+
+
+class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801
+    """Export the puzzle in the scene to URDF, SRDF and puzzle.json"""
+
+    bl_idname = "phyrogen.export_urdf"
+    bl_label = "Export URDF"
+
+    def execute(self, context):
+        from .export import export_collection
+
+        try:
+            collection = current_collection(context)
+            generator = json.loads(collection.get("phyrogen/metadata", "{}")).get("generator", "scene")
+            path = export_collection(collection, _output(context.scene.phyrogen) / generator / collection.name)
+        except (ValueError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"wrote {path}")
+        return {"FINISHED"}
+
+
+class PHYROGEN_OT_render(bpy.types.Operator):  # noqa: N801
+    """Render the puzzle's views into <output>/<generator>/<puzzle>/images"""
+
+    bl_idname = "phyrogen.render"
+    bl_label = "Render"
+
+    def execute(self, context):
+        from phyrogen_core.export import atomic_directory
+
+        from .render import render_views, setup_stage
+
+        settings = context.scene.phyrogen
+        try:
+            collection = current_collection(context)
+            generator = json.loads(collection.get("phyrogen/metadata", "{}")).get("generator", "scene")
+            setup_stage(context.scene, collection, settings.engine, (480, 360))
+            with atomic_directory(_output(settings) / generator / collection.name / "images") as folder:
+                paths = render_views(context.scene, collection, folder, collection.name)
+        except (ValueError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"rendered {len(paths)} views of {collection.name}")
+        return {"FINISHED"}
+
+
+class PHYROGEN_PT_panel(bpy.types.Panel):  # noqa: N801
+    bl_label = "PhyRoGen"
+    bl_idname = "PHYROGEN_PT_panel"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "PhyRoGen"
+
+    def draw(self, context):
+        draw_panel(self.layout, context.scene.phyrogen)
+
+
+def draw_panel(layout, settings) -> None:
+    """The panel's content (a function of the settings, so a test can draw it into a fake layout)."""
+    layout.prop(settings, "generator")
+    layout.prop(settings, "seed")
+    row = layout.row()
+    row.scale_y = 1.6
+    row.operator("phyrogen.generate", icon="MOD_BUILD")
+    row = layout.row(align=True)
+    row.operator("phyrogen.validate", icon="CHECKMARK")
+    row.operator("phyrogen.export_urdf", icon="EXPORT")
+    row.operator("phyrogen.render", icon="RENDER_STILL")
+    spec = all_generators()[settings.generator]
+    box = layout.box()
+    box.label(text=f"{spec.title} parameters")
+    group = getattr(settings, f"params_{spec.name}")
+    for field in editable_fields(spec.params):
+        box.prop(group, field.name)
+    layout.prop(settings, "output")
+    layout.prop(settings, "engine")
+
+
+_OPERATORS = (PHYROGEN_OT_generate, PHYROGEN_OT_validate, PHYROGEN_OT_export_urdf, PHYROGEN_OT_render,
+              PHYROGEN_PT_panel)
+_registered: list[type] = []
+
+
+def register() -> None:
+    ensure_phobostype()
+    groups = {name: _parameter_group(name, spec.params) for name, spec in all_generators().items()}
+    classes = [*groups.values(), _settings_class(groups), *_OPERATORS]
+    for cls in classes:
+        bpy.utils.register_class(cls)
+        _registered.append(cls)
+    bpy.types.Scene.phyrogen = bpy.props.PointerProperty(type=classes[len(groups)])
+
+
+def unregister() -> None:
+    if hasattr(bpy.types.Scene, "phyrogen"):
+        del bpy.types.Scene.phyrogen
+    while _registered:
+        bpy.utils.unregister_class(_registered.pop())
+    remove_phobostype()
