@@ -150,6 +150,30 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_benchmark(args) -> int:
+    from .benchmark import estimate_seconds, find_puzzles, get_profile, run_benchmark
+    from .planners import PLANNERS
+
+    generators = None if args.generator == "all" else _generators(args.generator)
+    planners = list(PLANNERS) if args.planners == "all" else [p.strip() for p in args.planners.split(",")]
+    for name in planners:
+        if name not in PLANNERS:
+            raise UsageError(f"unknown planner {name!r} (known: {', '.join(PLANNERS)})")
+    profile = get_profile(args.profile, args.runs, args.time_limit)
+    puzzles = find_puzzles(Path(args.puzzles), generators)
+    estimate = estimate_seconds(puzzles, planners, profile, args.workers, overhead=1.0)
+    print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
+          f"about {estimate / 3600:.1f} h on {args.workers} workers", file=sys.stderr)
+    if args.dry_run:
+        return 0
+    result = run_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
+                           save_solutions=not args.no_solutions, progress=not args.quiet)
+    print((Path(args.out) / "summary.md").read_text(encoding="utf-8"))
+    print(f"database: {result.database}  figure: {Path(args.out) / 'fig4.png'}")
+    crashed = sum(1 for r in result.records if r.error)
+    return 1 if crashed else 0
+
+
 def _progress(total: int, quiet: bool):
     from tqdm import tqdm
 
@@ -171,6 +195,20 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="re-validate an exported puzzle folder")
     check.add_argument("puzzle_dir")
     check.set_defaults(func=cmd_check)
+    bench = sub.add_parser("benchmark", help="benchmark planners on puzzle folders (OMPL logs, database, plots)")
+    bench.add_argument("--puzzles", default="output", help="folder of puzzle folders (default: output)")
+    bench.add_argument("--generator", default="all", help="generators to include (default: all found)")
+    bench.add_argument("--planners", default="all", help="comma-separated: la_rrt,rrt_star,lbt_rrt,bit_star")
+    bench.add_argument("--profile", default="quick", help="paper (100 runs, the paper's limits) or quick")
+    bench.add_argument("--runs", type=int, help="runs per planner and puzzle (overrides the profile)")
+    bench.add_argument("--time-limit", type=float, help="seconds per run for every puzzle (overrides the profile)")
+    bench.add_argument("--seed", type=int, default=0, help="base seed of every run's seed (default 0)")
+    bench.add_argument("--out", default="output/benchmark", help="output folder (default: output/benchmark)")
+    bench.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    bench.add_argument("--no-solutions", action="store_true", help="do not save LA-RRT's best path per puzzle")
+    bench.add_argument("--dry-run", action="store_true", help="print the job count and time estimate only")
+    bench.add_argument("--quiet", action="store_true", help="no progress bar")
+    bench.set_defaults(func=cmd_benchmark)
     manipulate = sub.add_parser("manipulate", help="execute puzzles' solutions with a mobile KUKA iiwa in PyBullet")
     manipulate.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR", help="puzzle folder(s)")
     manipulate.add_argument("--out", default="output/manipulation", help="output folder (default: output/manipulation)")

@@ -1,0 +1,226 @@
+"""LA-RRT, the less-action RRT (Bayraktar et al., RA-L 2023), on our collision model.
+
+The state space is factored: one factor per puzzle object (the columns of
+the joints it moves). Two trees grow as in RRT-Connect, one from the start
+and one from goal states (the target at its goal value, every other object
+anywhere), and every tree edge moves exactly one factor: extending from a
+node toward a sample walks a "staircase", moving the factors one after
+another. Each time the trees connect, the path is defragmented
+(:mod:`solver.defragment`) and kept if it needs fewer actions; the loop runs
+until the time limit (anytime, no rewiring).
+
+Fixes over the original implementation:
+
+- the staircase visits the factors in a fresh random order at every
+  extension (a fixed order stalls whenever the first factor is blocked at
+  the start);
+- a trapped staircase keeps its valid prefix (every corner is a tree node);
+- defragmentation collapses an action to a straight segment only when that
+  segment is valid.
+
+All random draws come from one numpy Generator seeded per run.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .defragment import Defragmenter
+from .planning import (
+    AnytimeRecorder,
+    PlanResult,
+    in_goal,
+    planning_steps,
+    problem_factors,
+    segment_points,
+    warm_up,
+)
+from .validation import DEFAULT_RESOLUTION, Problem
+
+_REACHED, _ADVANCED, _TRAPPED = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class LaRrtSettings:
+    """Tuning of LA-RRT; the defaults were chosen on the paper's 24 puzzles."""
+
+    range_fraction: float = 0.1
+    """Extension budget as a fraction of the weighted L1 extent of the space."""
+    goal_root_probability: float = 0.05
+    """Chance per iteration of adding one more goal state as a root of the goal tree."""
+    goal_sample_attempts: int = 50
+    """Goal-region samples tried per new goal root before giving up for this iteration."""
+    resolution: float = DEFAULT_RESOLUTION
+    """Metres any collision point may move between two checked states while planning."""
+    advance_when_blocked: bool = False
+    """Keep the valid part of a blocked move (so trees creep along obstacles into narrow passages)."""
+    defragment_share: float = 0.5
+    """Largest share of the run time spent defragmenting; connections found while
+    over it are dropped undefragmented (the first one is always defragmented)."""
+
+    def __post_init__(self) -> None:
+        if not 0 < self.range_fraction <= 1:
+            raise ValueError(f"range_fraction must be in (0, 1], got {self.range_fraction!r}")
+        if not 0 <= self.goal_root_probability <= 1:
+            raise ValueError(f"goal_root_probability must be in [0, 1], got {self.goal_root_probability!r}")
+        if self.goal_sample_attempts < 1:
+            raise ValueError(f"goal_sample_attempts must be at least 1, got {self.goal_sample_attempts!r}")
+        if not self.resolution > 0:
+            raise ValueError(f"resolution must be positive metres, got {self.resolution!r}")
+        if not 0 < self.defragment_share <= 1:
+            raise ValueError(f"defragment_share must be in (0, 1], got {self.defragment_share!r}")
+
+
+class _Tree:
+    """Nodes in a growing array, each with its parent (-1 for a root)."""
+
+    def __init__(self, dimension: int, weights: np.ndarray):
+        self.states = np.empty((256, dimension))
+        self.parents = np.empty(256, dtype=np.int64)
+        self.size = 0
+        self.weights = weights
+
+    def add(self, state: np.ndarray, parent: int) -> int:
+        if self.size == len(self.states):
+            self.states = np.concatenate([self.states, np.empty_like(self.states)])
+            self.parents = np.concatenate([self.parents, np.empty_like(self.parents)])
+        self.states[self.size] = state
+        self.parents[self.size] = parent
+        self.size += 1
+        return self.size - 1
+
+    def nearest(self, state: np.ndarray) -> int:
+        return int(np.argmin(np.abs(self.states[: self.size] - state) @ self.weights))
+
+    def branch(self, node: int) -> list[np.ndarray]:
+        """States from the node's root to the node."""
+        states = []
+        while node >= 0:
+            states.append(self.states[node])
+            node = int(self.parents[node])
+        return states[::-1]
+
+
+class LaRrt:
+    """One LA-RRT run on ``problem``."""
+
+    def __init__(self, problem: Problem, rng: np.random.Generator, settings: LaRrtSettings | None = None):
+        self.problem = problem
+        self.settings = settings or LaRrtSettings()
+        self.rng = rng
+        self.model = problem.model
+        self.factors = problem_factors(problem)
+        self.columns = [np.asarray(c, dtype=np.int64) for c in self.factors.values()]
+        self.steps = planning_steps(problem, self.settings.resolution)
+        # Distances in metres of motion: a radian of a long bar counts as far as its tip travels.
+        self.weights = self.model.joint_reach()
+        self.range = self.settings.range_fraction * float(self.weights @ (problem.upper - problem.lower))
+        self.defragmenter = Defragmenter(problem, self.factors, self.steps)
+        dimension = len(problem.start)
+        self.start_tree = _Tree(dimension, self.weights)
+        self.goal_tree = _Tree(dimension, self.weights)
+        self.iterations = 0
+        self.defragment_seconds = 0.0
+        self.connections = 0
+
+    # -- sampling ----------------------------------------------------------
+    def _uniform(self) -> np.ndarray:
+        return self.problem.lower + (self.problem.upper - self.problem.lower) * self.rng.random(len(self.problem.start))
+
+    def _add_goal_root(self) -> bool:
+        for _ in range(self.settings.goal_sample_attempts):
+            state = self._uniform()
+            for column, value in self.problem.goal_columns.items():
+                state[column] = value
+            if self.model.is_valid(state):
+                self.goal_tree.add(state, -1)
+                return True
+        return False
+
+    # -- extension ---------------------------------------------------------
+    def _staircase(self, tree: _Tree, node: int, target: np.ndarray, budget: float) -> tuple[int, int]:
+        """Move toward ``target`` one factor at a time (random order) within ``budget``.
+
+        Returns (status, last node added or ``node``)."""
+        current = tree.states[node].copy()
+        for f in self.rng.permutation(len(self.columns)):
+            columns = self.columns[f]
+            delta = target[columns] - current[columns]
+            distance = float(np.abs(delta) @ self.weights[columns])
+            if distance <= 1e-12:
+                continue
+            following = current.copy()
+            partial = distance > budget
+            following[columns] = current[columns] + delta * (budget / distance) if partial else target[columns]
+            if not self.model.check_motion(current, following, self.steps):
+                if self.settings.advance_when_blocked:
+                    node = self._advance(tree, node, current, following)
+                return _TRAPPED, node
+            node = tree.add(following, node)
+            current = following
+            if partial:
+                return _ADVANCED, node
+            budget -= distance
+        return _REACHED, node
+
+    def _advance(self, tree: _Tree, node: int, current: np.ndarray, blocked: np.ndarray) -> int:
+        """Add the last valid state of a blocked move (one step short of the contact), if any."""
+        points, _ = segment_points(np.array([current, blocked]), self.steps)
+        valid = self.model.check_prepared(points)
+        first_bad = int(np.argmin(valid))
+        if first_bad < 2:
+            return node
+        return tree.add(points[first_bad - 2], node)
+
+    def _path(self, tree: _Tree, node: int, other: _Tree, other_node: int) -> np.ndarray:
+        a = tree.branch(node)
+        b = other.branch(other_node)
+        if tree is self.goal_tree:
+            a, b = b, a
+        return np.array(a + b[::-1][1:])
+
+    # -- main loop ---------------------------------------------------------
+    def solve(self, recorder: AnytimeRecorder) -> PlanResult:
+        problem = self.problem
+        if not self.model.is_valid(problem.start):
+            return recorder.result(0, "Invalid start")
+        self.start_tree.add(problem.start, -1)
+        if in_goal(problem, problem.start):
+            recorder.offer([problem.start])
+        growing, other = self.start_tree, self.goal_tree
+        while not recorder.expired():
+            self.iterations += 1
+            if self.goal_tree.size == 0 or self.rng.random() < self.settings.goal_root_probability:
+                self._add_goal_root()
+            recorder.sample(self.iterations)
+            if self.goal_tree.size == 0:
+                continue
+            sample = self._uniform()
+            near = growing.nearest(sample)
+            _, new = self._staircase(growing, near, sample, self.range)
+            if new != near:
+                target = growing.states[new]
+                status, reached = self._staircase(other, other.nearest(target), target, math.inf)
+                if status == _REACHED:
+                    self.connections += 1
+                    raw = self._path(growing, new, other, reached)
+                    recorder.offer(raw)  # a solution already; defragmenting improves it
+                    if not recorder.has_solution or \
+                            self.defragment_seconds < self.settings.defragment_share * recorder.elapsed():
+                        began = recorder.elapsed()
+                        recorder.offer(self.defragmenter.run(raw, recorder.expired))
+                        self.defragment_seconds += recorder.elapsed() - began
+            growing, other = other, growing
+        return recorder.result(self.iterations)
+
+
+def plan_la_rrt(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
+                settings: LaRrtSettings | None = None) -> PlanResult:
+    """Run LA-RRT for ``time_limit`` seconds; all randomness from ``seed``."""
+    planner = LaRrt(problem, np.random.default_rng(seed), settings)
+    warm_up(problem)
+    recorder = AnytimeRecorder("LA-RRT", problem, time_limit, progress_interval)
+    return planner.solve(recorder)

@@ -1,0 +1,219 @@
+"""What every planner shares: the problem over a chain, its factors, and the anytime result.
+
+A planner gets a :class:`~solver.validation.Problem` (the collision model and
+the free joints' bounds, start and goal) and a time limit; it reports a
+:class:`PlanResult`: the best path it found, scored with the paper's action
+cost (:func:`solver.actions.count_actions`, the same function for every
+planner), when it found its first solution, and how the best cost evolved.
+Paths in a result list states in the problem's joint order
+(``problem.model.joint_order``); :func:`chain_path` expands them to the
+chain's full joint order.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from phyrogen_core.chain import KinematicChain
+from phyrogen_core.puzzle import Goal
+
+from .actions import count_actions
+from .collision import CollisionModel
+from .validation import DEFAULT_RESOLUTION, FINE_RESOLUTION, Problem
+
+Path = tuple[tuple[float, ...], ...]
+
+
+def problem_for_chain(chain: KinematicChain, goal: Goal) -> Problem:
+    """The planning problem of a puzzle chain (e.g. a folder's URDF) with its goal.
+
+    Joints whose limits have zero width are locked at their only value.
+    Raises ValueError when a goal joint is not a free joint of the chain.
+    """
+    locked = {j.name: j.lower for j in chain.active_joints if j.upper - j.lower < 1e-12}
+    model = CollisionModel(chain, locked)
+    order = model.joint_order
+    missing = [n for n in goal.values if n not in order]
+    if missing:
+        raise ValueError(f"goal joints {missing} are not free joints of chain {chain.name!r}; "
+                         f"valid: {list(order)}")
+    lower = np.array([chain.joint(n).lower for n in order])
+    upper = np.array([chain.joint(n).upper for n in order])
+    start = np.clip(np.zeros(len(order)), lower, upper)
+    columns = {order.index(n): float(v) for n, v in goal.values.items()}
+    return Problem(model, start, columns, lower, upper, goal.tolerance)
+
+
+def problem_factors(problem: Problem) -> dict[str, tuple[int, ...]]:
+    """Object name -> columns of the problem's state it moves (one factor per object)."""
+    chain = problem.model.chain
+    out: dict[str, list[int]] = {}
+    for index, name in enumerate(problem.model.joint_order):
+        out.setdefault(chain.object_of_joint(name), []).append(index)
+    return {k: tuple(v) for k, v in out.items()}
+
+
+def chain_path(problem: Problem, path: Sequence[Sequence[float]]) -> Path:
+    """``path`` (problem joint order) expanded to every active joint of the chain (locked ones at their value)."""
+    model = problem.model
+    column = {n: i for i, n in enumerate(model.joint_order)}
+    return tuple(
+        tuple(float(state[column[n]]) if n in column else float(model.locked[n]) for n in model.chain.joint_order)
+        for state in path
+    )
+
+
+def in_goal(problem: Problem, state: np.ndarray) -> bool:
+    return all(abs(state[i] - v) <= problem.tolerance + 1e-12 for i, v in problem.goal_columns.items())
+
+
+def segment_points(states: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Interpolated states along every segment of ``states`` (excluding the first state) and,
+    per point, the index of its segment; no joint moves more than ``steps`` between points."""
+    diffs = states[1:] - states[:-1]
+    counts = np.maximum(1, np.ceil(np.max(np.abs(diffs) / steps, axis=1))).astype(np.int64)
+    segment = np.repeat(np.arange(len(diffs)), counts)
+    offsets = np.cumsum(counts) - counts
+    t = (np.arange(len(segment)) - offsets[segment] + 1) / counts[segment]
+    points = np.ascontiguousarray(states[segment] + diffs[segment] * t[:, None])
+    return points, segment
+
+
+def path_is_valid(model: CollisionModel, states: np.ndarray, steps: np.ndarray) -> bool:
+    """Whether every segment of ``states`` is collision-free at ``steps`` (the first state is assumed valid)."""
+    if len(states) < 2:
+        return True
+    points, _ = segment_points(states, steps)
+    return bool(model.check_prepared(points).all())
+
+
+@dataclass(frozen=True)
+class ProgressSample:
+    """One progress point of a run: OMPL's ``time``, ``best cost`` (inf: none yet), ``iterations``."""
+
+    time: float
+    best_cost: float
+    iterations: int
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """What one planner run produced."""
+
+    planner: str
+    solved: bool
+    path: Path  # best path, problem joint order; empty when unsolved
+    action_cost: int | None
+    first_solution_time: float | None
+    time: float
+    iterations: int
+    progress: tuple[ProgressSample, ...]
+    status: str  # one of OMPL's PlannerStatus names, e.g. "Exact solution", "Timeout"
+    rejected: int = 0  # best paths dropped because they failed the fine-resolution check
+    best_solution_time: float | None = None  # when the returned path was found
+
+    @property
+    def length(self) -> float:
+        """Joint-space (L2) length of the best path, OMPL's ``solution length``."""
+        states = np.asarray(self.path, dtype=float)
+        if len(states) < 2:
+            return 0.0
+        return float(np.linalg.norm(np.diff(states, axis=0), axis=1).sum())
+
+
+class AnytimeRecorder:
+    """Keeps the best path a planner has found, its first-solution time and the cost over time.
+
+    Every candidate is scored with :func:`count_actions`. When the run ends,
+    the best path is re-checked at fine resolution (every planner checks at
+    the coarser planning resolution while it runs); a path that fails is
+    dropped with the improvements it made, and the previous best counts, so
+    a result only ever holds fine-checked paths, with the times they were found.
+    """
+
+    def __init__(self, planner: str, problem: Problem, time_limit: float, progress_interval: float):
+        if not time_limit > 0:
+            raise ValueError(f"time limit must be a positive number of seconds, got {time_limit!r}")
+        self.planner = planner
+        self.problem = problem
+        self.time_limit = float(time_limit)
+        self.interval = float(progress_interval)
+        self.factors = problem_factors(problem)
+        self.started = time.perf_counter()
+        self.improvements: list[tuple[float, int, np.ndarray]] = []  # (time, action cost, path)
+        self.samples: list[tuple[float, int]] = []  # (time, iterations)
+        self._next_sample = 0.0
+
+    @property
+    def best_cost(self) -> float:
+        return self.improvements[-1][1] if self.improvements else math.inf
+
+    @property
+    def has_solution(self) -> bool:
+        return bool(self.improvements)
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.started
+
+    def expired(self) -> bool:
+        return self.elapsed() >= self.time_limit
+
+    def offer(self, path: Sequence[Sequence[float]]) -> bool:
+        """Consider a solution path (valid at planning resolution); True when it became the new best."""
+        states = np.asarray(path, dtype=float)
+        if len(states) < 1 or not in_goal(self.problem, states[-1]):
+            return False
+        if np.max(np.abs(states[0] - self.problem.start)) > 1e-9:
+            return False
+        cost = count_actions(states, self.factors)
+        if cost >= self.best_cost:
+            return False
+        self.improvements.append((self.elapsed(), cost, states.copy()))
+        return True
+
+    def sample(self, iterations: int, force: bool = False) -> None:
+        """Record a progress sample if the sampling interval has passed (or ``force``)."""
+        now = self.elapsed()
+        if force or now >= self._next_sample:
+            self.samples.append((now, iterations))
+            self._next_sample = now + self.interval
+
+    def result(self, iterations: int, status: str | None = None) -> PlanResult:
+        self.sample(iterations, force=True)
+        elapsed = self.elapsed()
+        fine_steps = self.problem.model.motion_steps(FINE_RESOLUTION)
+        rejected = 0
+        kept = list(self.improvements)
+        while kept and not path_is_valid(self.problem.model, kept[-1][2], fine_steps):
+            kept.pop()
+            rejected += 1
+        progress = []
+        for t, count in self.samples:
+            costs = [cost for found, cost, _ in kept if found <= t]
+            progress.append(ProgressSample(t, float(min(costs)) if costs else math.inf, count))
+        solved = bool(kept)
+        if status is None:
+            status = "Exact solution" if solved else "Timeout"
+        best = tuple(tuple(float(v) for v in s) for s in kept[-1][2]) if solved else ()
+        return PlanResult(self.planner, solved, best, kept[-1][1] if solved else None,
+                          kept[0][0] if solved else None, elapsed, iterations, tuple(progress), status, rejected,
+                          kept[-1][0] if solved else None)
+
+
+def planning_steps(problem: Problem, resolution: float = DEFAULT_RESOLUTION) -> np.ndarray:
+    """Per-joint steps for collision checks while planning (metres of motion of any point)."""
+    return problem.model.motion_steps(resolution)
+
+
+def warm_up(problem: Problem) -> None:
+    """Load the compiled collision kernels before a run's clock starts (the first call pays for it)."""
+    model = problem.model
+    start = np.ascontiguousarray(problem.start, dtype=float)
+    model.is_valid(start)
+    model.check_prepared(start[None, :].copy())
+    model.check_motion(start, start, planning_steps(problem))
