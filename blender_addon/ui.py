@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import multiprocessing
+import subprocess
 import typing
 from pathlib import Path
 
@@ -99,30 +99,39 @@ class PHYROGEN_OT_generate(bpy.types.Operator):  # noqa: N801 (Blender's naming)
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        from phyrogen_core.maker import GenerationError
-        from solver.generation import generate_puzzle
-
-        from .scene import build_puzzle
+        from .scene import build_puzzle_folder
 
         settings = context.scene.phyrogen
         try:
             spec, params = chosen_params(settings)
             spec.check(settings.seed, params)
-            # Generation runs in a fresh process (deterministic OMPL seeding); inside a Blender
-            # binary that process must be the project's Python, not Blender's.
-            multiprocessing.set_executable(worker_python())
-            puzzle = generate_puzzle(spec.name, settings.seed, params)
-        except (ParameterError, GenerationError, ValueError) as exc:
+            folder = generate_folder(spec.name, settings.seed, params, _output(settings))
+        except (ParameterError, ValueError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        old = bpy.data.collections.get(puzzle.name)
+        old = bpy.data.collections.get(folder.name)
         if old is not None:
             _remove_collection(old)
-        built = build_puzzle(puzzle, context.scene)
+        built = build_puzzle_folder(folder, context.scene)
         settings.puzzle = built.collection.name
-        self.report({"INFO"}, f"{puzzle.name}: {len(puzzle.objects)} objects, "
-                              f"certificate of {len(puzzle.certificate)} states")
+        self.report({"INFO"}, f"{folder.name}: written to {folder}")
         return {"FINISHED"}
+
+
+def generate_folder(generator: str, seed: int, params, out: Path) -> Path:
+    """Generate and certify a puzzle with ``phyrogen generate`` in the project's Python; its folder.
+
+    A separate process keeps generation deterministic (OMPL is seeded once per
+    process) and works inside a Blender binary, whose own Python lacks our dependencies.
+    """
+    overrides = [f"--set={f.name}={getattr(params, f.name)!r}" for f in dataclasses.fields(params)]
+    command = [worker_python(), "-m", "solver.cli", "generate", "--generator", generator, "--seeds", str(seed),
+               "--out", str(out), "--workers", "1", "--quiet", *overrides]
+    result = subprocess.run(command, capture_output=True, text=True)
+    if result.returncode != 0:
+        lines = [line for line in (result.stderr + result.stdout).splitlines() if "error" in line or "FAILED" in line]
+        raise RuntimeError(lines[-1] if lines else f"generation failed with exit code {result.returncode}")
+    return out / generator / f"{generator}_{seed}"
 
 
 def _remove_collection(collection: bpy.types.Collection) -> None:

@@ -1,0 +1,89 @@
+"""Generate one puzzle and build it in Blender: a folder with URDF, SRDF, puzzle.json and a .blend.
+
+    blender --background --python scripts/generate.py -- --generator NAME --seed N --out DIR
+    python scripts/generate.py --generator NAME --seed N --out DIR      (with the bpy wheel)
+
+Inside a Blender binary the project's environment (``.venv`` beside this
+folder, or $PHYROGEN_VENV) supplies numpy, OMPL and PhyRoGen. The URDF is
+exported from the Blender scene and checked against the core's.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+USAGE = ("usage: blender --background --python scripts/generate.py -- --generator NAME --seed N --out DIR\n"
+         "   or: python scripts/generate.py --generator NAME --seed N --out DIR")
+
+
+def script_arguments(argv: list[str]) -> list[str]:
+    """The script's own arguments: after ``--`` inside Blender, all of them under plain Python."""
+    if "--" in argv:
+        return argv[argv.index("--") + 1:]
+    in_blender = any(a in argv for a in ("--python", "-P", "--background", "-b"))
+    if in_blender:
+        raise SystemExit(f"generate.py: the script's arguments must follow '--' on Blender's command line\n{USAGE}")
+    return argv[1:]
+
+
+def main(argv: list[str]) -> int:
+    import argparse
+
+    from blender_addon.environment import ensure_project_importable
+
+    arguments = script_arguments(argv)
+    ensure_project_importable()
+    try:
+        import bpy
+    except ImportError:
+        print("generate.py: bpy is missing: run it with 'blender --background --python' or install the bpy "
+              f"wheel (pip install -e .[blender])\n{USAGE}", file=sys.stderr)
+        return 2
+    parser = argparse.ArgumentParser(prog="generate.py", usage=USAGE)
+    parser.add_argument("--generator", required=True)
+    parser.add_argument("--seed", type=int, required=True)
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="generator parameter")
+    args = parser.parse_args(arguments)
+
+    from blender_addon.export import export_collection
+    from blender_addon.scene import build_puzzle, read_chain
+    from phyrogen_core.export import chain_to_urdf, write_puzzle
+    from phyrogen_core.maker import GenerationError
+    from phyrogen_core.registry import ParameterError, get_generator
+    from solver.generation import generate_here, versions
+
+    try:
+        spec = get_generator(args.generator)
+        params = spec.parse_params(dict(item.split("=", 1) for item in args.set))
+        # This process is fresh and plans nothing else: generating here is deterministic.
+        puzzle = generate_here(args.generator, args.seed, params)
+    except (ParameterError, GenerationError, ValueError) as exc:
+        print(f"generate.py: error: {exc}", file=sys.stderr)
+        return 2
+    folder = write_puzzle(puzzle, Path(args.out), versions())
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    built = build_puzzle(puzzle, bpy.context.scene)
+    if read_chain(built.collection) != puzzle.chain:
+        print("generate.py: error: the Blender scene does not read back to the generated chain", file=sys.stderr)
+        return 1
+    exported = export_collection(built.collection, folder.parent / f".{folder.name}.from-blender")
+    same = exported.read_text(encoding="utf-8") == chain_to_urdf(puzzle.chain)[0]
+    import shutil
+
+    shutil.rmtree(exported.parent.parent)
+    if not same:
+        print("generate.py: error: the URDF exported from the scene differs from the core's", file=sys.stderr)
+        return 1
+    blend = folder / f"{puzzle.name}.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    print(f"generate.py: {folder} ({len(puzzle.objects)} objects, Blender {bpy.app.version_string}, "
+          f"URDF from the scene equals the core's, {blend.name})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
