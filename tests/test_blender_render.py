@@ -1,0 +1,68 @@
+"""Rendering puzzle folders in worker processes, and the HTML gallery seen by headless Chromium."""
+
+from __future__ import annotations
+
+import subprocess
+
+import pytest
+from blender_support import every_shape_puzzle, tool
+
+from blender_addon.gallery import write_gallery
+from blender_addon.rendering import find_puzzle_dirs, render_puzzles
+from phyrogen_core.export import write_puzzle
+
+pytestmark = [pytest.mark.blender, pytest.mark.slow]
+CHROMIUM = tool("chromium") or tool("chromium-browser") or tool("google-chrome")
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
+    root = tmp_path_factory.mktemp("out")
+    folder = write_puzzle(every_shape_puzzle(), root)
+    report = render_puzzles(find_puzzle_dirs(root), views=("top", "oblique"))
+    return root, folder, report
+
+
+def test_render_writes_images_and_blend(rendered):
+    root, folder, report = rendered
+    assert [r.folder for r in report.rendered] == [folder]
+    assert sorted(p.name for p in (folder / "images").iterdir()) == ["every_shape_1_00.png", "every_shape_1_01.png"]
+    assert (folder / "every_shape_1.blend").is_file()
+    assert not [p for p in folder.iterdir() if p.name.startswith(".")]  # no temporary leftovers
+
+
+def test_renders_are_deterministic(rendered, tmp_path):
+    root, folder, report = rendered
+    first = {p.name: p.read_bytes() for p in (folder / "images").iterdir()}
+    render_puzzles([folder], engine=report.rendered[0].engine, views=("top", "oblique"))
+    assert {p.name: p.read_bytes() for p in (folder / "images").iterdir()} == first
+
+
+def test_oblique_view_shows_the_coloured_objects(rendered):
+    from PIL import Image
+
+    _, folder, _ = rendered
+    pixels = list(Image.open(folder / "images" / "every_shape_1_01.png").convert("RGB").getdata())
+    red = sum(1 for r, g, b in pixels if r > 80 and g < 40 and b < 40)
+    green = sum(1 for r, g, b in pixels if g > 80 and r < 60 and b < 60)
+    assert red > 2000 and green > 100
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (apt-get install chromium)")
+def test_gallery_in_headless_chromium(rendered, tmp_path):
+    from PIL import Image
+
+    root, folder, _ = rendered
+    page = write_gallery(root, views=("top", "oblique"))
+    text = page.read_text()
+    assert "every_shape/every_shape_1/images/every_shape_1_01.png" in text
+    assert "every_shape/every_shape_1/urdf/every_shape_1.urdf" in text
+    screenshot = tmp_path / "gallery.png"
+    subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+                    "--allow-file-access-from-files", f"--screenshot={screenshot}", "--window-size=900,700",
+                    page.as_uri()], capture_output=True, timeout=120, check=True)
+    pixels = list(Image.open(screenshot).convert("RGB").getdata())
+    # The embedded render's red and green objects are on the page, not just text on white.
+    assert sum(1 for r, g, b in pixels if r > 80 and g < 40 and b < 40) > 400
+    assert sum(1 for r, g, b in pixels if g > 80 and r < 60 and b < 60) > 20
