@@ -174,11 +174,21 @@ def full_path(objects: Sequence[PuzzleObject], problem: Problem, path) -> tuple[
     return tuple(rows)
 
 
-class OmplValidator:
-    """The Maker's Validator: RRT-Connect with a motion-check budget.
+EXTENSION_GRID = 25
+"""Evenly spaced values of a new joint tried when extending a previous certificate."""
 
-    ``rng`` drives goal sampling; OMPL's own RNG must have been seeded by
-    the caller (see :func:`solver.generation.seed_ompl`).
+
+class OmplValidator:
+    """The Maker's Validator: extend the last certificate, else RRT-Connect with a budget.
+
+    The Maker grows a puzzle one object at a time, so the puzzle before the
+    new object was just shown solvable. A witness for the new puzzle is often
+    "move the new object out of the way, then replay the old certificate";
+    that is tried first (any collision-free path to the goal proves
+    solvability, checked at fine resolution). RRT-Connect, whose cost grows
+    steeply with the number of objects in narrow-passage families, is the
+    fallback. ``rng`` drives goal sampling; OMPL's own RNG must have been
+    seeded by the caller (see :func:`solver.generation.seed_ompl`).
     """
 
     def __init__(self, rng: np.random.Generator, budget: int = DEFAULT_BUDGET,
@@ -187,16 +197,75 @@ class OmplValidator:
         self.budget = budget
         self.resolution = resolution
         self.checks = 0
+        self._solved: dict[tuple[PuzzleObject, ...], tuple[tuple[float, ...], ...]] = {}
 
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult:
+        objects = tuple(objects)
         problem = make_problem(objects, goal)
         if problem is None:
             return SolveResult(False)
-        result = rrt_connect(problem, int(self.budget * budget_scale), self.rng, self.resolution)
-        self.checks += result.checks
-        if not result.solved:
-            return result
-        return SolveResult(True, full_path(objects, problem, result.path), result.checks)
+        path = self._extend_previous(objects, goal)
+        if path is None:
+            result = rrt_connect(problem, int(self.budget * budget_scale), self.rng, self.resolution)
+            self.checks += result.checks
+            if not result.solved:
+                return result
+            path = full_path(objects, problem, result.path)
+        self._solved[objects] = path
+        return SolveResult(True, path, 0)
+
+    def _extend_previous(self, objects: tuple[PuzzleObject, ...], goal: Goal):
+        """A certificate for ``objects`` built from one for a prefix of them, or None."""
+        prefix = next((k for k in range(len(objects) - 1, 0, -1) if objects[:k] in self._solved), None)
+        if prefix is None:
+            return None
+        old_chain = build_chain(objects[:prefix])
+        chain = build_chain(objects)
+        new_joints = [j for j in chain.joint_order if j not in old_chain.joint_order]
+        if len(new_joints) > 1:
+            return None  # a grid over several new joints is not worth it; RRT-Connect decides
+        model = CollisionModel(chain)
+        steps = model.motion_steps(FINE_RESOLUTION)
+        old_path = [dict(zip(old_chain.joint_order, state, strict=True)) for state in self._solved[objects[:prefix]]]
+        for value in _parking_values(chain, new_joints):
+            rows = [{**old_path[0], **{j: 0.0 for j in new_joints}}]
+            rows += [{**state, **{j: value for j in new_joints}} for state in old_path]
+            path = np.array([[row[j] for j in chain.joint_order] for row in rows])
+            if not goal.is_reached(chain.state_dict(path[-1])):
+                return None
+            self.checks += len(path)
+            if all(model.check_motion(a, b, steps) for a, b in zip(path[:-1], path[1:], strict=True)):
+                return tuple(tuple(float(v) for v in row) for row in path)
+        return None
+
+    def certify(self, objects: Sequence[PuzzleObject], goal: Goal, path, *, budget_scale: float = 1.0):
+        """A certificate that holds at :data:`FINE_RESOLUTION`: ``path`` itself when it does,
+        else a path planned again at that resolution (a path planned coarsely can clip a
+        corner between two checked states). Returns None when none is found."""
+        if not verify_certificate(build_chain(objects), path, goal):
+            return tuple(path)
+        fine = OmplValidator(self.rng, self.budget, FINE_RESOLUTION)
+        result = fine.solve(objects, goal, budget_scale=budget_scale)
+        self.checks += fine.checks
+        if result.solved and not verify_certificate(build_chain(objects), result.path, goal):
+            return result.path
+        return None
+
+
+def _parking_values(chain, new_joints: list[str]) -> list[float]:
+    """Where to park a new joint before replaying: its limits, 45 degree steps, then a grid."""
+    if not new_joints:
+        return [0.0]
+    joint = chain.joint(new_joints[0])
+    values = [joint.lower, joint.upper]
+    if joint.type.value == "revolute":
+        values += [k * np.pi / 4 for k in range(-8, 9) if joint.lower <= k * np.pi / 4 <= joint.upper]
+    values += list(np.linspace(joint.lower, joint.upper, EXTENSION_GRID))
+    unique: list[float] = []
+    for v in values:
+        if all(abs(v - u) > 1e-9 for u in unique):
+            unique.append(float(v))
+    return unique
 
     def certify(self, objects: Sequence[PuzzleObject], goal: Goal, path, *, budget_scale: float = 1.0):
         """A certificate that holds at :data:`FINE_RESOLUTION`: ``path`` itself when it does,
