@@ -12,6 +12,9 @@ from phyrogen_core.export import chain_to_urdf
 
 PENETRATION = 1e-3
 """PyBullet reports contact with margins; deeper than this counts as a real collision."""
+QUERY_DISTANCE = 0.01
+"""getClosestPoints at distance 0 misses deep penetrations between multi-shape links
+(seen with PyBullet 3.2.7), so we ask with a small positive distance and read the depth."""
 
 
 class PyBulletScene:
@@ -50,7 +53,8 @@ class PyBulletScene:
             for b in links[i + 1:]:
                 if self.chain.link(a).object_name == self.chain.link(b).object_name:
                     continue
-                points = pb.getClosestPoints(self.body, self.body, 0.0, self.link_index[a], self.link_index[b],
+                points = pb.getClosestPoints(self.body, self.body, QUERY_DISTANCE, self.link_index[a],
+                                             self.link_index[b],
                                              physicsClientId=self.client)
                 for point in points:
                     deepest = max(deepest, -point[8])
