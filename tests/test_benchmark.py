@@ -1,0 +1,120 @@
+"""Benchmark output: OMPL log -> SQLite database (OMPL's reader) -> queries, summary, plots, solutions."""
+
+from __future__ import annotations
+
+import json
+import math
+import sqlite3
+
+import pytest
+
+from solver.benchmark import (
+    PAPER_TIME_LIMITS,
+    PuzzleEntry,
+    RunRecord,
+    build_database,
+    estimate_seconds,
+    get_profile,
+    make_jobs,
+    write_log,
+)
+from solver.plots import curves, plot_fig4, summary_markdown, summary_rows
+
+
+def _record(planner: str, run: int, solved: bool, first: float | None, cost: int | None) -> RunRecord:
+    progress = ((0.0, math.inf, 0), (0.5, float(cost + 2) if solved else math.inf, 10),
+                (1.0, float(cost) if solved else math.inf, 20))
+    return RunRecord(planner, "toy_1", run, 100 + run, 1.0, solved, "Exact solution" if solved else "Timeout",
+                     1.0, first, cost, 2.5 if solved else None, 20, 0, progress)
+
+
+@pytest.fixture()
+def database(tmp_path):
+    records = [_record("LA-RRT", 0, True, 0.1, 2), _record("LA-RRT", 1, True, 0.3, 4),
+               _record("RRT*", 0, True, 0.6, 9), _record("RRT*", 1, False, None, None)]
+    log = tmp_path / "toy_1.log"
+    write_log(log, "toy_1", records, ["LA-RRT", "RRT*"], 1.0, 2, 7, 4.2, "toy setup")
+    db = tmp_path / "bench.db"
+    build_database(db, [log])
+    return db
+
+
+def test_log_round_trips_through_ompl_database(database):
+    with sqlite3.connect(database) as db:
+        (name, limit, runcount, seed), = db.execute("SELECT name, timelimit, runcount, seed FROM experiments")
+        assert (name, limit, runcount, seed) == ("toy_1", 1.0, 2, "7")
+        planners = {n for (n,) in db.execute("SELECT name FROM plannerConfigs")}
+        assert planners == {"LA-RRT", "RRT*"}
+        rows = db.execute("""SELECT plannerConfigs.name, solved, status, action_cost, time_to_first_solution, seed
+                             FROM runs JOIN plannerConfigs ON runs.plannerid = plannerConfigs.id
+                             ORDER BY plannerConfigs.name, seed""").fetchall()
+        assert rows == [("LA-RRT", 1, 6, 2, 0.1, 100), ("LA-RRT", 1, 6, 4, 0.3, 101),
+                        ("RRT*", 1, 6, 9, 0.6, 100), ("RRT*", 0, 4, None, None, 101)]
+        statuses = dict(db.execute("SELECT value, description FROM enums WHERE name = 'status'").fetchall())
+        assert statuses[6] == "Exact solution" and statuses[4] == "Timeout"
+        progress = db.execute("SELECT time, best_cost, iterations FROM progress ORDER BY runid, time").fetchall()
+        assert len(progress) == 12
+        assert progress[:3] == [(0.0, None, 0), (0.5, 4.0, 10), (1.0, 2.0, 20)]  # inf is stored as NULL
+        # computeViews ran: Planner Arena's views exist
+        views = {n for (n,) in db.execute("SELECT name FROM sqlite_master WHERE type = 'view'")}
+        assert {"bestPlannerConfigs", "bestPlannerConfigsPerExperiment"} <= views
+
+
+def test_summary_and_curves_from_the_database(database, tmp_path):
+    rows = {r.planner: r for r in summary_rows(database)}
+    assert rows["LA-RRT"].success == 1.0 and rows["LA-RRT"].median_first_solution == pytest.approx(0.2)
+    assert rows["LA-RRT"].median_action_cost == 3
+    assert rows["RRT*"].success == 0.5 and rows["RRT*"].median_action_cost == 9
+    text = summary_markdown(list(rows.values()))
+    assert "| toy_1 | 1 | 100 / 0.20 / 3 | 50 / 0.60 / 9 |" in text
+    times, success, cost = curves(database, "toy_1", "LA-RRT", points=11)
+    assert success[0] == 0 and success[-1] == 1.0
+    assert cost[-1] == 3 and cost[6] == 5 and math.isnan(cost[0])  # medians of (2, 4) and (4, 6)
+    figure = plot_fig4(database, tmp_path / "fig.png")
+    assert figure.stat().st_size > 1000
+
+
+def test_log_rejects_experiment_names_with_spaces(tmp_path):
+    with pytest.raises(ValueError, match="white space"):
+        write_log(tmp_path / "x.log", "two words", [], ["LA-RRT"], 1.0, 1, 0, 0.0, "")
+
+
+def test_profiles_and_jobs():
+    paper = get_profile("paper")
+    assert paper.runs == 100 and dict(paper.time_limits) == dict(PAPER_TIME_LIMITS)
+    assert PAPER_TIME_LIMITS["lockbox_random"] == 600 and PAPER_TIME_LIMITS["continuous_space"] == 20
+    with pytest.raises(ValueError, match="quick"):
+        get_profile("huge")
+    quick = get_profile("quick", runs=2, time_limit=0.5)
+    puzzles = [PuzzleEntry("rooms_1", "rooms", "/nowhere"), PuzzleEntry("grid_world_2", "grid_world", "/nowhere")]
+    jobs = make_jobs(puzzles, ["la_rrt", "bit_star"], quick, base_seed=3)
+    assert len(jobs) == 8 and {j.time_limit for j in jobs} == {0.5}
+    assert len({j.seed for j in jobs}) == 8
+    assert [j.seed for j in make_jobs(puzzles, ["la_rrt", "bit_star"], quick, base_seed=3)] == [j.seed for j in jobs]
+    # 100 runs x 4 planners x (40 + 1) s on two workers for one Simple Slider puzzle
+    one = [PuzzleEntry("simple_slider_1", "simple_slider", "/nowhere")]
+    assert estimate_seconds(one, ["la_rrt", "rrt_star", "lbt_rrt", "bit_star"], paper, 2, 1.0) == 8200
+
+
+@pytest.mark.slow
+def test_benchmark_end_to_end(tmp_path):
+    from phyrogen_core.export import write_puzzle
+    from solver.benchmark import SOLUTION_FILE, find_puzzles, run_benchmark
+    from solver.generation import generate_puzzle, versions
+    from solver.validation import verify_certificate
+
+    puzzle = generate_puzzle("simple_slider", 1)
+    folder = write_puzzle(puzzle, tmp_path / "puzzles", versions())
+    puzzles = find_puzzles(tmp_path / "puzzles")
+    assert [p.name for p in puzzles] == ["simple_slider_1"]
+    out = run_benchmark(puzzles, ["la_rrt", "rrt_star"], get_profile("quick", runs=2, time_limit=1.0),
+                        tmp_path / "bench", workers=2, progress=False)
+    assert (tmp_path / "bench" / "logs" / "simple_slider_1.log").is_file()
+    assert (tmp_path / "bench" / "fig4.png").is_file() and (tmp_path / "bench" / "summary.md").is_file()
+    rows = summary_rows(out.database)
+    assert {r.planner for r in rows} == {"LA-RRT", "RRT*"} and all(r.runs == 2 for r in rows)
+    assert next(r for r in rows if r.planner == "LA-RRT").success == 1.0
+    saved = json.loads((folder / SOLUTION_FILE).read_text())
+    assert saved["planner"] == "LA-RRT" and saved["action_cost"] == 2
+    assert saved["joint_order"] == list(puzzle.joint_order)
+    assert verify_certificate(puzzle.planning_chain, saved["path"], puzzle.goal) == []
