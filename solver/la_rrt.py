@@ -27,34 +27,55 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from .defragment import Defragmenter
 from .planning import (
+    PLANNING_RESOLUTION,
     AnytimeRecorder,
     PlanResult,
     in_goal,
+    path_is_valid,
     planning_steps,
     problem_factors,
     segment_points,
     warm_up,
 )
-from .validation import DEFAULT_RESOLUTION, Problem
+from .validation import FINE_RESOLUTION, Problem
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2
+
+
+@njit(cache=True, nogil=True)
+def _nearest_l1(states: np.ndarray, size: int, query: np.ndarray, weights: np.ndarray) -> int:
+    """Index of the row of ``states[:size]`` nearest to ``query`` in weighted L1 (compiled:
+    the brute-force scan dominates a run once the trees hold thousands of nodes)."""
+    best, best_distance = 0, np.inf
+    for i in range(size):
+        distance = 0.0
+        for j in range(query.shape[0]):
+            distance += weights[j] * abs(states[i, j] - query[j])
+            if distance >= best_distance:
+                break
+        if distance < best_distance:
+            best, best_distance = i, distance
+    return best
 
 
 @dataclass(frozen=True)
 class LaRrtSettings:
     """Tuning of LA-RRT; the defaults were chosen on the paper's 24 puzzles."""
 
-    range_fraction: float = 0.1
+    range_fraction: float = 0.05
     """Extension budget as a fraction of the weighted L1 extent of the space."""
     goal_root_probability: float = 0.05
     """Chance per iteration of adding one more goal state as a root of the goal tree."""
     goal_sample_attempts: int = 50
     """Goal-region samples tried per new goal root before giving up for this iteration."""
-    resolution: float = DEFAULT_RESOLUTION
+    resolution: float = PLANNING_RESOLUTION
     """Metres any collision point may move between two checked states while planning."""
+    single_factor_probability: float = 0.8
+    """Chance that an extension moves one random factor only, instead of walking the whole staircase."""
     advance_when_blocked: bool = False
     """Keep the valid part of a blocked move (so trees creep along obstacles into narrow passages)."""
     defragment_share: float = 0.5
@@ -70,6 +91,8 @@ class LaRrtSettings:
             raise ValueError(f"goal_sample_attempts must be at least 1, got {self.goal_sample_attempts!r}")
         if not self.resolution > 0:
             raise ValueError(f"resolution must be positive metres, got {self.resolution!r}")
+        if not 0 <= self.single_factor_probability <= 1:
+            raise ValueError(f"single_factor_probability must be in [0, 1], got {self.single_factor_probability!r}")
         if not 0 < self.defragment_share <= 1:
             raise ValueError(f"defragment_share must be in (0, 1], got {self.defragment_share!r}")
 
@@ -93,7 +116,7 @@ class _Tree:
         return self.size - 1
 
     def nearest(self, state: np.ndarray) -> int:
-        return int(np.argmin(np.abs(self.states[: self.size] - state) @ self.weights))
+        return int(_nearest_l1(self.states, self.size, state, self.weights))
 
     def branch(self, node: int) -> list[np.ndarray]:
         """States from the node's root to the node."""
@@ -118,6 +141,7 @@ class LaRrt:
         # Distances in metres of motion: a radian of a long bar counts as far as its tip travels.
         self.weights = self.model.joint_reach()
         self.range = self.settings.range_fraction * float(self.weights @ (problem.upper - problem.lower))
+        self.fine_steps = self.model.motion_steps(FINE_RESOLUTION)
         self.defragmenter = Defragmenter(problem, self.factors, self.steps)
         dimension = len(problem.start)
         self.start_tree = _Tree(dimension, self.weights)
@@ -141,12 +165,15 @@ class LaRrt:
         return False
 
     # -- extension ---------------------------------------------------------
-    def _staircase(self, tree: _Tree, node: int, target: np.ndarray, budget: float) -> tuple[int, int]:
-        """Move toward ``target`` one factor at a time (random order) within ``budget``.
+    def _staircase(self, tree: _Tree, node: int, target: np.ndarray, budget: float,
+                   single: bool = False) -> tuple[int, int]:
+        """Move toward ``target`` one factor at a time (random order) within ``budget``;
+        only the first factor of that order when ``single``.
 
         Returns (status, last node added or ``node``)."""
         current = tree.states[node].copy()
-        for f in self.rng.permutation(len(self.columns)):
+        order = self.rng.permutation(len(self.columns))
+        for f in order[:1] if single else order:
             columns = self.columns[f]
             delta = target[columns] - current[columns]
             distance = float(np.abs(delta) @ self.weights[columns])
@@ -200,7 +227,8 @@ class LaRrt:
                 continue
             sample = self._uniform()
             near = growing.nearest(sample)
-            _, new = self._staircase(growing, near, sample, self.range)
+            single = self.rng.random() < self.settings.single_factor_probability
+            _, new = self._staircase(growing, near, sample, self.range, single)
             if new != near:
                 target = growing.states[new]
                 status, reached = self._staircase(other, other.nearest(target), target, math.inf)
@@ -211,7 +239,10 @@ class LaRrt:
                     if not recorder.has_solution or \
                             self.defragment_seconds < self.settings.defragment_share * recorder.elapsed():
                         began = recorder.elapsed()
-                        recorder.offer(self.defragmenter.run(raw, recorder.expired))
+                        better = self.defragmenter.run(raw, recorder.expired)
+                        # Checked at fine resolution now, so that the final check cannot reject it.
+                        if recorder.improves(better) and path_is_valid(self.model, better, self.fine_steps):
+                            recorder.offer(better)
                         self.defragment_seconds += recorder.elapsed() - began
             growing, other = other, growing
         return recorder.result(self.iterations)

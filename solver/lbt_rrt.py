@@ -29,8 +29,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .planning import AnytimeRecorder, PlanResult, in_goal, planning_steps, problem_factors, warm_up
-from .validation import DEFAULT_RESOLUTION, Problem
+from .planning import (
+    PLANNING_RESOLUTION,
+    AnytimeRecorder,
+    PlanResult,
+    in_goal,
+    planning_steps,
+    problem_factors,
+    warm_up,
+)
+from .validation import Problem
 
 
 @dataclass(frozen=True)
@@ -41,7 +49,7 @@ class LbtRrtSettings:
     range_fraction: float = 0.2
     """Steering range as a fraction of the space's largest (Euclidean) extent."""
     goal_bias: float = 0.05
-    resolution: float = DEFAULT_RESOLUTION
+    resolution: float = PLANNING_RESOLUTION
 
     def __post_init__(self) -> None:
         if self.epsilon < 0:

@@ -24,9 +24,14 @@ from phyrogen_core.puzzle import Goal
 
 from .actions import count_actions
 from .collision import CollisionModel
-from .validation import DEFAULT_RESOLUTION, FINE_RESOLUTION, Problem
+from .validation import FINE_RESOLUTION, Problem
 
 Path = tuple[tuple[float, ...], ...]
+
+PLANNING_RESOLUTION = 0.01
+"""Metres any collision point may move between two states checked while planning, for every
+planner alike. At 0.02, diagonal RRT* edges sometimes clipped a corner that the final
+fine-resolution check (:data:`~solver.validation.FINE_RESOLUTION`) then caught."""
 
 
 def problem_for_chain(chain: KinematicChain, goal: Goal) -> Problem:
@@ -163,6 +168,10 @@ class AnytimeRecorder:
     def expired(self) -> bool:
         return self.elapsed() >= self.time_limit
 
+    def improves(self, path: Sequence[Sequence[float]]) -> bool:
+        """Whether ``path`` would need fewer actions than the best so far (no other check)."""
+        return count_actions(np.asarray(path, dtype=float), self.factors) < self.best_cost
+
     def offer(self, path: Sequence[Sequence[float]]) -> bool:
         """Consider a solution path (valid at planning resolution); True when it became the new best."""
         states = np.asarray(path, dtype=float)
@@ -205,7 +214,7 @@ class AnytimeRecorder:
                           kept[-1][0] if solved else None)
 
 
-def planning_steps(problem: Problem, resolution: float = DEFAULT_RESOLUTION) -> np.ndarray:
+def planning_steps(problem: Problem, resolution: float = PLANNING_RESOLUTION) -> np.ndarray:
     """Per-joint steps for collision checks while planning (metres of motion of any point)."""
     return problem.model.motion_steps(resolution)
 

@@ -1,0 +1,84 @@
+"""Planners: the action count, defragmentation, and that every planner returns valid paths."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from solver.actions import count_actions
+from solver.defragment import Defragmenter
+from solver.planners import PLANNERS, get_planner, run_seed
+from solver.planning import chain_path, in_goal, problem_factors, problem_for_chain
+from solver.validation import verify_certificate
+
+FACTORS = {"a": (0,), "b": (1,), "c": (2, 3)}
+
+
+def test_action_count_of_hand_made_paths():
+    still = [[0, 0, 0, 0], [0, 0, 0, 0]]
+    assert count_actions(still, FACTORS) == 0
+    # a, a (one action), b, then c's two joints in one move (one action), then a again
+    path = [[0, 0, 0, 0], [1, 0, 0, 0], [2, 0, 0, 0], [2, 1, 0, 0], [2, 1, 1, 1], [3, 1, 1, 1]]
+    assert count_actions(path, FACTORS) == 4
+    # c moving one joint then the other is still one action; a zero-length step breaks nothing
+    assert count_actions([[0, 0, 0, 0], [0, 0, 1, 0], [0, 0, 1, 0], [0, 0, 1, 1]], FACTORS) == 1
+
+
+def test_a_diagonal_segment_counts_one_action_per_object():
+    assert count_actions([[0, 0, 0, 0], [1, 1, 1, 0]], FACTORS) == 3
+    assert count_actions([[0, 0, 0, 0], [1, 1, 0, 0], [1, 2, 0, 0]], FACTORS) == 2  # a, b | b
+
+
+def test_unknown_planner_names_the_valid_ones():
+    with pytest.raises(ValueError, match="la_rrt"):
+        get_planner("prm")
+    assert list(PLANNERS) == ["la_rrt", "rrt_star", "lbt_rrt", "bit_star"]
+
+
+def test_run_seeds_are_stable_and_distinct():
+    assert run_seed("la_rrt", "simple_slider_1", 0) == run_seed("la_rrt", "simple_slider_1", 0)
+    seeds = {run_seed(p, "simple_slider_1", r) for p in PLANNERS for r in range(10)}
+    assert len(seeds) == 40
+
+
+@pytest.fixture(scope="module")
+def slider():
+    from solver.generation import generate_puzzle
+
+    puzzle = generate_puzzle("simple_slider", 1)
+    return puzzle, problem_for_chain(puzzle.planning_chain, puzzle.goal)
+
+
+def test_defragmenting_a_fragmented_path_leaves_two_actions(slider):
+    puzzle, problem = slider
+    factors = problem_factors(problem)
+    # Target (column 0) and blocker (column 1) take turns: 6 actions, every segment valid.
+    fragmented = np.array([[0, 0], [0, 1], [0.3, 1], [0.3, 0.99], [0.6, 0.99], [0.6, 1], [1, 1]], dtype=float)
+    assert verify_certificate(puzzle.planning_chain, chain_path(problem, fragmented), puzzle.goal) == []
+    assert count_actions(fragmented, factors) == 6
+    defragmenter = Defragmenter(problem, factors, problem.model.motion_steps(0.02))
+    better = defragmenter.run(fragmented)
+    # Simple Slider 1: move the blocker out of the way, then the target: 2 actions, no fewer.
+    assert count_actions(better, factors) == 2
+    assert in_goal(problem, better[-1])
+    assert verify_certificate(puzzle.planning_chain, chain_path(problem, better), puzzle.goal) == []
+
+
+@pytest.mark.parametrize("name", list(PLANNERS))
+def test_every_planner_returns_a_valid_path_at_fine_resolution(slider, name):
+    puzzle, problem = slider
+    result = get_planner(name).plan(problem, time_limit=1.5, seed=3, progress_interval=0.1)
+    assert result.solved, f"{name} found no path on simple_slider_1 in 1.5 s"
+    path = chain_path(problem, result.path)
+    assert verify_certificate(puzzle.planning_chain, path, puzzle.goal) == []
+    assert result.action_cost == count_actions(path, puzzle.planning_chain.factors)
+    assert 0 <= result.first_solution_time <= result.time
+    costs = [p.best_cost for p in result.progress]
+    assert costs == sorted(costs, reverse=True)  # the best cost never gets worse
+    assert costs[-1] == result.action_cost
+
+
+def test_la_rrt_finds_the_fewest_actions(slider):
+    _, problem = slider
+    result = get_planner("la_rrt").plan(problem, time_limit=1.0, seed=11)
+    assert result.action_cost == 2
