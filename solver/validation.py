@@ -267,19 +267,6 @@ def _parking_values(chain, new_joints: list[str]) -> list[float]:
             unique.append(float(v))
     return unique
 
-    def certify(self, objects: Sequence[PuzzleObject], goal: Goal, path, *, budget_scale: float = 1.0):
-        """A certificate that holds at :data:`FINE_RESOLUTION`: ``path`` itself when it does,
-        else a path planned again at that resolution (a path planned coarsely can clip a
-        corner between two checked states). Returns None when none is found."""
-        if not verify_certificate(build_chain(objects), path, goal):
-            return tuple(path)
-        fine = OmplValidator(self.rng, self.budget, FINE_RESOLUTION)
-        result = fine.solve(objects, goal, budget_scale=budget_scale)
-        self.checks += fine.checks
-        if result.solved and not verify_certificate(build_chain(objects), result.path, goal):
-            return result.path
-        return None
-
 
 def densify(path, steps: np.ndarray) -> np.ndarray:
     """All states along a piecewise-linear path with at most ``steps[j]`` per joint between rows."""
