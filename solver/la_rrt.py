@@ -38,7 +38,6 @@ from .planning import (
     path_is_valid,
     planning_steps,
     problem_factors,
-    segment_points,
     warm_up,
 )
 from .validation import FINE_RESOLUTION, Problem
@@ -76,8 +75,6 @@ class LaRrtSettings:
     """Metres any collision point may move between two checked states while planning."""
     single_factor_probability: float = 0.8
     """Chance that an extension moves one random factor only, instead of walking the whole staircase."""
-    advance_when_blocked: bool = False
-    """Keep the valid part of a blocked move (so trees creep along obstacles into narrow passages)."""
     defragment_share: float = 0.5
     """Largest share of the run time spent defragmenting; connections found while
     over it are dropped undefragmented (the first one is always defragmented)."""
@@ -183,8 +180,6 @@ class LaRrt:
             partial = distance > budget
             following[columns] = current[columns] + delta * (budget / distance) if partial else target[columns]
             if not self.model.check_motion(current, following, self.steps):
-                if self.settings.advance_when_blocked:
-                    node = self._advance(tree, node, current, following)
                 return _TRAPPED, node
             node = tree.add(following, node)
             current = following
@@ -192,15 +187,6 @@ class LaRrt:
                 return _ADVANCED, node
             budget -= distance
         return _REACHED, node
-
-    def _advance(self, tree: _Tree, node: int, current: np.ndarray, blocked: np.ndarray) -> int:
-        """Add the last valid state of a blocked move (one step short of the contact), if any."""
-        points, _ = segment_points(np.array([current, blocked]), self.steps)
-        valid = self.model.check_prepared(points)
-        first_bad = int(np.argmin(valid))
-        if first_bad < 2:
-            return node
-        return tree.add(points[first_bad - 2], node)
 
     def _path(self, tree: _Tree, node: int, other: _Tree, other_node: int) -> np.ndarray:
         a = tree.branch(node)
