@@ -20,10 +20,9 @@ from collections.abc import Callable
 import numpy as np
 from ompl import base as ob
 from ompl import geometric as og
-from ompl import util as ou
 
 from .planning import AnytimeRecorder, PlanResult, planning_steps, problem_factors, warm_up
-from .validation import Problem, _GoalRegion, _MotionValidator
+from .validation import Problem, _GoalRegion, ompl_setup
 
 
 class ObjectsMovedObjective(ob.OptimizationObjective):
@@ -58,40 +57,11 @@ class _BoundedGoalRegion(_GoalRegion):
 
 def _setup(problem: Problem, rng: np.random.Generator):
     """SpaceInformation and ProblemDefinition for ``problem`` with the action-bound objective."""
-    ou.setLogLevel(ou.LogLevel.LOG_NONE)
-    model = problem.model
-    dimension = len(problem.start)
-    space = ob.RealVectorStateSpace(dimension)
-    bounds = ob.RealVectorBounds(dimension)
-    for i in range(dimension):
-        bounds.setLow(i, float(problem.lower[i]))
-        bounds.setHigh(i, float(problem.upper[i]))
-    space.setBounds(bounds)
-    si = ob.SpaceInformation(space)
-    validator = _MotionValidator(si, model, planning_steps(problem))
-    buffer = np.empty((1, dimension))
-    row = buffer[0]
-
-    def state_valid(s) -> bool:
-        for i in range(dimension):
-            row[i] = s[i]
-        return bool(model.check_prepared(buffer)[0])
-
-    si.setStateValidityChecker(state_valid)
-    si.setMotionValidator(validator)
-    si.setup()
-    pdef = ob.ProblemDefinition(si)
-    start = si.allocState()
-    for i in range(dimension):
-        start[i] = float(problem.start[i])
-    pdef.addStartState(start)
-    goal = _BoundedGoalRegion(si, problem.goal_columns, problem.lower, problem.upper, problem.tolerance, rng)
-    pdef.setGoal(goal)
+    si, pdef, validator, keep = ompl_setup(problem, planning_steps(problem), _BoundedGoalRegion, rng)
     objective = ObjectsMovedObjective(si, [list(c) for c in problem_factors(problem).values()])
     pdef.setOptimizationObjective(objective)
     # Python objects OMPL holds only by reference must outlive the run.
-    keep = (space, validator, state_valid, start, goal, objective)
-    return si, pdef, keep
+    return si, pdef, (keep, validator, objective)
 
 
 def _solution(pdef, dimension: int) -> list[list[float]]:

@@ -114,13 +114,16 @@ def make_problem(objects: Sequence[PuzzleObject], goal: Goal) -> Problem | None:
     return Problem(model, start, columns, lower, upper, goal.tolerance)
 
 
-def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
-                resolution: float = DEFAULT_RESOLUTION) -> SolveResult:
-    """RRT-Connect until a path is found or ``budget`` collision queries are spent."""
+def ompl_setup(problem: Problem, steps: np.ndarray, goal_type: type, rng: np.random.Generator):
+    """OMPL's SpaceInformation and ProblemDefinition for ``problem`` on our collision model.
+
+    Motions are checked in one compiled call each (``steps`` per joint); the
+    returned motion validator counts motion and single-state checks in
+    ``calls``. ``goal_type`` is :class:`_GoalRegion` or a subclass. The last
+    item holds Python objects OMPL references but does not own: keep it alive.
+    """
     ou.setLogLevel(ou.LogLevel.LOG_NONE)  # invalid goal samples are expected, not errors
     model = problem.model
-    if not model.is_valid(problem.start):
-        return SolveResult(False)
     dimension = len(problem.start)
     space = ob.RealVectorStateSpace(dimension)
     bounds = ob.RealVectorBounds(dimension)
@@ -129,8 +132,7 @@ def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
         bounds.setHigh(i, float(problem.upper[i]))
     space.setBounds(bounds)
     si = ob.SpaceInformation(space)
-    validator = _MotionValidator(si, model, model.motion_steps(resolution))
-
+    validator = _MotionValidator(si, model, steps)
     buffer = np.empty((1, dimension))
     row = buffer[0]
 
@@ -149,8 +151,18 @@ def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
     for i in range(dimension):
         start[i] = float(problem.start[i])
     pdef.addStartState(start)
-    goal = _GoalRegion(si, problem.goal_columns, problem.lower, problem.upper, problem.tolerance, rng)
+    goal = goal_type(si, problem.goal_columns, problem.lower, problem.upper, problem.tolerance, rng)
     pdef.setGoal(goal)
+    return si, pdef, validator, (space, state_valid, start, goal)
+
+
+def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
+                resolution: float = DEFAULT_RESOLUTION) -> SolveResult:
+    """RRT-Connect until a path is found or ``budget`` collision queries are spent."""
+    if not problem.model.is_valid(problem.start):
+        return SolveResult(False)
+    dimension = len(problem.start)
+    si, pdef, validator, _keep = ompl_setup(problem, problem.model.motion_steps(resolution), _GoalRegion, rng)
     planner = og.RRTConnect(si)
     planner.setProblemDefinition(pdef)
     planner.setup()
