@@ -60,7 +60,7 @@ def puzzle_metadata(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -
             for o in puzzle.objects
         ],
         "dependency_graph": {
-            "nodes": [o.name for o in puzzle.objects],
+            "nodes": [o.name for o in puzzle.objects if o.is_movable],  # scenery blocks nothing
             "edges": [[str(blocker), str(blocked)] for blocker, blocked in puzzle.dependencies],
         },
         "certificate": [[_float(v) for v in state] for state in puzzle.certificate],
