@@ -61,9 +61,8 @@ def _planar(matrix: np.ndarray, what: str) -> tuple[float, float, float, float]:
 
 def _outlines_of_geometry(geometry, link_index: int, obj: str, frame: np.ndarray) -> list[_Outline]:
     """Outlines of one collision geometry; ``frame`` is the link frame's z-pose at rest (4x4)."""
-    m = frame @ pose_matrix(geometry.origin)
-    x, y, z, yaw = _planar(m, f"collision geometry of link #{link_index}")
     # Outline vertices are expressed in the link frame (x/y), the z interval in the world.
+    z = _planar(frame @ pose_matrix(geometry.origin), f"collision geometry of link #{link_index}")[2]
     rel = pose_matrix(geometry.origin)
     ox, oy, _, oyaw = _planar(rel, f"collision geometry origin of link #{link_index}")
     c, s = math.cos(oyaw), math.sin(oyaw)
