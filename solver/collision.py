@@ -279,3 +279,19 @@ class CollisionModel:
     def motion_steps(self, resolution: float) -> np.ndarray:
         """Per-joint step sizes so that no collision point moves more than ``resolution``."""
         return resolution / self.joint_reach()
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel on a two-box model."""
+    from phyrogen_core.chain import Geometry
+    from phyrogen_core.geometry import Pose
+    from phyrogen_core.objects import Motion, PuzzleObject, build_chain
+
+    geometry = (Geometry(Box((1.0, 1.0, 1.0))),)
+    objects = [PuzzleObject(f"obj_0{i}", Motion.PRISMATIC, Pose.planar(2.0 * i, 0.0, 0.5), geometry, geometry,
+                            limits=((0.0, 1.0),)) for i in range(2)]
+    model = CollisionModel(build_chain(objects))
+    states = np.zeros((2, 2))
+    model.check(states)
+    model.check_motion(states[0], states[1] + 1.0, np.full(2, 0.1))
+    model.colliding_objects(states)

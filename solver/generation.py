@@ -27,7 +27,7 @@ from .actions import count_actions
 from .validation import OmplValidator, dependency_graph
 
 _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.generators",
-            "phyrogen_core.export", "solver.validation", "solver._kernels"]
+            "phyrogen_core.export", "solver.validation", "solver._server_warmup"]
 
 
 def seed_ompl(generator: str, seed: int) -> None:
@@ -115,6 +115,16 @@ def _run_job(job: Job, out_root: str | None) -> Report:
                       error=f"{type(exc).__name__}: {exc}\n{detail}")
 
 
+def _cost_hint(job: Job) -> float:
+    """The generator's validation budget scale for this job (1 when it cannot be told)."""
+    try:
+        spec = get_generator(job.generator)
+        params = job.params if job.params is not None else spec.parse_params(job.overrides)
+        return float(spec.build(job.seed, params).budget_scale)
+    except (ParameterError, GenerationError, ValueError):
+        return 1.0
+
+
 def _context():
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(_PRELOAD)
@@ -127,7 +137,12 @@ def run_jobs(jobs: Iterable[Job], out_root: Path | None = None, workers: int = 2
     jobs = list(jobs)
     root = None if out_root is None else str(out_root)
     with _context().Pool(processes=max(1, min(workers, len(jobs) or 1)), maxtasksperchild=1) as pool:
-        results = [pool.apply_async(_run_job, (job, root)) for job in jobs]
+        # Start the jobs with the largest search budgets first, so that no long job is left
+        # running alone at the end; reports still come back in the order of ``jobs``.
+        started = {}
+        for index in sorted(range(len(jobs)), key=lambda i: -_cost_hint(jobs[i])):
+            started[index] = pool.apply_async(_run_job, (jobs[index], root))
+        results = [started[i] for i in range(len(jobs))]
         for result in results:
             report = result.get()
             if on_done is not None:
