@@ -13,10 +13,10 @@ import math
 
 import numpy as np
 import pytest
+from maker_support import run
 
 from phyrogen_core.chain import GREEN, RED, Role
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
-from phyrogen_core.maker import MakerResult, SolveResult, make
 from phyrogen_core.objects import Motion, PuzzleObject, build_chain
 from phyrogen_core.registry import ParameterError, get_generator
 from solver.collision import CollisionModel
@@ -25,24 +25,6 @@ NAMES = ("simple_slider", "grid_world", "lockbox_random")
 SECTIONS = ("Mechanism:", "Randomization:", "Goal:", "Difficulty parameters:", "Departures:")
 SEEDS = (1, 2, 3, 4)
 SWEEP_SAMPLES = 1201
-
-
-class AcceptAll:
-    """A validator that calls every candidate necessary and solvable."""
-
-    def solve(self, objects, goal, *, budget_scale=1.0):
-        # The Maker's FixJoint makes the new object fixed: report that as unsolvable.
-        return SolveResult(all(o.is_movable for o in objects), ((0.0,),))
-
-    def blocked_by(self, objects, new_object, path):
-        return []
-
-
-def run(name: str, seed: int, **overrides) -> MakerResult:
-    spec = get_generator(name)
-    params = spec.parse_params(overrides)
-    spec.check(seed, params)
-    return make(spec.build(seed, params), seed, AcceptAll(), name)
 
 
 class Sweeper:

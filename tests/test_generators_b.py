@@ -11,34 +11,16 @@ import math
 
 import numpy as np
 import pytest
+from maker_support import run
 
 from phyrogen_core.chain import Role
-from phyrogen_core.maker import MakerResult, SolveResult, make
+from phyrogen_core.maker import MakerResult
 from phyrogen_core.objects import Motion, build_chain
 from phyrogen_core.registry import ParameterError, get_generator
 from solver.collision import CollisionModel
 
 NAMES = ("continuous_space", "move_n_times", "rooms")
 SECTIONS = ("Mechanism:", "Randomization:", "Goal:", "Difficulty parameters:", "Departures:")
-
-
-class AcceptAll:
-    """A validator that calls every candidate necessary and solvable."""
-
-    def solve(self, objects, goal, *, budget_scale=1.0):
-        # FixJoint turns a movable object ("obj_..") fixed: report that as unsolvable.
-        fixed_mover = any(o.name.startswith("obj_") and not o.is_movable for o in objects)
-        return SolveResult(not fixed_mover, ((0.0,),))
-
-    def blocked_by(self, objects, new_object, path):
-        return []
-
-
-def run(name: str, seed: int, **overrides) -> MakerResult:
-    spec = get_generator(name)
-    params = spec.parse_params(overrides)
-    spec.check(seed, params)
-    return make(spec.build(seed, params), seed, AcceptAll(), name)
 
 
 def start_model(result: MakerResult) -> CollisionModel:
