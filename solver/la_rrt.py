@@ -73,8 +73,10 @@ class LaRrtSettings:
     """Goal-region samples tried per new goal root before giving up for this iteration."""
     resolution: float = PLANNING_RESOLUTION
     """Metres any collision point may move between two checked states while planning."""
-    single_factor_probability: float = 0.8
+    single_factor_probability: float = 0.5
     """Chance that an extension moves one random factor only, instead of walking the whole staircase."""
+    limit_probability: float = 0.1
+    """Chance per joint that a sample puts it at one of its limits instead of a uniform value."""
     defragment_share: float = 0.5
     """Largest share of the run time spent defragmenting; connections found while
     over it are dropped undefragmented (the first one is always defragmented)."""
@@ -90,6 +92,8 @@ class LaRrtSettings:
             raise ValueError(f"resolution must be positive metres, got {self.resolution!r}")
         if not 0 <= self.single_factor_probability <= 1:
             raise ValueError(f"single_factor_probability must be in [0, 1], got {self.single_factor_probability!r}")
+        if not 0 <= self.limit_probability <= 1:
+            raise ValueError(f"limit_probability must be in [0, 1], got {self.limit_probability!r}")
         if not 0 < self.defragment_share <= 1:
             raise ValueError(f"defragment_share must be in (0, 1], got {self.defragment_share!r}")
 
@@ -151,13 +155,34 @@ class LaRrt:
     def _uniform(self) -> np.ndarray:
         return self.problem.lower + (self.problem.upper - self.problem.lower) * self.rng.random(len(self.problem.start))
 
+    def _sample(self) -> np.ndarray:
+        """A uniform state whose joints each sit at a random one of their limits with
+        ``limit_probability``: passages in these puzzles tend to open at the limits
+        (a slider pulled all the way out, a door slid to its end)."""
+        state = self._uniform()
+        at_limit = self.rng.random(len(state)) < self.settings.limit_probability
+        high = self.rng.random(len(state)) < 0.5
+        state[at_limit] = np.where(high, self.problem.upper, self.problem.lower)[at_limit]
+        return state
+
     def _add_goal_root(self) -> bool:
-        for _ in range(self.settings.goal_sample_attempts):
-            state = self._uniform()
+        """Add one valid goal state as a new goal-tree root, if a batch of candidates holds one.
+
+        Uniform samples first; if none is valid, start-tree nodes with the
+        target moved to its goal. In a lockbox a uniform goal state is valid
+        only when every lock happens to be open (about 1 in 1e5), while a
+        start-tree node that has opened them projects straight into the goal.
+        """
+        count = self.settings.goal_sample_attempts
+        lower, upper = self.problem.lower, self.problem.upper
+        uniform = lower + (upper - lower) * self.rng.random((count, len(lower)))
+        projected = self.start_tree.states[self.rng.integers(0, self.start_tree.size, count)]
+        for candidates in (uniform, projected):
             for column, value in self.problem.goal_columns.items():
-                state[column] = value
-            if self.model.is_valid(state):
-                self.goal_tree.add(state, -1)
+                candidates[:, column] = value
+            valid = np.flatnonzero(self.model.check_prepared(candidates))
+            if len(valid):
+                self.goal_tree.add(candidates[valid[0]], -1)
                 return True
         return False
 
@@ -210,12 +235,12 @@ class LaRrt:
                 self._add_goal_root()
             recorder.sample(self.iterations)
             if self.goal_tree.size == 0:
-                continue
-            sample = self._uniform()
+                growing = self.start_tree  # grow it until a goal state is found
+            sample = self._sample()
             near = growing.nearest(sample)
             single = self.rng.random() < self.settings.single_factor_probability
             _, new = self._staircase(growing, near, sample, self.range, single)
-            if new != near:
+            if new != near and other.size > 0:
                 target = growing.states[new]
                 status, reached = self._staircase(other, other.nearest(target), target, math.inf)
                 if status == _REACHED:
@@ -230,7 +255,8 @@ class LaRrt:
                         if recorder.improves(better) and path_is_valid(self.model, better, self.fine_steps):
                             recorder.offer(better)
                         self.defragment_seconds += recorder.elapsed() - began
-            growing, other = other, growing
+            if self.goal_tree.size > 0:
+                growing, other = other, growing
         return recorder.result(self.iterations)
 
 
