@@ -167,7 +167,8 @@ class _Run:
             constraint = self.attach(link_index, tool_at_link)
             started = time.perf_counter()
             result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
-                            self.settings.follow, self.on_step, object_done, self.sim.puzzle_state)
+                            self.settings.follow, self.on_step, object_done, self.sim.puzzle_state,
+                            self.sim.closer_than)
             self.execution += time.perf_counter() - started
             pb.removeConstraint(constraint, physicsClientId=self.sim.client)
             if result.stop is Stop.DONE:
@@ -196,9 +197,9 @@ class _Run:
         point = (link_now @ np.array([*grasp.point, 1.0]))[:3]
         futures = [trajectory.state_at(t + dt) for dt in LOOKAHEAD_SECONDS]
 
-        def lookahead(pose: np.ndarray) -> list[np.ndarray]:
+        def lookahead(pose: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
             offset = inverse(link_now) @ pose
-            return [self.link_world(grasp.link, s) @ offset for s in futures]
+            return [(self.link_world(grasp.link, s) @ offset, s) for s in futures]
 
         here = self.sim.robot_state()[:2]
         solution = best_grasp_configuration(self.planner, point, lookahead, self.settings.ik, failed_base, here)

@@ -47,6 +47,11 @@ class FollowSettings:
     motor_force: float = 600.0
     integral_gain: float = 4.0
     """Per second: integral correction of the object's own joint error (grasp compliance, friction)."""
+    clearance: float = 0.006
+    """Metres: a robot link this close to the puzzle stops the motion (the base drives too, and
+    nothing else keeps it off the puzzle while it follows)."""
+    hold_steps: int = 60
+    """Steps the robot holds still, still grasping, before a release (so the object stops moving)."""
 
 
 class Stop(StrEnum):
@@ -54,6 +59,7 @@ class Stop(StrEnum):
     FLIP = "joint flip"
     SINGULAR = "low manipulability"
     LIMIT = "joint limit"
+    CONTACT = "near contact"
 
 
 @dataclass(frozen=True)
@@ -97,13 +103,16 @@ def time_trajectory(states: np.ndarray, grasp_positions: np.ndarray, revolute_co
 
 def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndarray], np.ndarray],
            start_time: float, settings: FollowSettings, on_step: Callable[[], None],
-           object_done: Callable[[], bool], object_state: Callable[[], np.ndarray]) -> FollowResult:
+           object_done: Callable[[], bool], object_state: Callable[[], np.ndarray],
+           too_close: Callable[[float], bool] = lambda clearance: False) -> FollowResult:
     """Track ``tool_pose_at(trajectory.state_at(t))`` from ``start_time`` to the end, stepping physics.
 
     ``on_step`` runs after every physics step (recording, contact checks);
     ``object_done`` says whether the object has reached its final state;
     ``object_state`` gives the puzzle's joint values now, whose lag behind
-    the trajectory is integrated into the commanded object state.
+    the trajectory is integrated into the commanded object state;
+    ``too_close(clearance)`` whether a robot link is that close to the puzzle.
+    Every stop ends with the robot held still for ``hold_steps``.
     """
     c = world.client
     joints = world.robot_joints
@@ -137,16 +146,31 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
         on_step()
         q_new = world.robot_state()
         if np.max(np.abs(q_new[arm] - q[arm])) > settings.flip_step:
-            return FollowResult(Stop.FLIP, t, steps)
+            return FollowResult(Stop.FLIP, t, steps + hold(world, q_new, settings.hold_steps, forces, on_step))
         q = q_new
         lower, upper = world.lower[arm], world.upper[arm]
         if np.any(q[arm] < lower + settings.limit_margin) or np.any(q[arm] > upper - settings.limit_margin):
-            return FollowResult(Stop.LIMIT, t, steps)
+            return FollowResult(Stop.LIMIT, t, steps + hold(world, q, settings.hold_steps, forces, on_step))
+        stop = None
         if manipulability(np.ascontiguousarray(jacobian[:, arm])) < settings.min_manipulability:
-            return FollowResult(Stop.SINGULAR, t, steps)
-        if t >= trajectory.duration and object_done():
-            break
-    return FollowResult(Stop.DONE, t, steps)
+            stop = Stop.SINGULAR
+        elif too_close(settings.clearance):
+            stop = Stop.CONTACT
+        elif t >= trajectory.duration and object_done():
+            stop = Stop.DONE
+        if stop is not None:
+            return FollowResult(stop, t, steps + hold(world, q, settings.hold_steps, forces, on_step))
+    return FollowResult(Stop.DONE, t, steps + hold(world, q, settings.hold_steps, forces, on_step))
+
+
+def hold(world: World, q: np.ndarray, steps: int, forces: list[float], on_step: Callable[[], None]) -> int:
+    """Hold the robot at ``q`` with zero velocity for ``steps`` physics steps."""
+    pb.setJointMotorControlArray(world.robot, world.robot_joints, pb.POSITION_CONTROL, targetPositions=q.tolist(),
+                                 targetVelocities=[0.0] * len(q), forces=forces, physicsClientId=world.client)
+    for _ in range(steps):
+        pb.stepSimulation(physicsClientId=world.client)
+        on_step()
+    return steps
 
 
 def drive_along(world: World, path: np.ndarray, on_step: Callable[[], None], max_step: float = 0.004,

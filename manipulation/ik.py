@@ -18,15 +18,23 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as pb
 
-from .linalg import manipulability
+from .linalg import damped_least_squares, manipulability
 from .robot import ARM_REST
 from .scene import World
 from .transforms import matrix, quaternion, rotation_error, tool_down
 
 POSITION_TOLERANCE = 1e-3
 ORIENTATION_TOLERANCE = 1e-2
+REFINE_STEPS = 8
+GRASP_CLEARANCE = 0.008
+"""Metres a grasp configuration (and its look-ahead) keeps from the puzzle: more than the
+follower's stopping clearance, so a fresh grasp is not stopped at once."""
 LIMIT_MARGIN = 0.08
 """Radians an IK answer must keep from every arm joint limit."""
+
+
+Future = tuple[np.ndarray, np.ndarray]
+"""A tool pose (4x4) the grasp must reach next, with the puzzle's joint values there."""
 
 
 @dataclass(frozen=True)
@@ -67,9 +75,29 @@ def solve_at(world: World, pose: np.ndarray, seed: Sequence[float], iterations: 
         position_error, angle_error = _pose_error(world, pose)
         if position_error < POSITION_TOLERANCE / 4 and angle_error < ORIENTATION_TOLERANCE / 4:
             break
+    q = _refine(world, pose, q)
     position_error, angle_error = _pose_error(world, pose)
     if position_error > POSITION_TOLERANCE or angle_error > ORIENTATION_TOLERANCE:
         return None
+    return q
+
+
+def _refine(world: World, pose: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Damped Newton steps on the full pose error, from an answer of PyBullet's IK.
+
+    With null-space arguments PyBullet's IK keeps pulling toward the rest
+    pose and stalls about a millimetre short; a few steps without that pull
+    close the gap (or show that the pose is out of reach)."""
+    lower, upper = world.lower, world.upper
+    for _ in range(REFINE_STEPS):
+        actual = matrix(*world.tool_pose())
+        error = np.concatenate([pose[:3, 3] - actual[:3, 3], rotation_error(pose[:3, :3], actual[:3, :3])])
+        if np.linalg.norm(error[:3]) < POSITION_TOLERANCE / 20 and \
+                np.linalg.norm(error[3:]) < ORIENTATION_TOLERANCE / 20:
+            break
+        step = damped_least_squares(np.ascontiguousarray(world.jacobian(q)), np.ones(len(q)), 0.01, error)
+        q = np.clip(q + step, lower, upper)
+        world.set_robot(q)
     return q
 
 
@@ -88,16 +116,17 @@ def arm_quality(world: World, q: np.ndarray) -> float:
 
 
 def best_grasp_configuration(world: World, point: np.ndarray,
-                             lookahead: Callable[[np.ndarray], Sequence[np.ndarray]] = lambda pose: (),
+                             lookahead: Callable[[np.ndarray], Sequence[Future]] = lambda pose: (),
                              settings: IkSettings = IkSettings(),
                              exclude_near: np.ndarray | None = None,
                              prefer_near: np.ndarray | None = None) -> IkSolution | None:
     """The best collision-free IK answer for a tool-down grasp at ``point`` over candidate base poses.
 
     ``lookahead(pose)`` gives the tool poses a grasp at ``pose`` must reach
-    next (the object's coming positions); a candidate that cannot follow them
-    by IK scores 0. ``exclude_near``: base (x, y) of the configuration that
-    just failed, so that a regrasp really changes the robot's posture.
+    next, each with the puzzle state there (the object's coming positions); a
+    candidate that cannot follow them by IK, clear of the puzzle, scores 0.
+    ``exclude_near``: base (x, y) of the configuration that just failed, so that a
+    regrasp really changes the robot's posture.
     ``prefer_near``: the base (x, y) now; candidates closest to it come first.
     """
     candidates = [(2 * math.pi * k / settings.directions, distance)
@@ -118,15 +147,19 @@ def best_grasp_configuration(world: World, point: np.ndarray,
         pose = tool_down(point, heading + math.pi)
         seed = np.array([base[0], base[1], heading, *ARM_REST])
         q = solve_at(world, pose, seed, settings.iterations)
-        if q is None or world.in_collision():
+        if q is None or world.in_collision(GRASP_CLEARANCE):
             continue
         score = arm_quality(world, q)
         current = q
-        for future in lookahead(pose):
+        now = world.puzzle_state()
+        for future_pose, future_puzzle in lookahead(pose):
             if score <= (best.score if best else 0.0):
                 break
-            current = solve_at(world, future, current, settings.iterations)
-            score = 0.0 if current is None else min(score, arm_quality(world, current))
+            world.set_puzzle(future_puzzle)
+            current = solve_at(world, future_pose, current, settings.iterations)
+            clear = current is not None and not world.in_collision(GRASP_CLEARANCE)
+            score = min(score, arm_quality(world, current)) if clear else 0.0
+        world.set_puzzle(now)
         if best is None or score > best.score:
             best = IkSolution(q, score)
     return best
