@@ -202,9 +202,13 @@ class _Run:
             return [(self.link_world(grasp.link, s) @ offset, s) for s in futures]
 
         here = self.sim.robot_state()[:2]
-        solution = best_grasp_configuration(self.planner, point, lookahead, self.settings.ik, failed_base, here)
-        if solution is None or solution.score <= 0:
-            solution = best_grasp_configuration(self.planner, point, lambda pose: [], self.settings.ik, None)
+        solution = None
+        # Shorter look-aheads only when no grasp can follow the object that far.
+        for count, exclude in ((len(futures), failed_base), (1, failed_base), (0, None)):
+            solution = best_grasp_configuration(self.planner, point, lambda pose, n=count: lookahead(pose)[:n],
+                                                self.settings.ik, exclude, here)
+            if solution is not None and solution.score > 0:
+                break
         if solution is None:
             raise ExecutionError(f"no collision-free IK solution at the grasp point of {grasp.link} "
                                  f"({np.round(point, 3).tolist()})")

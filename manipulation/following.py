@@ -34,8 +34,11 @@ class FollowSettings:
     angular_speed: float = 0.6
     """Radians per second of the object's rotation."""
     damping: float = 0.02
-    base_weight: float = 8.0
-    """How much costlier a base joint's motion is than an arm joint's."""
+    base_weight: float = 1e6
+    """How much costlier a base joint's motion is than an arm joint's. The default keeps the
+    base still while the arm follows: a drifting base (weight 8 was tried) crept into the puzzle,
+    since nothing in the control law keeps it clear. The base moves between grasps instead,
+    on collision-free BIT* paths."""
     gain: float = 12.0
     """Per second: proportional correction of the tool pose error."""
     flip_step: float = 0.02

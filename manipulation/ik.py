@@ -29,6 +29,8 @@ REFINE_STEPS = 8
 GRASP_CLEARANCE = 0.008
 """Metres a grasp configuration (and its look-ahead) keeps from the puzzle: more than the
 follower's stopping clearance, so a fresh grasp is not stopped at once."""
+EXCLUDE_RADIUS = 0.15
+"""Metres: a regrasp puts the base at least this far from where the failed grasp had it."""
 LIMIT_MARGIN = 0.08
 """Radians an IK answer must keep from every arm joint limit."""
 
@@ -39,9 +41,9 @@ Future = tuple[np.ndarray, np.ndarray]
 
 @dataclass(frozen=True)
 class IkSettings:
-    distances: tuple[float, ...] = (0.5, 0.65, 0.8)
+    distances: tuple[float, ...] = (0.45, 0.55, 0.65, 0.75, 0.85)
     """Metres from the grasp point to the base centre in the candidate rest poses."""
-    directions: int = 12
+    directions: int = 16
     """Candidate directions (evenly spaced) from the grasp point to the base."""
     iterations: int = 4
     good_enough: float = 0.06
@@ -55,12 +57,17 @@ class IkSolution:
     """The smallest arm manipulability over the grasp pose and the look-ahead poses."""
 
 
-def solve_at(world: World, pose: np.ndarray, seed: Sequence[float], iterations: int = 4) -> np.ndarray | None:
+def solve_at(world: World, pose: np.ndarray, seed: Sequence[float], iterations: int = 4,
+             fixed_base: bool = False) -> np.ndarray | None:
     """Joint values putting the tool at ``pose`` (4x4), starting from ``seed``; None if IK misses.
 
+    ``fixed_base``: the base joints keep the seed's values (as while following).
     Leaves the planning world's robot at the answer.
     """
-    lower, upper = world.lower, world.upper
+    lower, upper = world.lower.copy(), world.upper.copy()
+    if fixed_base:  # a sliver of range: PyBullet's IK hangs on a zero one
+        base = np.asarray(seed, dtype=float)[:3]
+        lower[:3], upper[:3] = base - 1e-6, base + 1e-6
     position, orientation = list(pose[:3, 3]), quaternion(pose)
     world.set_robot(seed)
     q = np.asarray(seed, dtype=float)
@@ -75,27 +82,30 @@ def solve_at(world: World, pose: np.ndarray, seed: Sequence[float], iterations: 
         position_error, angle_error = _pose_error(world, pose)
         if position_error < POSITION_TOLERANCE / 4 and angle_error < ORIENTATION_TOLERANCE / 4:
             break
-    q = _refine(world, pose, q)
+    weights = np.ones(len(q))
+    if fixed_base:
+        weights[:3] = 1e6
+    q = _refine(world, pose, q, lower, upper, weights)
     position_error, angle_error = _pose_error(world, pose)
     if position_error > POSITION_TOLERANCE or angle_error > ORIENTATION_TOLERANCE:
         return None
     return q
 
 
-def _refine(world: World, pose: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _refine(world: World, pose: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+            weights: np.ndarray) -> np.ndarray:
     """Damped Newton steps on the full pose error, from an answer of PyBullet's IK.
 
     With null-space arguments PyBullet's IK keeps pulling toward the rest
     pose and stalls about a millimetre short; a few steps without that pull
     close the gap (or show that the pose is out of reach)."""
-    lower, upper = world.lower, world.upper
     for _ in range(REFINE_STEPS):
         actual = matrix(*world.tool_pose())
         error = np.concatenate([pose[:3, 3] - actual[:3, 3], rotation_error(pose[:3, :3], actual[:3, :3])])
         if np.linalg.norm(error[:3]) < POSITION_TOLERANCE / 20 and \
                 np.linalg.norm(error[3:]) < ORIENTATION_TOLERANCE / 20:
             break
-        step = damped_least_squares(np.ascontiguousarray(world.jacobian(q)), np.ones(len(q)), 0.01, error)
+        step = damped_least_squares(np.ascontiguousarray(world.jacobian(q)), weights, 0.01, error)
         q = np.clip(q + step, lower, upper)
         world.set_robot(q)
     return q
@@ -140,14 +150,15 @@ def best_grasp_configuration(world: World, point: np.ndarray,
         if best is not None and best.score >= settings.good_enough:
             break
         angle, base = candidates[i][0], bases[i]
-        if exclude_near is not None and np.linalg.norm(base - exclude_near) < 0.15:
-            continue
         heading = math.remainder(angle + math.pi, 2 * math.pi)  # face the grasp point
         # At the rest pose the tool's x axis points back at the base: tool yaw = heading + pi.
         pose = tool_down(point, heading + math.pi)
         seed = np.array([base[0], base[1], heading, *ARM_REST])
         q = solve_at(world, pose, seed, settings.iterations)
         if q is None or world.in_collision(GRASP_CLEARANCE):
+            continue
+        # IK moves the base too: exclude by where it ended up.
+        if exclude_near is not None and np.linalg.norm(q[:2] - exclude_near) < EXCLUDE_RADIUS:
             continue
         score = arm_quality(world, q)
         current = q
@@ -156,7 +167,7 @@ def best_grasp_configuration(world: World, point: np.ndarray,
             if score <= (best.score if best else 0.0):
                 break
             world.set_puzzle(future_puzzle)
-            current = solve_at(world, future_pose, current, settings.iterations)
+            current = solve_at(world, future_pose, current, settings.iterations, fixed_base=True)
             clear = current is not None and not world.in_collision(GRASP_CLEARANCE)
             score = min(score, arm_quality(world, current)) if clear else 0.0
         world.set_puzzle(now)
