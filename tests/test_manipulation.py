@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pybullet as pb
@@ -132,3 +133,29 @@ def test_robot_executes_a_simple_slider_end_to_end(tmp_path):
     out = write_outputs(tmp_path / "out", report, recording, setup, video=False)
     assert sorted(p.name for p in (out / "frames").iterdir()) == [f"frame_{i}.png" for i in range(1, 5)]
     assert json.loads((out / "report.json").read_text())["success"] is True
+
+
+def test_ik_reaches_the_pose_exactly_and_keeps_a_fixed_base(tmp_path):
+    from manipulation.ik import solve_at
+    from manipulation.placement import Placement
+    from manipulation.robot import ARM_REST
+    from manipulation.scene import World, write_scene_files
+    from manipulation.transforms import matrix, tool_down
+
+    chain = _two_sliders()
+    world = World(write_scene_files(tmp_path, chain, RobotSpec()), chain, Placement(1.0, (0.0, 0.0)))
+    try:
+        seed = np.array([-2.0, 1.0, 0.0, *ARM_REST])
+        target = tool_down((-1.4, 1.05, 0.25), math.pi)
+        for fixed in (False, True):
+            q = solve_at(world, target, seed, fixed_base=fixed)
+            assert q is not None
+            world.set_robot(q)
+            reached = matrix(*world.tool_pose())
+            assert np.linalg.norm(reached[:3, 3] - target[:3, 3]) < 5e-5
+            if fixed:
+                assert np.allclose(q[:3], seed[:3], atol=1e-5)
+        # Out of the arm's reach with the base held: no answer rather than a wrong one.
+        assert solve_at(world, tool_down((0.0, 1.0, 0.25), math.pi), seed, fixed_base=True) is None
+    finally:
+        world.close()
