@@ -27,11 +27,11 @@ from solver.validation import densify
 
 from .following import FollowSettings, Stop, drive_along, follow, time_trajectory
 from .grasp import GraspPoint, grasp_point
-from .ik import IkSettings, best_grasp_configuration, solve_at
+from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
 from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value_scale, link_pose, scale_chain
 from .reaching import ReachingError, plan_motion
 from .robot import ARM_REST, RobotSpec
-from .scene import World, temporary_folder, write_scene_files
+from .scene import COLLISION_MARGIN, World, temporary_folder, write_scene_files
 from .solution import Action, load_solution, split_actions
 from .transforms import inverse, matrix, quaternion
 
@@ -168,7 +168,7 @@ class _Run:
             started = time.perf_counter()
             result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
                             self.settings.follow, self.on_step, object_done, self.sim.puzzle_state,
-                            self.sim.closer_than)
+                            self.sim.clearance)
             self.execution += time.perf_counter() - started
             pb.removeConstraint(constraint, physicsClientId=self.sim.client)
             if result.stop is Stop.DONE:
@@ -203,10 +203,12 @@ class _Run:
 
         here = self.sim.robot_state()[:2]
         solution = None
-        # Shorter look-aheads only when no grasp can follow the object that far.
-        for count, exclude in ((len(futures), failed_base), (1, failed_base), (0, None)):
+        # Shorter look-aheads, then a smaller clearance, only when nothing better exists.
+        tiers = ((len(futures), failed_base, GRASP_CLEARANCE), (1, failed_base, GRASP_CLEARANCE),
+                 (0, None, GRASP_CLEARANCE), (0, None, COLLISION_MARGIN))
+        for count, exclude, clearance in tiers:
             solution = best_grasp_configuration(self.planner, point, lambda pose, n=count: lookahead(pose)[:n],
-                                                self.settings.ik, exclude, here)
+                                                self.settings.ik, exclude, here, clearance)
             if solution is not None and solution.score > 0:
                 break
         if solution is None:

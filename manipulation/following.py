@@ -107,14 +107,17 @@ def time_trajectory(states: np.ndarray, grasp_positions: np.ndarray, revolute_co
 def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndarray], np.ndarray],
            start_time: float, settings: FollowSettings, on_step: Callable[[], None],
            object_done: Callable[[], bool], object_state: Callable[[], np.ndarray],
-           too_close: Callable[[float], bool] = lambda clearance: False) -> FollowResult:
+           clearance_now: Callable[[float], float] = lambda up_to: up_to) -> FollowResult:
     """Track ``tool_pose_at(trajectory.state_at(t))`` from ``start_time`` to the end, stepping physics.
 
     ``on_step`` runs after every physics step (recording, contact checks);
     ``object_done`` says whether the object has reached its final state;
     ``object_state`` gives the puzzle's joint values now, whose lag behind
     the trajectory is integrated into the commanded object state;
-    ``too_close(clearance)`` whether a robot link is that close to the puzzle.
+    ``clearance_now(up_to)`` the robot's distance to the puzzle, capped at ``up_to``:
+    the motion stops when it falls below ``settings.clearance``, or below half of
+    what it was at the start when the grasp began closer than that (the base,
+    held still, may stand a few millimetres from a wall).
     Every stop ends with the robot held still for ``hold_steps``.
     """
     c = world.client
@@ -128,6 +131,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     steps = 0
     end = trajectory.duration + settings.settle_steps * TIME_STEP
     bias = np.zeros(trajectory.states.shape[1])
+    stop_distance = min(settings.clearance, 0.5 * clearance_now(settings.clearance))
     while t < end:
         t_next = t + TIME_STEP
         bias += settings.integral_gain * TIME_STEP * (trajectory.state_at(t) - object_state())
@@ -157,7 +161,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
         stop = None
         if manipulability(np.ascontiguousarray(jacobian[:, arm])) < settings.min_manipulability:
             stop = Stop.SINGULAR
-        elif too_close(settings.clearance):
+        elif clearance_now(settings.clearance) < stop_distance:
             stop = Stop.CONTACT
         elif t >= trajectory.duration and object_done():
             stop = Stop.DONE

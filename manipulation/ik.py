@@ -129,7 +129,8 @@ def best_grasp_configuration(world: World, point: np.ndarray,
                              lookahead: Callable[[np.ndarray], Sequence[Future]] = lambda pose: (),
                              settings: IkSettings = IkSettings(),
                              exclude_near: np.ndarray | None = None,
-                             prefer_near: np.ndarray | None = None) -> IkSolution | None:
+                             prefer_near: np.ndarray | None = None,
+                             clearance: float = GRASP_CLEARANCE) -> IkSolution | None:
     """The best collision-free IK answer for a tool-down grasp at ``point`` over candidate base poses.
 
     ``lookahead(pose)`` gives the tool poses a grasp at ``pose`` must reach
@@ -138,6 +139,7 @@ def best_grasp_configuration(world: World, point: np.ndarray,
     ``exclude_near``: base (x, y) of the configuration that just failed, so that a
     regrasp really changes the robot's posture.
     ``prefer_near``: the base (x, y) now; candidates closest to it come first.
+    ``clearance``: metres every configuration keeps from the puzzle.
     """
     candidates = [(2 * math.pi * k / settings.directions, distance)
                   for distance in settings.distances for k in range(settings.directions)]
@@ -155,7 +157,7 @@ def best_grasp_configuration(world: World, point: np.ndarray,
         pose = tool_down(point, heading + math.pi)
         seed = np.array([base[0], base[1], heading, *ARM_REST])
         q = solve_at(world, pose, seed, settings.iterations)
-        if q is None or world.in_collision(GRASP_CLEARANCE):
+        if q is None or world.in_collision(clearance):
             continue
         # IK moves the base too: exclude by where it ended up.
         if exclude_near is not None and np.linalg.norm(q[:2] - exclude_near) < EXCLUDE_RADIUS:
@@ -168,7 +170,7 @@ def best_grasp_configuration(world: World, point: np.ndarray,
                 break
             world.set_puzzle(future_puzzle)
             current = solve_at(world, future_pose, current, settings.iterations, fixed_base=True)
-            clear = current is not None and not world.in_collision(GRASP_CLEARANCE)
+            clear = current is not None and not world.in_collision(clearance)
             score = min(score, arm_quality(world, current)) if clear else 0.0
         world.set_puzzle(now)
         if best is None or score > best.score:

@@ -135,10 +135,10 @@ class World:
                 return True
         return False
 
-    def closer_than(self, distance: float, ignore_link: int | None = None) -> bool:
-        """Whether a robot link is within ``distance`` of a puzzle link (except ``ignore_link``)."""
-        points = pb.getClosestPoints(self.robot, self.puzzle, distance, physicsClientId=self.client)
-        return any(p[4] != ignore_link for p in points)
+    def clearance(self, up_to: float) -> float:
+        """Smallest robot-puzzle distance (negative: penetration), or ``up_to`` if nothing is closer."""
+        points = pb.getClosestPoints(self.robot, self.puzzle, up_to, physicsClientId=self.client)
+        return min([up_to] + [p[8] for p in points])
 
     def penetration(self) -> float:
         """Deepest robot-puzzle penetration (metres, >= 0) among the last step's contacts."""
