@@ -51,8 +51,8 @@ class FollowSettings:
     integral_gain: float = 4.0
     """Per second: integral correction of the object's own joint error (grasp compliance, friction)."""
     clearance: float = 0.006
-    """Metres: a robot link this close to the puzzle stops the motion (the base drives too, and
-    nothing else keeps it off the puzzle while it follows)."""
+    """Metres: a robot link this close to the puzzle stops the motion (the moving object or a
+    wall may come at the arm or the base on the way)."""
     hold_steps: int = 60
     """Steps the robot holds still, still grasping, before a release (so the object stops moving)."""
 
@@ -132,6 +132,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     end = trajectory.duration + settings.settle_steps * TIME_STEP
     bias = np.zeros(trajectory.states.shape[1])
     stop_distance = min(settings.clearance, 0.5 * clearance_now(settings.clearance))
+    lower, upper = world.lower[arm], world.upper[arm]
     while t < end:
         t_next = t + TIME_STEP
         bias += settings.integral_gain * TIME_STEP * (trajectory.state_at(t) - object_state())
@@ -152,19 +153,18 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
         t = t_next
         on_step()
         q_new = world.robot_state()
-        if np.max(np.abs(q_new[arm] - q[arm])) > settings.flip_step:
-            return FollowResult(Stop.FLIP, t, steps + hold(world, q_new, settings.hold_steps, forces, on_step))
-        q = q_new
-        lower, upper = world.lower[arm], world.upper[arm]
-        if np.any(q[arm] < lower + settings.limit_margin) or np.any(q[arm] > upper - settings.limit_margin):
-            return FollowResult(Stop.LIMIT, t, steps + hold(world, q, settings.hold_steps, forces, on_step))
         stop = None
-        if manipulability(np.ascontiguousarray(jacobian[:, arm])) < settings.min_manipulability:
+        if np.max(np.abs(q_new[arm] - q[arm])) > settings.flip_step:
+            stop = Stop.FLIP
+        elif np.any(q_new[arm] < lower + settings.limit_margin) or np.any(q_new[arm] > upper - settings.limit_margin):
+            stop = Stop.LIMIT
+        elif manipulability(np.ascontiguousarray(jacobian[:, arm])) < settings.min_manipulability:
             stop = Stop.SINGULAR
         elif clearance_now(settings.clearance) < stop_distance:
             stop = Stop.CONTACT
         elif t >= trajectory.duration and object_done():
             stop = Stop.DONE
+        q = q_new
         if stop is not None:
             return FollowResult(stop, t, steps + hold(world, q, settings.hold_steps, forces, on_step))
     return FollowResult(Stop.DONE, t, steps + hold(world, q, settings.hold_steps, forces, on_step))
