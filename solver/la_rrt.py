@@ -16,7 +16,10 @@ Fixes over the original implementation:
   the start);
 - a trapped staircase keeps its valid prefix (every corner is a tree node);
 - defragmentation collapses an action to a straight segment only when that
-  segment is valid.
+  segment is valid;
+- goal roots also come from start-tree nodes with the target moved to its
+  goal, and the start tree grows while there is none (uniform goal states of
+  a lockbox are almost never valid).
 
 All random draws come from one numpy Generator seeded per run.
 """
@@ -70,7 +73,8 @@ class LaRrtSettings:
     goal_root_probability: float = 0.05
     """Chance per iteration of adding one more goal state as a root of the goal tree."""
     goal_sample_attempts: int = 50
-    """Goal-region samples tried per new goal root before giving up for this iteration."""
+    """Goal-region candidates per batch (uniform ones, then as many projected from the start tree)
+    tried for a new goal root before giving up for this iteration."""
     resolution: float = PLANNING_RESOLUTION
     """Metres any collision point may move between two checked states while planning."""
     single_factor_probability: float = 0.5
