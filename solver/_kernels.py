@@ -129,8 +129,9 @@ def check_states(states, kin_int, kin_float, n_links, shape_link, shape_nv, shap
 
 
 @njit(cache=True, nogil=True)
-def check_motion(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
-                 shape_verts, shape_normals, shape_extent, pairs, tol):
+def motion_collision(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                     shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol):
+    """Fraction along a -> b of a colliding sample (not necessarily the first), or -1 if none."""
     count = 1
     for j in range(a.shape[0]):
         need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
@@ -151,7 +152,7 @@ def check_motion(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
             q[j] = a[j] + (b[j] - a[j]) * t
         if not _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center,
                             shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol):
-            return False
+            return t
         if i == count:
             i = stride
         else:
@@ -159,9 +160,9 @@ def check_motion(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
         while i >= count:
             stride //= 2
             if stride == 0:
-                return True
+                return -1.0
             i = stride
-    return True
+    return -1.0
 
 
 @njit(cache=True, nogil=True)

@@ -230,9 +230,14 @@ class CollisionModel:
     def check_motion(self, start: Sequence[float], end: Sequence[float], steps: np.ndarray) -> bool:
         """Whether the straight joint-space segment is collision-free, sampled so that no
         joint moves more than ``steps[j]`` between samples (the start is assumed valid)."""
+        return self.motion_collision(start, end, steps) < 0
+
+    def motion_collision(self, start: Sequence[float], end: Sequence[float], steps: np.ndarray) -> float:
+        """Like :meth:`check_motion`, but where it fails: the fraction along the segment of a
+        colliding sample (not necessarily the first one), or -1 when the segment is free."""
         a = np.asarray(start, dtype=np.float64)
         b = np.asarray(end, dtype=np.float64)
-        return bool(_kernels.check_motion(a, b, steps, *self._arguments))
+        return float(_kernels.motion_collision(a, b, steps, *self._arguments))
 
     def colliding_objects(self, states) -> set[tuple[str, str]]:
         """Pairs of object names that collide at any of ``states``."""

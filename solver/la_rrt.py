@@ -19,7 +19,10 @@ Fixes over the original implementation:
   segment is valid;
 - goal roots also come from start-tree nodes with the target moved to its
   goal, and the start tree grows while there is none (uniform goal states of
-  a lockbox are almost never valid).
+  a lockbox are almost never valid);
+- a move blocked only by other movable objects first pushes one of them
+  aside (to a limit or a random value), the dependency every puzzle is built
+  on; the original waits for sampling to move the blocker by chance.
 
 All random draws come from one numpy Generator seeded per run.
 """
@@ -68,7 +71,7 @@ def _nearest_l1(states: np.ndarray, size: int, query: np.ndarray, weights: np.nd
 class LaRrtSettings:
     """Tuning of LA-RRT; the defaults were chosen on the paper's 24 puzzles."""
 
-    range_fraction: float = 0.05
+    range_fraction: float = 0.1
     """Extension budget as a fraction of the weighted L1 extent of the space."""
     goal_root_probability: float = 0.05
     """Chance per iteration of adding one more goal state as a root of the goal tree."""
@@ -81,6 +84,10 @@ class LaRrtSettings:
     """Chance that an extension moves one random factor only, instead of walking the whole staircase."""
     limit_probability: float = 0.1
     """Chance per joint that a sample puts it at one of its limits instead of a uniform value."""
+    max_pushes: int = 2
+    """Most blocking objects one extension may push aside (0: plain staircases)."""
+    push_attempts: int = 3
+    """Candidate values tried for a pushed object."""
     defragment_share: float = 0.5
     """Largest share of the run time spent defragmenting; connections found while
     over it are dropped undefragmented (the first one is always defragmented)."""
@@ -98,6 +105,10 @@ class LaRrtSettings:
             raise ValueError(f"single_factor_probability must be in [0, 1], got {self.single_factor_probability!r}")
         if not 0 <= self.limit_probability <= 1:
             raise ValueError(f"limit_probability must be in [0, 1], got {self.limit_probability!r}")
+        if self.max_pushes < 0:
+            raise ValueError(f"max_pushes must be at least 0, got {self.max_pushes!r}")
+        if self.push_attempts < 1:
+            raise ValueError(f"push_attempts must be at least 1, got {self.push_attempts!r}")
         if not 0 < self.defragment_share <= 1:
             raise ValueError(f"defragment_share must be in (0, 1], got {self.defragment_share!r}")
 
@@ -142,6 +153,7 @@ class LaRrt:
         self.model = problem.model
         self.factors = problem_factors(problem)
         self.columns = [np.asarray(c, dtype=np.int64) for c in self.factors.values()]
+        self.factor_index = {name: i for i, name in enumerate(self.factors)}
         self.steps = planning_steps(problem, self.settings.resolution)
         # Distances in metres of motion: a radian of a long bar counts as far as its tip travels.
         self.weights = self.model.joint_reach()
@@ -194,28 +206,86 @@ class LaRrt:
     def _staircase(self, tree: _Tree, node: int, target: np.ndarray, budget: float,
                    single: bool = False) -> tuple[int, int]:
         """Move toward ``target`` one factor at a time (random order) within ``budget``;
-        only the first factor of that order when ``single``.
+        only the first factor of that order when ``single``. A move blocked by another
+        movable object first pushes that object aside (:meth:`_push_blocker`); the pushed
+        factor is then queued again, so that a connection still ends exactly at ``target``.
 
         Returns (status, last node added or ``node``)."""
         current = tree.states[node].copy()
-        order = self.rng.permutation(len(self.columns))
-        for f in order[:1] if single else order:
+        order = [int(f) for f in self.rng.permutation(len(self.columns))]
+        queue = order[:1] if single else order
+        pushes = 0
+        moved: set[int] = set()
+        while queue:
+            f = queue.pop(0)
             columns = self.columns[f]
             delta = target[columns] - current[columns]
             distance = float(np.abs(delta) @ self.weights[columns])
             if distance <= 1e-12:
                 continue
-            following = current.copy()
+            step = delta * (budget / distance) if distance > budget else delta
             partial = distance > budget
-            following[columns] = current[columns] + delta * (budget / distance) if partial else target[columns]
-            if not self.model.check_motion(current, following, self.steps):
-                return _TRAPPED, node
+            following = current.copy()
+            following[columns] = current[columns] + step
+            hit = self.model.motion_collision(current, following, self.steps)
+            if hit >= 0:
+                blocked = current + hit * (following - current)
+                pushed = self._push_blocker(tree, node, current, f, step, blocked, moved) \
+                    if pushes < self.settings.max_pushes else None
+                if pushed is None:
+                    return _TRAPPED, node
+                node, current, blocker = pushed
+                pushes += 1
+                if not single and blocker not in queue:
+                    queue.append(blocker)
+                following = current.copy()
+                following[columns] = current[columns] + step
             node = tree.add(following, node)
             current = following
+            moved.add(f)
             if partial:
                 return _ADVANCED, node
             budget -= distance
         return _REACHED, node
+
+    def _push_blocker(self, tree: _Tree, node: int, current: np.ndarray, f: int, step: np.ndarray,
+                      blocked: np.ndarray, moved: set[int]) -> tuple[int, np.ndarray, int] | None:
+        """Free the move of factor ``f`` by ``step``, which collides at ``blocked``, by moving
+        aside the movable object it hits there. Not tried when it hits anything static, nor
+        when that object was ``moved`` already in this staircase (a push would undo the move).
+
+        The blocker goes to one of a few candidate values (each joint at a
+        random limit or uniform); the first that makes both its own move and
+        the blocked one valid is added to the tree. This is the dependency the
+        puzzles are built from (a door must move before the slider behind it),
+        which plain sampling finds only by chance: in Move N Times the target
+        crosses a sliding bar four times, each at a different bar position.
+        Returns (new node, its state, blocker factor), or None.
+        """
+        columns = self.columns[f]
+        hit = {name for pair in self.model.colliding_objects(blocked) for name in pair}
+        blockers = [self.factor_index.get(name) for name in sorted(hit)]
+        if None in blockers:
+            return None
+        blockers = [g for g in blockers if g != f and g not in moved]
+        if not blockers:
+            return None
+        g = blockers[int(self.rng.integers(len(blockers)))]
+        other = self.columns[g]
+        lower, upper = self.problem.lower[other], self.problem.upper[other]
+        for _ in range(self.settings.push_attempts):
+            value = lower + (upper - lower) * self.rng.random(len(other))
+            at_limit = self.rng.random(len(other)) < 2 / 3
+            value[at_limit] = np.where(self.rng.random(len(other)) < 0.5, upper, lower)[at_limit]
+            moved = current.copy()
+            moved[other] = value
+            freed = moved.copy()
+            freed[columns] += step
+            # The blocked move first: the push itself can be long (a bar slid end to end).
+            if self.model.check_motion(moved, freed, self.steps) and \
+                    self.model.check_motion(current, moved, self.steps):
+                return tree.add(moved, node), moved, g
+        return None
 
     def _path(self, tree: _Tree, node: int, other: _Tree, other_node: int) -> np.ndarray:
         a = tree.branch(node)

@@ -8,7 +8,7 @@ import pytest
 from solver.actions import count_actions
 from solver.defragment import Defragmenter
 from solver.planners import PLANNERS, get_planner, run_seed
-from solver.planning import chain_path, in_goal, problem_factors, problem_for_chain
+from solver.planning import chain_path, in_goal, path_is_valid, problem_factors, problem_for_chain
 from solver.validation import verify_certificate
 
 FACTORS = {"a": (0,), "b": (1,), "c": (2, 3)}
@@ -93,3 +93,30 @@ def test_la_rrt_finds_the_fewest_actions(slider):
     _, problem = slider
     result = get_planner("la_rrt").plan(problem, time_limit=1.0, seed=11)
     assert result.action_cost == 2
+
+
+
+@pytest.mark.parametrize("pushes", [0, 2])
+def test_la_rrt_pushes_the_blocker_aside_when_the_target_is_blocked(slider, pushes):
+    from solver.la_rrt import LaRrt, LaRrtSettings
+
+    _, problem = slider
+    factors = problem_factors(problem)
+    toward_goal = problem.start.copy()
+    for column, value in problem.goal_columns.items():
+        toward_goal[column] = value
+    fine = problem.model.motion_steps(0.002)
+    reached_goal = 0
+    for seed in range(10):
+        planner = LaRrt(problem, np.random.default_rng(seed), LaRrtSettings(max_pushes=pushes))
+        planner.start_tree.add(problem.start, -1)
+        _, node = planner._staircase(planner.start_tree, 0, toward_goal, np.inf)
+        branch = np.array(planner.start_tree.branch(node))
+        # Whatever was added is a valid path of single-object moves from the start.
+        assert path_is_valid(problem.model, branch, fine)
+        moved = [{name for name, columns in factors.items() if np.any(a[list(columns)] != b[list(columns)])}
+                 for a, b in zip(branch[:-1], branch[1:], strict=True)]
+        assert all(len(names) == 1 for names in moved)
+        reached_goal += in_goal(problem, branch[-1])
+    # The target's straight slide hits the blocker: only a push gets it to its goal.
+    assert (reached_goal > 0) == (pushes > 0)
