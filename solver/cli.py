@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 from phyrogen_core.registry import ParameterError, all_generators
@@ -114,10 +115,20 @@ def cmd_check(args) -> int:
     return 0
 
 
+def puzzle_folders(paths: Sequence[str]) -> list[Path]:
+    """The puzzle folders named: a folder of generated puzzles (``phyrogen generate --out``,
+    ``<dir>/<generator>/<puzzle>/puzzle.json``) stands for every puzzle in it, sorted."""
+    folders: list[Path] = []
+    for given in map(Path, paths):
+        inside = sorted(meta.parent for meta in given.glob("*/*/puzzle.json"))
+        folders += inside if inside and not (given / "puzzle.json").is_file() else [given]
+    return folders
+
+
 def cmd_manipulate(args) -> int:
     from manipulation.batch import manipulate_folders
 
-    reports = manipulate_folders([Path(p) for p in args.puzzle_dirs], Path(args.out), video=not args.no_video,
+    reports = manipulate_folders(puzzle_folders(args.puzzle_dirs), Path(args.out), video=not args.no_video,
                                  table=Path(args.table) if args.table else None, gui=args.gui, quiet=args.quiet)
     return 0 if all(r.success for r in reports) else 1
 
@@ -210,7 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     bench.set_defaults(func=cmd_benchmark)
     manipulate = sub.add_parser("manipulate", help="execute puzzles' solutions with a mobile KUKA iiwa in PyBullet")
-    manipulate.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR", help="puzzle folder(s)")
+    manipulate.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR",
+                            help="puzzle folder(s), or a folder of generated puzzles (all of them)")
     manipulate.add_argument("--out", default="output/manipulation", help="output folder (default: output/manipulation)")
     manipulate.add_argument("--no-video", action="store_true", help="frames and report only")
     manipulate.add_argument("--table", metavar="FILE", help="also write a Markdown summary table here")

@@ -57,3 +57,17 @@ def test_generate_then_check_and_detect_tampering(tmp_path, capsys):
     capsys.readouterr()
     assert main(["check", str(folder)]) == 1
     assert "INVALID" in capsys.readouterr().out
+
+
+def test_manipulate_takes_a_folder_of_puzzles_for_every_puzzle_in_it(tmp_path):
+    from solver.cli import puzzle_folders
+
+    for name in ("rooms/rooms_2", "rooms/rooms_1", "simple_slider/simple_slider_1"):
+        (tmp_path / "out" / name).mkdir(parents=True)
+        (tmp_path / "out" / name / "puzzle.json").write_text("{}")
+    (tmp_path / "out" / "manipulation" / "rooms_1").mkdir(parents=True)  # an output folder, no puzzle
+    one = tmp_path / "out" / "rooms" / "rooms_2"
+    assert puzzle_folders([str(tmp_path / "out")]) == [
+        tmp_path / "out" / n for n in ("rooms/rooms_1", "rooms/rooms_2", "simple_slider/simple_slider_1")]
+    assert puzzle_folders([str(one)]) == [one]
+    assert puzzle_folders([str(tmp_path / "missing")]) == [tmp_path / "missing"]  # reported later
