@@ -223,14 +223,14 @@ class LaRrt:
             distance = float(np.abs(delta) @ self.weights[columns])
             if distance <= 1e-12:
                 continue
-            step = delta * (budget / distance) if distance > budget else delta
             partial = distance > budget
+            values = current[columns] + delta * (budget / distance) if partial else target[columns]
             following = current.copy()
-            following[columns] = current[columns] + step
+            following[columns] = values
             hit = self.model.motion_collision(current, following, self.steps)
             if hit >= 0:
                 blocked = current + hit * (following - current)
-                pushed = self._push_blocker(tree, node, current, f, step, blocked, moved) \
+                pushed = self._push_blocker(tree, node, current, f, values, blocked, moved) \
                     if pushes < self.settings.max_pushes else None
                 if pushed is None:
                     return _TRAPPED, node
@@ -239,7 +239,7 @@ class LaRrt:
                 if not single and blocker not in queue:
                     queue.append(blocker)
                 following = current.copy()
-                following[columns] = current[columns] + step
+                following[columns] = values
             node = tree.add(following, node)
             current = following
             moved.add(f)
@@ -248,9 +248,9 @@ class LaRrt:
             budget -= distance
         return _REACHED, node
 
-    def _push_blocker(self, tree: _Tree, node: int, current: np.ndarray, f: int, step: np.ndarray,
+    def _push_blocker(self, tree: _Tree, node: int, current: np.ndarray, f: int, values: np.ndarray,
                       blocked: np.ndarray, moved: set[int]) -> tuple[int, np.ndarray, int] | None:
-        """Free the move of factor ``f`` by ``step``, which collides at ``blocked``, by moving
+        """Free the move of factor ``f`` to ``values``, which collides at ``blocked``, by moving
         aside the movable object it hits there. Not tried when it hits anything static, nor
         when that object was ``moved`` already in this staircase (a push would undo the move).
 
@@ -277,14 +277,14 @@ class LaRrt:
             value = lower + (upper - lower) * self.rng.random(len(other))
             at_limit = self.rng.random(len(other)) < 2 / 3
             value[at_limit] = np.where(self.rng.random(len(other)) < 0.5, upper, lower)[at_limit]
-            moved = current.copy()
-            moved[other] = value
-            freed = moved.copy()
-            freed[columns] += step
+            aside = current.copy()
+            aside[other] = value
+            freed = aside.copy()
+            freed[columns] = values
             # The blocked move first: the push itself can be long (a bar slid end to end).
-            if self.model.check_motion(moved, freed, self.steps) and \
-                    self.model.check_motion(current, moved, self.steps):
-                return tree.add(moved, node), moved, g
+            if self.model.check_motion(aside, freed, self.steps) and \
+                    self.model.check_motion(current, aside, self.steps):
+                return tree.add(aside, node), aside, g
         return None
 
     def _path(self, tree: _Tree, node: int, other: _Tree, other_node: int) -> np.ndarray:
