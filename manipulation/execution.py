@@ -25,7 +25,7 @@ from phyrogen_core.chain import JointType, KinematicChain
 from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
 from solver.validation import densify
 
-from .following import FollowSettings, Stop, drive_along, follow, time_trajectory
+from .following import FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory
 from .grasp import GraspPoint, grasp_point
 from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
 from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value_scale, link_pose, scale_chain
@@ -195,9 +195,7 @@ class _Run:
 
         A tiny puzzle (Lockbox Random 2 is scaled by 0.056) can drift out of the tolerance
         after the release; the caller then regrasps and pushes it back."""
-        for _ in range(SETTLE_STEPS):
-            pb.stepSimulation(physicsClientId=self.sim.client)
-            self.on_step()
+        step_physics(self.sim, SETTLE_STEPS, self.on_step)
         return in_place()
 
     def _check_steps(self) -> np.ndarray:

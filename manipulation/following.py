@@ -174,6 +174,11 @@ def hold(world: World, q: np.ndarray, steps: int, forces: list[float], on_step: 
     """Hold the robot at ``q`` with zero velocity for ``steps`` physics steps."""
     pb.setJointMotorControlArray(world.robot, world.robot_joints, pb.POSITION_CONTROL, targetPositions=q.tolist(),
                                  targetVelocities=[0.0] * len(q), forces=forces, physicsClientId=world.client)
+    return step_physics(world, steps, on_step)
+
+
+def step_physics(world: World, steps: int, on_step: Callable[[], None]) -> int:
+    """Step the simulation ``steps`` times, calling ``on_step`` after each; returns ``steps``."""
     for _ in range(steps):
         pb.stepSimulation(physicsClientId=world.client)
         on_step()

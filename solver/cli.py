@@ -118,10 +118,14 @@ def cmd_check(args) -> int:
 def puzzle_folders(paths: Sequence[str]) -> list[Path]:
     """The puzzle folders named: a folder of generated puzzles (``phyrogen generate --out``,
     ``<dir>/<generator>/<puzzle>/puzzle.json``) stands for every puzzle in it, sorted."""
+    from .benchmark import find_puzzles
+
     folders: list[Path] = []
     for given in map(Path, paths):
-        inside = sorted(meta.parent for meta in given.glob("*/*/puzzle.json"))
-        folders += inside if inside and not (given / "puzzle.json").is_file() else [given]
+        if given.is_dir() and not (given / "puzzle.json").is_file():
+            folders += sorted(Path(entry.folder) for entry in find_puzzles(given))
+        else:
+            folders.append(given)
     return folders
 
 

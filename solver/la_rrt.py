@@ -168,18 +168,18 @@ class LaRrt:
         self.connections = 0
 
     # -- sampling ----------------------------------------------------------
-    def _uniform(self) -> np.ndarray:
-        return self.problem.lower + (self.problem.upper - self.problem.lower) * self.rng.random(len(self.problem.start))
+    def _draw(self, lower: np.ndarray, upper: np.ndarray, limit_probability: float) -> np.ndarray:
+        """Uniform values in [lower, upper], each at a random one of its limits with ``limit_probability``."""
+        values = lower + (upper - lower) * self.rng.random(len(lower))
+        at_limit = self.rng.random(len(values)) < limit_probability
+        high = self.rng.random(len(values)) < 0.5
+        values[at_limit] = np.where(high, upper, lower)[at_limit]
+        return values
 
     def _sample(self) -> np.ndarray:
-        """A uniform state whose joints each sit at a random one of their limits with
-        ``limit_probability``: passages in these puzzles tend to open at the limits
-        (a slider pulled all the way out, a door slid to its end)."""
-        state = self._uniform()
-        at_limit = self.rng.random(len(state)) < self.settings.limit_probability
-        high = self.rng.random(len(state)) < 0.5
-        state[at_limit] = np.where(high, self.problem.upper, self.problem.lower)[at_limit]
-        return state
+        """A state drawn with ``limit_probability``: passages in these puzzles tend to open at
+        the limits (a slider pulled all the way out, a door slid to its end)."""
+        return self._draw(self.problem.lower, self.problem.upper, self.settings.limit_probability)
 
     def _add_goal_root(self) -> bool:
         """Add one valid goal state as a new goal-tree root, if a batch of candidates holds one.
@@ -274,11 +274,8 @@ class LaRrt:
         other = self.columns[g]
         lower, upper = self.problem.lower[other], self.problem.upper[other]
         for _ in range(self.settings.push_attempts):
-            value = lower + (upper - lower) * self.rng.random(len(other))
-            at_limit = self.rng.random(len(other)) < 2 / 3
-            value[at_limit] = np.where(self.rng.random(len(other)) < 0.5, upper, lower)[at_limit]
             aside = current.copy()
-            aside[other] = value
+            aside[other] = self._draw(lower, upper, 2 / 3)
             freed = aside.copy()
             freed[columns] = values
             # The blocked move first: the push itself can be long (a bar slid end to end).
