@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from phyrogen_core.chain import Joint, JointType, Link, pose_matrix, rotation_to_rpy
-from phyrogen_core.export.urdf import collision_bounds
+from phyrogen_core.export.urdf import link_inertia
 from phyrogen_core.geometry import Pose
 
 PHOBOSTYPES = (
@@ -55,6 +55,7 @@ GEOMETRY_NAME = "phyrogen/name"
 RGBA = "phyrogen/rgba"
 METADATA = "phyrogen/metadata"  # puzzle.json text, on the puzzle's collection
 PUZZLE_NAME = "phyrogen/puzzle"  # on the puzzle's collection
+URDF_DIGEST = "phyrogen/urdf_sha256"  # of the URDF the puzzle.json was written for, on the collection
 
 SNAP_TOLERANCE = 1e-4
 """Largest difference (metres, radians, colour units) still read as single-precision
@@ -136,12 +137,6 @@ def _clean(value: float) -> float:
 
 
 def inertial_values(link: Link) -> tuple[list[float], list[float]]:
-    """Centre and ``[ixx, ixy, ixz, iyy, iyz, izz]`` as the core's URDF writer computes them."""
-    if link.collisions:
-        low, high = collision_bounds(link)
-        centre, extent = (low + high) / 2, high - low
-    else:
-        centre, extent = np.zeros(3), np.full(3, 0.1)
-    sx, sy, sz = (float(e) ** 2 for e in extent)
-    m = link.mass / 12.0
-    return [float(c) for c in centre], [m * (sy + sz), 0.0, 0.0, m * (sx + sz), 0.0, m * (sx + sy)]
+    """Centre and ``[ixx, ixy, ixz, iyy, iyz, izz]``: the core's URDF inertial (:func:`link_inertia`)."""
+    centre, (ixx, iyy, izz) = link_inertia(link)
+    return [float(c) for c in centre], [ixx, 0.0, 0.0, iyy, 0.0, izz]

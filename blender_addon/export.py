@@ -1,37 +1,41 @@
-"""URDF, SRDF and meshes written from a Blender scene, with the core's writers."""
+"""The puzzle in a Blender scene written to its puzzle folder, with the core's writers.
+
+Only the export stage's entries are replaced (URDF, SRDF, meshes,
+``puzzle.json``); renders, solutions and a user's files stay. When the scene
+was edited after the puzzle was built, ``puzzle.json`` is rewritten to agree
+with the new URDF and its certificate is marked as not verified for it.
+"""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import bpy
 
-from phyrogen_core.export import atomic_directory, chain_to_srdf, chain_to_urdf
+from phyrogen_core.export import write_export_files
+from phyrogen_core.export.metadata import metadata_for_chain
+from phyrogen_core.folder import PuzzleFolder, Stage, stage_directory, stage_entries
 
 from . import annotations as keys
-from .scene import read_chain
+from .scene import read_chain, urdf_digest
 
 
 def export_collection(collection: bpy.types.Collection, folder: str | Path) -> Path:
-    """Write the puzzle in ``collection`` to ``folder`` (replaced atomically) and return the URDF path.
+    """Write the puzzle in ``collection`` into ``folder`` and return the URDF path.
 
-    The folder gets ``urdf/<name>.urdf``, ``srdf/<name>.srdf``, ``meshes/``
-    when the chain has prisms, and ``puzzle.json`` when the scene keeps one.
+    Raises ValueError when the collection keeps no ``puzzle.json`` (it was not
+    built from a generated puzzle) or the edit removed a joint the goal needs.
     """
     chain = read_chain(collection)
-    urdf_text, meshes = chain_to_urdf(chain)
-    metadata = collection.get(keys.METADATA)
-    folder = Path(folder)
-    with atomic_directory(folder) as temporary:
-        _write(temporary / "urdf" / f"{chain.name}.urdf", urdf_text)
-        for file_name, text in meshes.items():
-            _write(temporary / "meshes" / file_name, text)
-        _write(temporary / "srdf" / f"{chain.name}.srdf", chain_to_srdf(chain))
-        if metadata is not None:
-            _write(temporary / "puzzle.json", str(metadata))
-    return folder / "urdf" / f"{chain.name}.urdf"
-
-
-def _write(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
+    stored = collection.get(keys.METADATA)
+    if stored is None:
+        raise ValueError(f"{collection.name!r} keeps no puzzle.json; build it with Generate or from a puzzle folder")
+    metadata = str(stored)
+    if collection.get(keys.URDF_DIGEST) != urdf_digest(chain):
+        edited = metadata_for_chain(json.loads(metadata), chain)
+        metadata = json.dumps(edited, sort_keys=True, indent=2, allow_nan=False) + "\n"
+    place = PuzzleFolder(Path(folder), chain.name)
+    with stage_directory(place.path, stage_entries(Stage.EXPORT, chain.name)) as temporary:
+        write_export_files(PuzzleFolder(temporary, chain.name), chain, metadata)
+    return place.urdf

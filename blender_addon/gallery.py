@@ -13,18 +13,23 @@ import os
 import tempfile
 from pathlib import Path
 
-from .rendering import find_puzzle_dirs
+from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
+
 from .views import DEFAULT_VIEWS, GALLERY_VIEW, VIEWS, image_name
 
 
 def write_gallery(out_root: str | Path, views: tuple[str, ...] = DEFAULT_VIEWS) -> Path:
     """Write ``<out_root>/index.html`` (atomically) and return its path."""
     root = Path(out_root)
-    cells: dict[tuple[str, int], Path] = {}
-    for folder in find_puzzle_dirs(root):
-        metadata = json.loads((folder / "puzzle.json").read_text(encoding="utf-8"))
+    cells: dict[tuple[str, int], PuzzleFolder] = {}
+    try:
+        found = find_puzzle_folders(root)
+    except FileNotFoundError:
+        found = []
+    for folder in found:  # in the registry's generator order
+        metadata = json.loads(folder.metadata.read_text(encoding="utf-8"))
         cells[(str(metadata["generator"]), int(metadata["seed"]))] = folder
-    generators = _ordered_generators({g for g, _ in cells})
+    generators = list(dict.fromkeys(g for g, _ in cells))
     seeds = sorted({s for _, s in cells})
     titles = _titles()
     rows = []
@@ -46,10 +51,13 @@ def write_gallery(out_root: str | Path, views: tuple[str, ...] = DEFAULT_VIEWS) 
     return target
 
 
-def _cell(root: Path, folder: Path, title: str, seed: int, views: tuple[str, ...]) -> str:
+def _cell(root: Path, folder: PuzzleFolder, title: str, seed: int, views: tuple[str, ...]) -> str:
     name = folder.name
-    relative = folder.relative_to(root).as_posix()
-    images = [(VIEWS[v].title, f"{relative}/images/{image_name(name, i)}") for i, v in enumerate(views)]
+
+    def relative(path: Path) -> str:
+        return path.relative_to(root).as_posix()
+
+    images = [(VIEWS[v].title, relative(folder.images / image_name(name, i))) for i, v in enumerate(views)]
     present = [(t, p) for t, p in images if (root / p).is_file()]
     shown = dict(zip(views, images, strict=True)).get(GALLERY_VIEW, images[0] if images else None)
     if shown is not None and (root / shown[1]).is_file():
@@ -57,20 +65,12 @@ def _cell(root: Path, folder: Path, title: str, seed: int, views: tuple[str, ...
     else:
         picture = '<div class="missing">not rendered</div>'
     links = [f'<a href="{html.escape(p)}">{html.escape(t)}</a>' for t, p in present]
-    links.append(f'<a href="{html.escape(relative)}/urdf/{html.escape(name)}.urdf">URDF</a>')
-    links.append(f'<a href="{html.escape(relative)}/puzzle.json">metadata</a>')
-    if (folder / f"{name}.blend").is_file():
-        links.append(f'<a href="{html.escape(relative)}/{html.escape(name)}.blend">.blend</a>')
+    links.append(f'<a href="{html.escape(relative(folder.urdf))}">URDF</a>')
+    links.append(f'<a href="{html.escape(relative(folder.metadata))}">metadata</a>')
+    if folder.blend.is_file():
+        links.append(f'<a href="{html.escape(relative(folder.blend))}">.blend</a>')
     caption = f"{html.escape(title)} {seed}"
     return f'<td><figure>{picture}<figcaption>{caption}<br>{" · ".join(links)}</figcaption></figure></td>'
-
-
-def _ordered_generators(names: set[str]) -> list[str]:
-    try:
-        from phyrogen_core.generators import PAPER_GENERATORS
-    except ImportError:  # the gallery does not need the generators themselves
-        PAPER_GENERATORS = ()  # noqa: N806
-    return [g for g in PAPER_GENERATORS if g in names] + sorted(names - set(PAPER_GENERATORS))
 
 
 def _titles() -> dict[str, str]:

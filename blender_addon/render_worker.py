@@ -18,25 +18,24 @@ from .views import DEFAULT_VIEWS, parse_views
 
 
 def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple[str, ...]) -> int:
-    """Build, render and save one puzzle folder; returns the number of images."""
+    """Build, render and save one puzzle folder (the render stage's entries); returns the number of images."""
     import bpy
 
-    from phyrogen_core.export import atomic_directory
+    from phyrogen_core.folder import PuzzleFolder, atomic_directory
 
     from .render import render_views, setup_stage
     from .scene import build_puzzle_folder
 
+    place = PuzzleFolder.open(folder)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    built = build_puzzle_folder(folder, scene)
-    name = str(built.collection.name)
+    built = build_puzzle_folder(place.path, scene)
     setup_stage(scene, built.collection, engine, size)
-    with atomic_directory(folder / "images") as images:
-        paths = render_views(scene, built.collection, images, name, views)
-    blend = folder / f"{name}.blend"
-    temporary = folder / f".{name}.tmp.blend"
+    with atomic_directory(place.images) as images:
+        paths = render_views(scene, built.collection, images, place.name, views)
+    temporary = place.path / f".{place.name}.tmp.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(temporary), copy=True, compress=False)
-    os.replace(temporary, blend)
+    os.replace(temporary, place.blend)
     return len(paths)
 
 

@@ -50,14 +50,6 @@ class RenderReport:
         return self.seconds / self.images if self.images else 0.0
 
 
-def find_puzzle_dirs(out_root: str | Path) -> list[Path]:
-    """Every ``<out>/<generator>/<name>/`` folder holding a ``puzzle.json``, sorted."""
-    root = Path(out_root)
-    if not root.is_dir():
-        raise FileNotFoundError(f"{root}: no such output folder; generate puzzles into it first")
-    return sorted(p.parent for p in root.glob("*/*/puzzle.json") if not p.parent.name.startswith("."))
-
-
 def render_puzzles(puzzle_dirs: Sequence[str | Path], engine: str = "auto", size: tuple[int, int] = (480, 360),
                    views: Sequence[str] = DEFAULT_VIEWS, workers: int = 1,
                    on_done: Callable[[RenderedPuzzle], None] | None = None) -> RenderReport:

@@ -10,6 +10,7 @@ collections, so renders and the viewport show the visuals only.
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -19,7 +20,7 @@ import numpy as np
 from mathutils import Matrix
 
 from phyrogen_core.chain import Geometry, Joint, KinematicChain, Link, Role, pose_matrix
-from phyrogen_core.export.urdf import color_name
+from phyrogen_core.export.urdf import chain_to_urdf, color_name
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder, Pose
 
 from . import annotations as keys
@@ -37,6 +38,11 @@ class PuzzleScene:
     links: dict[str, bpy.types.Object]
 
 
+def urdf_digest(chain: KinematicChain) -> str:
+    """A digest of the URDF ``chain`` exports to: the same digest, the same puzzle."""
+    return hashlib.sha256(chain_to_urdf(chain)[0].encode("utf-8")).hexdigest()
+
+
 # -- chain -> Blender --------------------------------------------------------
 def build_chain(chain: KinematicChain, scene: bpy.types.Scene | None = None,
                 metadata_json: str | None = None) -> PuzzleScene:
@@ -48,6 +54,7 @@ def build_chain(chain: KinematicChain, scene: bpy.types.Scene | None = None,
     collection[keys.PUZZLE_NAME] = chain.name
     if metadata_json is not None:
         collection[keys.METADATA] = metadata_json
+        collection[keys.URDF_DIGEST] = urdf_digest(chain)
     hidden = {}
     for kind in ("collision", "inertial"):
         child = bpy.data.collections.new(f"{chain.name}.{kind}")

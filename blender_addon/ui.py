@@ -15,6 +15,7 @@ from pathlib import Path
 
 import bpy
 
+from phyrogen_core.folder import PuzzleFolder
 from phyrogen_core.registry import ParameterError, all_generators
 
 from .environment import worker_python
@@ -91,6 +92,12 @@ def _output(settings) -> Path:
     return Path(text)
 
 
+def puzzle_folder(settings, collection) -> PuzzleFolder:
+    """The folder of the scene's puzzle under the panel's output folder."""
+    generator = json.loads(collection.get("phyrogen/metadata", "{}")).get("generator", "scene")
+    return PuzzleFolder.at(_output(settings), generator, collection.name)
+
+
 class PHYROGEN_OT_generate(bpy.types.Operator):  # noqa: N801 (Blender's naming)
     """Generate and certify the puzzle, then build it in the scene"""
 
@@ -125,13 +132,13 @@ def generate_folder(generator: str, seed: int, params, out: Path) -> Path:
     process) and works inside a Blender binary, whose own Python lacks our dependencies.
     """
     overrides = [f"--set={f.name}={getattr(params, f.name)!r}" for f in dataclasses.fields(params)]
-    command = [worker_python(), "-m", "solver.cli", "generate", "--generator", generator, "--seeds", str(seed),
+    command = [worker_python(), "-m", "phyrogen", "generate", "--generator", generator, "--seeds", str(seed),
                "--out", str(out), "--workers", "1", "--quiet", *overrides]
     result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0:
         lines = [line for line in (result.stderr + result.stdout).splitlines() if "error" in line or "FAILED" in line]
         raise RuntimeError(lines[-1] if lines else f"generation failed with exit code {result.returncode}")
-    return out / generator / f"{generator}_{seed}"
+    return PuzzleFolder.at(out, generator, f"{generator}_{seed}").path
 
 
 def _remove_collection(collection: bpy.types.Collection) -> None:
@@ -150,7 +157,7 @@ class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
 
     def execute(self, context):
         from phyrogen_core.puzzle import Goal
-        from solver.validation import verify_certificate
+        from solver.problem import verify_certificate
 
         from . import annotations as keys
         from .scene import read_chain
@@ -175,7 +182,7 @@ class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
 
 
 class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801
-    """Export the puzzle in the scene to URDF, SRDF and puzzle.json"""
+    """Write the puzzle in the scene to its folder: URDF, SRDF, meshes and puzzle.json (other files stay)"""
 
     bl_idname = "phyrogen.export_urdf"
     bl_label = "Export URDF"
@@ -185,8 +192,7 @@ class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801
 
         try:
             collection = current_collection(context)
-            generator = json.loads(collection.get("phyrogen/metadata", "{}")).get("generator", "scene")
-            path = export_collection(collection, _output(context.scene.phyrogen) / generator / collection.name)
+            path = export_collection(collection, puzzle_folder(context.scene.phyrogen, collection).path)
         except (ValueError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -201,16 +207,15 @@ class PHYROGEN_OT_render(bpy.types.Operator):  # noqa: N801
     bl_label = "Render"
 
     def execute(self, context):
-        from phyrogen_core.export import atomic_directory
+        from phyrogen_core.folder import atomic_directory
 
         from .render import render_views, setup_stage
 
         settings = context.scene.phyrogen
         try:
             collection = current_collection(context)
-            generator = json.loads(collection.get("phyrogen/metadata", "{}")).get("generator", "scene")
             setup_stage(context.scene, collection, settings.engine, (480, 360))
-            with atomic_directory(_output(settings) / generator / collection.name / "images") as folder:
+            with atomic_directory(puzzle_folder(settings, collection).images) as folder:
                 paths = render_views(context.scene, collection, folder, collection.name)
         except (ValueError, OSError) as exc:
             self.report({"ERROR"}, str(exc))

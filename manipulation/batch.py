@@ -19,10 +19,10 @@ def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = Tr
     """Execute each puzzle folder, write its outputs under ``out_root``, print one line per puzzle."""
     from tqdm import tqdm
 
-    from solver.generation import seed_ompl
+    from .reaching import seed_reaching
 
     settings = settings or ExecutionSettings()
-    seed_ompl("manipulation", OMPL_SEED)
+    seed_reaching(OMPL_SEED)
     reports = []
     for folder in folders:
         with tqdm(total=1, desc=Path(folder).name, unit="action", disable=quiet, file=sys.stderr,

@@ -23,7 +23,8 @@ import pybullet as pb
 
 from phyrogen_core.chain import JointType, KinematicChain
 from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
-from solver.validation import densify
+from solver.actions import Action, split_actions
+from solver.problem import densify
 
 from .following import FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory
 from .grasp import GraspPoint, grasp_point
@@ -32,7 +33,7 @@ from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value
 from .reaching import ReachingError, plan_motion
 from .robot import ARM_REST, RobotSpec
 from .scene import COLLISION_MARGIN, World, temporary_folder, write_scene_files
-from .solution import Action, load_solution, split_actions
+from .solution import load_solution
 from .transforms import inverse, matrix, quaternion
 
 PENETRATION_TOLERANCE = 0.002

@@ -20,6 +20,8 @@ from enum import StrEnum
 import numpy as np
 import pybullet as pb
 
+from solver.problem import densify
+
 from .linalg import damped_least_squares, manipulability
 from .scene import World
 from .transforms import matrix, rotation_error
@@ -191,15 +193,12 @@ def drive_along(world: World, path: np.ndarray, on_step: Callable[[], None], max
     c = world.client
     forces = [motor_force * 4] * 3 + [motor_force] * (len(world.robot_joints) - 3)
     steps = 0
-    for a, b in zip(path[:-1], path[1:], strict=True):
-        count = max(1, int(np.ceil(np.max(np.abs(b - a)) / max_step)))
-        for k in range(1, count + 1):
-            target = a + (b - a) * k / count
-            pb.setJointMotorControlArray(world.robot, world.robot_joints, pb.POSITION_CONTROL,
-                                         targetPositions=target.tolist(), forces=forces, physicsClientId=c)
-            pb.stepSimulation(physicsClientId=c)
-            on_step()
-            steps += 1
+    for target in densify(path, np.full(np.shape(path)[1], max_step))[1:]:
+        pb.setJointMotorControlArray(world.robot, world.robot_joints, pb.POSITION_CONTROL,
+                                     targetPositions=target.tolist(), forces=forces, physicsClientId=c)
+        pb.stepSimulation(physicsClientId=c)
+        on_step()
+        steps += 1
     for _ in range(settle_steps):
         if np.max(np.abs(world.robot_state() - path[-1])) < settle_tolerance:
             break

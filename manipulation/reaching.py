@@ -15,12 +15,20 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
+from solver.pool import stable_seed
+from solver.validation import seed_ompl
+
 from .scene import World
 
 BASE_MARGIN = 0.8
 """Metres the base may drive beyond the box spanned by start, goal and the puzzle's square."""
 CHECK_STEP = 0.02
 """Radians (or metres) between collision-checked states along a motion."""
+
+
+def seed_reaching(seed: int) -> None:
+    """Seed the OMPL RNG that BIT* draws from (once per process; later calls have no effect)."""
+    seed_ompl(stable_seed("ompl", "manipulation", seed))
 
 
 class ReachingError(RuntimeError):

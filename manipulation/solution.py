@@ -1,11 +1,12 @@
-"""The solution the robot executes, split into single-object actions.
+"""The solution the robot executes.
 
 The preferred input is the lowest-cost LA-RRT solution stored beside the
 puzzle (``solutions/la_rrt_best.json``: ``joint_order`` and ``path``); a
 puzzle without one falls back to its certificate from ``puzzle.json``.
-Either path is split the way :func:`solver.actions.action_labels` counts
-actions: a segment that moves several objects becomes one move per object
-(in factor order), and consecutive moves of the same object form one action.
+Either path is split into single-object actions by
+:func:`solver.actions.split_actions`, the rule the planners count actions by:
+a segment that moves several objects becomes one move per object (in factor
+order), and consecutive moves of the same object form one action.
 """
 
 from __future__ import annotations
@@ -17,26 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.actions import MOVE_TOLERANCE
-
-SOLUTION_FILE = Path("solutions") / "la_rrt_best.json"
-
-
-@dataclass(frozen=True)
-class Action:
-    """One object moved along ``states`` (full joint-order states; only ``columns`` change)."""
-
-    object_name: str
-    columns: tuple[int, ...]
-    states: np.ndarray
-
-    @property
-    def start(self) -> np.ndarray:
-        return self.states[0]
-
-    @property
-    def end(self) -> np.ndarray:
-        return self.states[-1]
+from phyrogen_core.folder import BEST_SOLUTION
 
 
 @dataclass(frozen=True)
@@ -48,10 +30,10 @@ class Solution:
 
 def load_solution(folder: Path, joint_order: Sequence[str], certificate: Sequence[Sequence[float]]) -> Solution:
     """The LA-RRT best solution of the puzzle in ``folder`` if there is one, else its certificate."""
-    file = Path(folder) / SOLUTION_FILE
+    file = Path(folder) / BEST_SOLUTION
     if not file.exists():
         if len(certificate) < 2:
-            raise ValueError(f"{folder}: no {SOLUTION_FILE} and the certificate has {len(certificate)} states; "
+            raise ValueError(f"{folder}: no {BEST_SOLUTION} and the certificate has {len(certificate)} states; "
                              "a path needs at least 2")
         return Solution(np.asarray(certificate, dtype=float), "certificate")
     try:
@@ -72,25 +54,3 @@ def _reorder(data: Mapping, joint_order: Sequence[str], file: Path) -> np.ndarra
         raise ValueError(f"{file}: path must be a list of at least 2 states of {len(order)} values, "
                          f"got shape {path.shape}")
     return path[:, [order.index(name) for name in joint_order]]
-
-
-def split_actions(path: np.ndarray, factors: Mapping[str, Sequence[int]],
-                  tolerance: float = MOVE_TOLERANCE) -> list[Action]:
-    """Single-object actions of ``path`` (the same split :func:`solver.actions.count_actions` counts)."""
-    path = np.asarray(path, dtype=float)
-    actions: list[tuple[str, list[np.ndarray]]] = []
-    current = path[0].copy()
-    for b in path[1:]:
-        moved = np.abs(b - current) > tolerance
-        for name, columns in factors.items():
-            columns = list(columns)
-            if not moved[columns].any():
-                continue
-            after = current.copy()
-            after[columns] = b[columns]
-            if actions and actions[-1][0] == name:
-                actions[-1][1].append(after)
-            else:
-                actions.append((name, [current.copy(), after]))
-            current = after
-    return [Action(name, tuple(factors[name]), np.array(states)) for name, states in actions]

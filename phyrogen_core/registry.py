@@ -1,18 +1,44 @@
-"""The registry of generators by name: feeds the CLI, the tests and the Blender panel."""
+"""The registry of generators by name: feeds the CLI, the tests, the benchmark and the Blender panel.
+
+A generator is registered with everything that is known about it: its
+parameters (a frozen dataclass whose fields say what they mean, see
+:func:`parameter`), whether it is one of the paper's six and in which row of
+Table I, and its benchmark time limit in every profile. The six built-in
+generators are loaded the first time the registry is asked for anything, so it
+is never seen empty. ``docs/adding-a-generator.md`` walks through adding one.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import textwrap
 import typing
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from .maker import MakerInput
 
+BENCHMARK_PROFILES = ("paper", "quick")
+"""The benchmark profiles (``solver.benchmark``) every generator gives a time limit for:
+``paper`` the paper's protocol, ``quick`` a short run of the same planners."""
+
+Build = Callable[[int, Any], MakerInput]
+"""``build(seed, params)``: a generator's input tuple to the Maker."""
+
 
 class ParameterError(ValueError):
     """A generator parameter is unknown or has a bad value."""
+
+
+def parameter(default: Any, doc: str, *, difficulty: bool = False) -> Any:
+    """A field of a generator's parameter dataclass: its default, what it means, and
+    whether it is one of the generator's difficulty knobs.
+
+    ``n_objects: int = parameter(0, "how many sliders; 0: Seed + 1, as in the paper", difficulty=True)``
+    """
+    return field(default=default, metadata={"doc": doc, "difficulty": difficulty})
 
 
 @dataclass(frozen=True)
@@ -20,19 +46,90 @@ class GeneratorSpec:
     """A registered generator.
 
     ``build(seed, params)`` returns the generator's input tuple to the Maker.
-    ``params`` is a frozen dataclass type whose fields (with defaults) are the
-    generator's parameters; its ``validate(seed)`` method, when present,
-    raises :class:`ParameterError` for infeasible settings.
+    ``params`` is a frozen dataclass type whose fields (with defaults, each
+    made with :func:`parameter`) are the generator's parameters; its
+    ``validate(seed)`` method, when present, raises :class:`ParameterError`
+    for infeasible settings. ``paper_row`` is the generator's row in the
+    paper's Table I (1-6), None for a generator the paper does not have.
+    ``time_limits`` gives the benchmark's seconds per run in every profile of
+    :data:`BENCHMARK_PROFILES`.
     """
 
     name: str
     title: str
-    build: Callable[[int, Any], MakerInput]
+    build: Build
     params: type
     doc: str = ""
+    paper_row: int | None = None
+    time_limits: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not dataclasses.is_dataclass(self.params):
+            raise ValueError(f"generator {self.name!r}: params must be a dataclass, got {self.params!r}")
+        for f in dataclasses.fields(self.params):
+            if f.default is dataclasses.MISSING:
+                raise ValueError(f"generator {self.name!r}: parameter {f.name!r} needs a default")
+        undocumented = [f.name for f in dataclasses.fields(self.params) if not str(f.metadata.get("doc", "")).strip()]
+        if undocumented:
+            raise ValueError(
+                f"generator {self.name!r}: parameters {', '.join(undocumented)} have no doc; declare them as "
+                f"`name: type = parameter(default, \"what it means\")`"
+            )
+        if set(self.time_limits) != set(BENCHMARK_PROFILES) or not all(v > 0 for v in self.time_limits.values()):
+            raise ValueError(
+                f"generator {self.name!r}: time_limits must give positive seconds for exactly the profiles "
+                f"{', '.join(BENCHMARK_PROFILES)}, got {dict(self.time_limits)}"
+            )
+        if self.paper_row is not None and not 1 <= self.paper_row <= 6:
+            raise ValueError(f"generator {self.name!r}: paper_row must be a row of Table I (1-6), got {self.paper_row}")
+
+    @property
+    def paper(self) -> bool:
+        """Whether this is one of the paper's six generators."""
+        return self.paper_row is not None
+
+    @property
+    def summary(self) -> str:
+        """The first line of the generator's docstring, without a leading ``Title:``."""
+        first = self.doc.splitlines()[0] if self.doc else self.title
+        text = first.removeprefix(f"{self.title}: ")
+        return text[:1].upper() + text[1:]
 
     def default_params(self) -> Any:
         return self.params()
+
+    def parameter_docs(self) -> dict[str, str]:
+        """What each parameter means, by name, in declaration order."""
+        return {f.name: f.metadata["doc"] for f in dataclasses.fields(self.params)}
+
+    def difficulty_parameters(self) -> tuple[str, ...]:
+        """The parameters that control how hard the puzzles are."""
+        return tuple(f.name for f in dataclasses.fields(self.params) if f.metadata.get("difficulty"))
+
+    def time_limit(self, profile: str) -> float:
+        """Benchmark seconds per run of this generator's puzzles in ``profile``."""
+        try:
+            return float(self.time_limits[profile])
+        except KeyError:
+            raise ValueError(f"unknown benchmark profile {profile!r}; valid: {', '.join(BENCHMARK_PROFILES)}") from None
+
+    def describe(self) -> str:
+        """A few lines for people: title, summary, benchmark limits, and every parameter with
+        its default and meaning (``*`` marks the difficulty knobs)."""
+        where = f"paper Table I, row {self.paper_row}" if self.paper else "not in the paper"
+        limits = ", ".join(f"{self.time_limit(p):g} s ({p})" for p in BENCHMARK_PROFILES)
+        lines = [f"{self.name}: {self.title} ({where})", f"    {self.summary}",
+                 f"    benchmark time limit per run: {limits}",
+                 "    parameters (* = difficulty knob):"]
+        defaults = self.default_params()
+        knobs = set(self.difficulty_parameters())
+        entries = [(f"{'*' if name in knobs else ' '} {name}={getattr(defaults, name)!r}", doc)
+                   for name, doc in self.parameter_docs().items()]
+        width = max((len(entry) for entry, _ in entries), default=0)
+        for entry, doc in entries:
+            lines += textwrap.wrap(doc, 100, initial_indent=f"      {entry:{width}s}  ",
+                                   subsequent_indent=" " * (width + 8))
+        return "\n".join(lines)
 
     def parse_params(self, overrides: Mapping[str, str | int | float | bool]) -> Any:
         """Parameters from ``key=value`` overrides, each converted to its field's type."""
@@ -75,16 +172,63 @@ def _convert(generator: str, key: str, raw: Any, kind: Any) -> Any:
         raise ParameterError(f"generator {generator!r}: parameter {key!r} must be {name}, got {raw!r}") from None
 
 
-_REGISTRY: dict[str, GeneratorSpec] = {}
+class Registry:
+    """Generators by name. Listed in a fixed order: the paper's six in Table I order,
+    then any others by name."""
+
+    def __init__(self, specs: Mapping[str, GeneratorSpec] | None = None):
+        self._specs: dict[str, GeneratorSpec] = dict(specs or {})
+
+    def add(self, spec: GeneratorSpec) -> GeneratorSpec:
+        if spec.name in self._specs:
+            raise ValueError(f"generator {spec.name!r} registered twice")
+        taken = {s.paper_row: s.name for s in self._specs.values() if s.paper}
+        if spec.paper and spec.paper_row in taken:
+            raise ValueError(f"generator {spec.name!r}: paper row {spec.paper_row} is {taken[spec.paper_row]!r}'s")
+        self._specs[spec.name] = spec
+        return spec
+
+    def copy(self) -> Registry:
+        return Registry(self._specs)
+
+    def all(self) -> dict[str, GeneratorSpec]:
+        ordered = sorted(self._specs.values(),
+                         key=lambda s: (s.paper_row is None, s.paper_row or 0, s.name))
+        return {spec.name: spec for spec in ordered}
+
+    def get(self, name: str) -> GeneratorSpec:
+        if name not in self._specs:
+            raise ParameterError(f"unknown generator {name!r} (known: {', '.join(self.all())})")
+        return self._specs[name]
+
+    def paper_generators(self) -> tuple[str, ...]:
+        return tuple(name for name, spec in self.all().items() if spec.paper)
+
+    def time_limits(self, profile: str) -> dict[str, float]:
+        return {name: spec.time_limit(profile) for name, spec in self.all().items()}
+
+    def describe(self) -> str:
+        return "\n\n".join(spec.describe() for spec in self.all().values())
 
 
-def register(name: str, title: str, params: type) -> Callable[[Callable[[int, Any], MakerInput]], Callable]:
-    """Decorator: register ``build(seed, params) -> MakerInput`` under ``name``."""
+_BUILTIN = Registry()
+_current = _BUILTIN
 
-    def wrap(build: Callable[[int, Any], MakerInput]) -> Callable[[int, Any], MakerInput]:
-        if name in _REGISTRY:
-            raise ValueError(f"generator {name!r} registered twice")
-        _REGISTRY[name] = GeneratorSpec(name, title, build, params, (build.__doc__ or "").strip())
+
+def register(name: str, title: str, params: type, *, time_limits: Mapping[str, float],
+             paper_row: int | None = None) -> Callable[[Build], Build]:
+    """Decorator: register ``build(seed, params) -> MakerInput`` under ``name``.
+
+    ``time_limits``: benchmark seconds per run for every profile in
+    :data:`BENCHMARK_PROFILES`; ``paper_row``: the row in the paper's Table I,
+    for the paper's six only. The docstring of ``build`` is the generator's
+    documentation (sections Mechanism, Randomization, Goal, Difficulty
+    parameters, Departures).
+    """
+
+    def wrap(build: Build) -> Build:
+        _current.add(GeneratorSpec(name, title, build, params, (build.__doc__ or "").strip(), paper_row,
+                                   dict(time_limits)))
         return build
 
     return wrap
@@ -94,13 +238,47 @@ def _load_builtin() -> None:
     from . import generators  # noqa: F401  (registers the six paper generators)
 
 
-def all_generators() -> dict[str, GeneratorSpec]:
+def registry() -> Registry:
+    """The registry in use: the built-in generators (and any registered since)."""
     _load_builtin()
-    return dict(_REGISTRY)
+    return _current
+
+
+@contextlib.contextmanager
+def registry_copy() -> Iterator[Registry]:
+    """Within the block, the registry in use is a copy of the current one: generators
+    registered inside (e.g. by loading a module that calls :func:`register`) are gone
+    afterwards. For tests and for trying a generator out without adding it for good."""
+    global _current
+    previous = registry()
+    _current = previous.copy()
+    try:
+        yield _current
+    finally:
+        _current = previous
+
+
+def all_generators() -> dict[str, GeneratorSpec]:
+    """Every registered generator by name: the paper's six in Table I order, then others by name."""
+    return registry().all()
 
 
 def get_generator(name: str) -> GeneratorSpec:
-    registry = all_generators()
-    if name not in registry:
-        raise ParameterError(f"unknown generator {name!r} (known: {', '.join(registry)})")
-    return registry[name]
+    return registry().get(name)
+
+
+def paper_generators() -> tuple[str, ...]:
+    """The paper's six generators in Table I order: simple_slider, continuous_space,
+    grid_world, lockbox_random, move_n_times, rooms."""
+    return registry().paper_generators()
+
+
+def benchmark_time_limits(profile: str) -> dict[str, float]:
+    """Benchmark seconds per run in ``profile`` for every registered generator."""
+    return registry().time_limits(profile)
+
+
+def describe_generators() -> str:
+    """Every registered generator described for people (``phyrogen list``): title, where it
+    comes from, benchmark limits, and each parameter's default and meaning."""
+    return registry().describe()

@@ -51,6 +51,7 @@ def main(argv: list[str]) -> int:
 
     from blender_addon.export import export_collection
     from blender_addon.scene import build_puzzle, read_chain
+    from phyrogen.cli import parse_overrides
     from phyrogen_core.export import chain_to_urdf, write_puzzle
     from phyrogen_core.maker import GenerationError
     from phyrogen_core.registry import ParameterError, get_generator
@@ -58,7 +59,7 @@ def main(argv: list[str]) -> int:
 
     try:
         spec = get_generator(args.generator)
-        params = spec.parse_params(dict(item.split("=", 1) for item in args.set))
+        params = spec.parse_params(parse_overrides(args.set))
         # This process is fresh and plans nothing else: generating here is deterministic.
         puzzle = generate_here(args.generator, args.seed, params)
     except (ParameterError, GenerationError, ValueError) as exc:

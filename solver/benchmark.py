@@ -7,8 +7,8 @@ random draws in any order, on any number of workers. Results are written in
 OMPL's benchmark log format, one log per puzzle (an *experiment*), then
 turned into one SQLite database with ``ompl.tools.readBenchmarkLog`` and
 ``computeViews`` (Planner Arena opens it). LA-RRT's best solution per puzzle
-is saved next to the puzzle for the manipulation stage
-(:data:`SOLUTION_FILE`).
+is saved into the puzzle's folder for the manipulation stage
+(:attr:`~phyrogen_core.folder.PuzzleFolder.best_solution`).
 """
 
 from __future__ import annotations
@@ -17,10 +17,8 @@ import contextlib
 import io
 import json
 import math
-import multiprocessing
 import os
 import platform
-import tempfile
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -28,22 +26,14 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
-from phyrogen_core.export.output import atomic_directory
+from phyrogen_core.folder import PuzzleFolder, atomic_directory, write_file_atomic
+from phyrogen_core.registry import benchmark_time_limits
 
 from .planners import PLANNERS, get_planner, run_seed
+from .pool import fresh_process_pool
 
-PAPER_TIME_LIMITS: Mapping[str, float] = {
-    "simple_slider": 40.0,
-    "grid_world": 40.0,
-    "continuous_space": 20.0,
-    "lockbox_random": 600.0,
-    "move_n_times": 20.0,
-    "rooms": 60.0,
-}
-"""Seconds per run for each generator's puzzles, as in the paper."""
-
-SOLUTION_FILE = Path("solutions") / "la_rrt_best.json"
-"""Where, inside a puzzle folder, LA-RRT's best path of a benchmark is saved."""
+PAPER_TIME_LIMITS: Mapping[str, float] = benchmark_time_limits("paper")
+"""Seconds per run for each generator's puzzles, as in the paper (from the generator registry)."""
 
 STATUS_NAMES = ("Unknown status", "Invalid start", "Invalid goal", "Unrecognized goal type", "Timeout",
                 "Approximate solution", "Exact solution", "Crash", "Abort")
@@ -80,16 +70,9 @@ class Profile:
                              f"it has: {', '.join(self.time_limits)}") from None
 
 
-QUICK_TIME_LIMITS: Mapping[str, float] = {
-    "simple_slider": 4.0,
-    "grid_world": 4.0,
-    "continuous_space": 2.0,
-    "lockbox_random": 10.0,
-    "move_n_times": 20.0,
-    "rooms": 6.0,
-}
-"""About a tenth of the paper's limits, but Move N Times keeps the paper's 20 s (LA-RRT's median
-first solution on Move N Times 4 is about 6 s) and Lockbox Random gets 10 s instead of 600 s."""
+QUICK_TIME_LIMITS: Mapping[str, float] = benchmark_time_limits("quick")
+"""About a tenth of the paper's limits, from the generator registry (docs/generators.md says
+why Move N Times and Lockbox Random differ)."""
 
 PROFILES: Mapping[str, Profile] = {
     "paper": Profile("paper", 100, PAPER_TIME_LIMITS, 0.5),
@@ -117,42 +100,9 @@ def get_profile(name: str, runs: int | None = None, time_limit: float | None = N
 
 
 @dataclass(frozen=True)
-class PuzzleEntry:
-    """A puzzle folder to benchmark."""
-
-    name: str
-    generator: str
-    folder: str
-
-
-def find_puzzles(root: Path, generators: Sequence[str] | None = None) -> list[PuzzleEntry]:
-    """Puzzle folders under ``root`` (``<root>/<generator>/<generator>_<seed>/puzzle.json``), sorted."""
-    root = Path(root)
-    if not root.is_dir():
-        raise FileNotFoundError(f"{root}: no such folder of puzzles (make one with `phyrogen generate --out {root}`)")
-    entries = []
-    for meta in sorted(root.glob("*/*/puzzle.json")):
-        data = json.loads(meta.read_text(encoding="utf-8"))
-        generator = str(data.get("generator", meta.parent.parent.name))
-        if generators is None or generator in generators:
-            entries.append(PuzzleEntry(str(data.get("name", meta.parent.name)), generator, str(meta.parent)))
-    if not entries:
-        raise FileNotFoundError(f"{root}: no puzzle folders (*/*/puzzle.json)"
-                                + (f" of generators {list(generators)}" if generators else ""))
-    order = {g: i for i, g in enumerate(PAPER_TIME_LIMITS)}
-    entries.sort(key=lambda e: (order.get(e.generator, len(order)), e.generator, _seed_of(e.name), e.name))
-    return entries
-
-
-def _seed_of(name: str) -> int:
-    tail = name.rsplit("_", 1)[-1]
-    return int(tail) if tail.isdigit() else 0
-
-
-@dataclass(frozen=True)
 class RunJob:
     planner: str
-    puzzle: PuzzleEntry
+    puzzle: PuzzleFolder
     run: int
     seed: int
     time_limit: float
@@ -189,14 +139,14 @@ def _run_job(job: RunJob) -> RunRecord:
     spec = get_planner(job.planner)
     try:
         if spec.uses_ompl_rng:
-            from .planners import seed_ompl_for_run
+            from .validation import seed_ompl
 
-            seed_ompl_for_run(job.seed)
+            seed_ompl(job.seed)
         from phyrogen_core.export import read_puzzle_dir
 
-        from .planning import chain_path, problem_for_chain
+        from .problem import chain_path, problem_for_chain
 
-        loaded = read_puzzle_dir(job.puzzle.folder)
+        loaded = read_puzzle_dir(job.puzzle.path)
         problem = problem_for_chain(loaded.chain, loaded.goal)
         result = spec.plan(problem, job.time_limit, job.seed, job.progress_interval)
         path = chain_path(problem, result.path) if result.solved else ()
@@ -216,7 +166,7 @@ _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_c
             "solver.planning", "solver.la_rrt", "solver.lbt_rrt", "solver.ompl_planners"]
 
 
-def make_jobs(puzzles: Sequence[PuzzleEntry], planners: Sequence[str], profile: Profile,
+def make_jobs(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile,
               base_seed: int = 0) -> list[RunJob]:
     for name in planners:
         get_planner(name)
@@ -230,9 +180,7 @@ def run_all(jobs: Sequence[RunJob], workers: int = 2,
     """Run every job in a fresh process (one per job), yielding records as they finish."""
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
-    context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(_PRELOAD)
-    with context.Pool(processes=min(workers, max(1, len(jobs))), maxtasksperchild=1) as pool:
+    with fresh_process_pool(workers, len(jobs), _PRELOAD) as pool:
         for record in pool.imap_unordered(_run_job, jobs):
             if on_done is not None:
                 on_done(record)
@@ -304,10 +252,8 @@ def build_database(db_path: Path, logs: Iterable[Path]) -> None:
 # -- best solutions -----------------------------------------------------------
 def solution_json(record: RunRecord, factors: Mapping[str, Sequence[int]]) -> dict:
     """The saved form of a best path: joint order, path and the object moved by each action."""
-    from .actions import action_labels
+    from .actions import action_sequence
 
-    labels = action_labels(record.path, factors)
-    sequence = [label for i, label in enumerate(labels) if i == 0 or labels[i - 1] != label]
     return {
         "format": "phyrogen-solution",
         "format_version": 1,
@@ -318,13 +264,14 @@ def solution_json(record: RunRecord, factors: Mapping[str, Sequence[int]]) -> di
         "time_limit": record.time_limit,
         "found_after": record.best_solution_time,
         "action_cost": record.action_cost,
-        "object_sequence": sequence,
+        "object_sequence": action_sequence(record.path, factors),
         "joint_order": list(record.joint_order),
         "path": [list(s) for s in record.path],
     }
 
 
-def save_best_solution(puzzle: PuzzleEntry, records: Sequence[RunRecord], planner_title: str = "LA-RRT") -> Path | None:
+def save_best_solution(puzzle: PuzzleFolder, records: Sequence[RunRecord],
+                       planner_title: str = "LA-RRT") -> Path | None:
     """Write the lowest-cost path of ``planner_title`` on ``puzzle`` to its folder (atomically)."""
     from phyrogen_core.export import read_puzzle_dir
 
@@ -332,14 +279,8 @@ def save_best_solution(puzzle: PuzzleEntry, records: Sequence[RunRecord], planne
     if not solved:
         return None
     best = min(solved, key=lambda r: (r.action_cost, r.length, r.run))
-    chain = read_puzzle_dir(puzzle.folder).chain
-    target = Path(puzzle.folder) / SOLUTION_FILE
-    target.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile("w", dir=target.parent, suffix=".tmp", delete=False, encoding="utf-8") as f:
-        json.dump(solution_json(best, chain.factors), f, indent=1)
-        temporary = f.name
-    os.replace(temporary, target)
-    return target
+    chain = read_puzzle_dir(puzzle.path).chain
+    return write_file_atomic(puzzle.best_solution, json.dumps(solution_json(best, chain.factors), indent=1).encode())
 
 
 # -- the whole benchmark ----------------------------------------------------------
@@ -352,7 +293,7 @@ class BenchmarkOutput:
     wall_seconds: float = 0.0
 
 
-def run_benchmark(puzzles: Sequence[PuzzleEntry], planners: Sequence[str], profile: Profile, out: Path,
+def run_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
                   workers: int = 2, base_seed: int = 0, save_solutions: bool = True, plots: bool = True,
                   progress: bool = True) -> BenchmarkOutput:
     """Run the benchmark and write ``out``: ``logs/<puzzle>.log``, ``benchmark.db``,
@@ -403,7 +344,7 @@ def run_benchmark(puzzles: Sequence[PuzzleEntry], planners: Sequence[str], profi
                            tuple(records), wall)
 
 
-def estimate_seconds(puzzles: Sequence[PuzzleEntry], planners: Sequence[str], profile: Profile,
+def estimate_seconds(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile,
                      workers: int, overhead: float) -> float:
     """Wall-clock seconds a benchmark takes: every run lasts its time limit plus ``overhead``
     (process start, loading, final checks; measure it on a sample)."""

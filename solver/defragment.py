@@ -21,13 +21,14 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from .actions import factor_membership, moved_factors
 from .collision import CollisionModel
-from .planning import in_goal
-from .validation import Problem
+from .problem import Problem, in_goal
 
 Action = tuple[int, tuple[np.ndarray, ...]]  # (factor index, waypoints of that factor's columns)
 
 MOVE_TOLERANCE = 1e-9
+"""Stricter than :data:`solver.actions.MOVE_TOLERANCE`: any change of a factor's joints makes it a move here."""
 
 
 class Defragmenter:
@@ -38,10 +39,7 @@ class Defragmenter:
         self.problem = problem
         self.model: CollisionModel = problem.model
         self.columns = [np.asarray(c, dtype=np.int64) for c in factors.values()]
-        membership = np.zeros((len(problem.start), len(self.columns)))
-        for f, c in enumerate(self.columns):
-            membership[c, f] = 1.0
-        self.membership = membership
+        self.membership = factor_membership(factors, len(problem.start))
         self.goal_factors = {f for f, c in enumerate(self.columns) if set(c.tolist()) & set(problem.goal_columns)}
         self.steps = steps
         self.max_rounds = max_rounds
@@ -70,7 +68,7 @@ class Defragmenter:
 
     def moved_factors(self, states: np.ndarray) -> np.ndarray:
         """(segments, factors) booleans: which factors each segment of ``states`` moves."""
-        return ((np.abs(np.diff(states, axis=0)) > MOVE_TOLERANCE) @ self.membership) > 0
+        return moved_factors(states, self.membership, MOVE_TOLERANCE)
 
     def actions_of(self, states: np.ndarray) -> list[Action]:
         """Group single-factor segments into actions; zero-length moves are dropped."""

@@ -9,8 +9,6 @@ has imported everything but never planned; OMPL is seeded there from
 
 from __future__ import annotations
 
-import hashlib
-import multiprocessing
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -24,17 +22,17 @@ from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.registry import ParameterError, get_generator
 
 from .actions import count_actions
-from .validation import OmplValidator, dependency_graph
+from .pool import fresh_process_pool, stable_seed
+from .problem import dependency_graph
+from .validation import OmplValidator, seed_ompl
 
 _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.generators",
             "phyrogen_core.export", "solver.validation", "solver._server_warmup"]
 
 
-def seed_ompl(generator: str, seed: int) -> None:
-    from ompl import util as ou
-
-    digest = hashlib.sha256(f"ompl:{generator}:{seed}".encode()).digest()
-    ou.RNG.setSeed(int.from_bytes(digest[:4], "little") % 2_147_483_646 + 1)
+def ompl_seed(generator: str, seed: int) -> int:
+    """The seed of OMPL's global RNG for puzzle ``seed`` of ``generator``."""
+    return stable_seed("ompl", generator, seed)
 
 
 def versions() -> dict[str, str]:
@@ -58,7 +56,7 @@ def generate_here(generator: str, seed: int, params: Any = None) -> Puzzle:
     spec = get_generator(generator)
     params = spec.default_params() if params is None else params
     spec.check(seed, params)
-    seed_ompl(generator, seed)
+    seed_ompl(ompl_seed(generator, seed))
     maker_input = spec.build(seed, params)
     validator = OmplValidator(rng_for(generator, seed, "validator"))
     validator.budget = int(validator.budget * maker_input.budget_scale)
@@ -125,18 +123,12 @@ def _cost_hint(job: Job) -> float:
         return 1.0
 
 
-def _context():
-    context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(_PRELOAD)
-    return context
-
-
 def run_jobs(jobs: Iterable[Job], out_root: Path | None = None, workers: int = 2,
              on_done: Callable[[Report], None] | None = None) -> Iterator[Report]:
     """Run jobs in fresh worker processes (one process per job), yielding reports as they finish."""
     jobs = list(jobs)
     root = None if out_root is None else str(out_root)
-    with _context().Pool(processes=max(1, min(workers, len(jobs) or 1)), maxtasksperchild=1) as pool:
+    with fresh_process_pool(workers, len(jobs), _PRELOAD) as pool:
         # Start the jobs with the largest search budgets first, so that no long job is left
         # running alone at the end; reports still come back in the order of ``jobs``.
         started = {}

@@ -36,17 +36,8 @@ import numpy as np
 from numba import njit
 
 from .defragment import Defragmenter
-from .planning import (
-    PLANNING_RESOLUTION,
-    AnytimeRecorder,
-    PlanResult,
-    in_goal,
-    path_is_valid,
-    planning_steps,
-    problem_factors,
-    warm_up,
-)
-from .validation import FINE_RESOLUTION, Problem
+from .planning import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning_steps
+from .problem import FINE_RESOLUTION, Problem, in_goal, path_is_valid, problem_factors
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2
 
@@ -335,6 +326,4 @@ def plan_la_rrt(problem: Problem, time_limit: float, seed: int, progress_interva
                 settings: LaRrtSettings | None = None) -> PlanResult:
     """Run LA-RRT for ``time_limit`` seconds; all randomness from ``seed``."""
     planner = LaRrt(problem, np.random.default_rng(seed), settings)
-    warm_up(problem)
-    recorder = AnytimeRecorder("LA-RRT", problem, time_limit, progress_interval)
-    return planner.solve(recorder)
+    return planner.solve(AnytimeRecorder("LA-RRT", problem, time_limit, progress_interval))

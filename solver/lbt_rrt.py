@@ -29,16 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .planning import (
-    PLANNING_RESOLUTION,
-    AnytimeRecorder,
-    PlanResult,
-    in_goal,
-    planning_steps,
-    problem_factors,
-    warm_up,
-)
-from .validation import Problem
+from .actions import factor_membership
+from .planning import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning_steps
+from .problem import Problem, in_goal, problem_factors
 
 
 @dataclass(frozen=True)
@@ -70,9 +63,7 @@ class LbtRrt:
         self.model = problem.model
         self.steps = planning_steps(problem, self.settings.resolution)
         dimension = len(problem.start)
-        self.membership = np.zeros((dimension, len(problem_factors(problem))))
-        for f, columns in enumerate(problem_factors(problem).values()):
-            self.membership[list(columns), f] = 1.0
+        self.membership = factor_membership(problem_factors(problem), dimension)
         self.range = self.settings.range_fraction * float(np.linalg.norm(problem.upper - problem.lower))
         self.k_rrg = math.e * (1.0 + 1.0 / dimension)
         self.states = np.empty((1024, dimension))
@@ -275,6 +266,4 @@ def plan_lbt_rrt(problem: Problem, time_limit: float, seed: int, progress_interv
                  settings: LbtRrtSettings | None = None) -> PlanResult:
     """Run LBT-RRT for ``time_limit`` seconds; all randomness from ``seed``."""
     planner = LbtRrt(problem, np.random.default_rng(seed), settings)
-    warm_up(problem)
-    recorder = AnytimeRecorder("LBT-RRT", problem, time_limit, progress_interval)
-    return planner.solve(recorder)
+    return planner.solve(AnytimeRecorder("LBT-RRT", problem, time_limit, progress_interval))

@@ -21,8 +21,9 @@ import numpy as np
 from ompl import base as ob
 from ompl import geometric as og
 
-from .planning import AnytimeRecorder, PlanResult, planning_steps, problem_factors, warm_up
-from .validation import Problem, _GoalRegion, ompl_setup
+from .planning import AnytimeRecorder, PlanResult, planning_steps
+from .problem import Problem, problem_factors
+from .validation import _GoalRegion, ompl_setup
 
 
 class ObjectsMovedObjective(ob.OptimizationObjective):
@@ -76,7 +77,6 @@ def _plan_ompl(name: str, make: Callable, problem: Problem, time_limit: float, s
     planner = make(si)
     planner.setProblemDefinition(pdef)
     planner.setup()
-    warm_up(problem)
     recorder = AnytimeRecorder(name, problem, time_limit, progress_interval)
     if not problem.model.is_valid(problem.start):
         return recorder.result(0, "Invalid start")

@@ -5,17 +5,18 @@
 scores paths with :func:`solver.actions.count_actions` and runs until its
 time limit (all four are anytime). Planners marked ``uses_ompl_rng`` draw
 from OMPL's global RNG too: run each of their runs in a fresh process that
-seeded it (:func:`seed_ompl_for_run`), as :mod:`solver.benchmark` does.
+seeded it with the run's seed (:func:`solver.validation.seed_ompl`), as
+:mod:`solver.benchmark` does.
 """
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from .planning import PlanResult
-from .validation import Problem
+from .pool import stable_seed
+from .problem import Problem
 
 PlanFunction = Callable[..., PlanResult]
 
@@ -86,12 +87,4 @@ def plan(name: str, problem: Problem, time_limit: float, seed: int, progress_int
 
 def run_seed(planner: str, puzzle: str, run: int, base_seed: int = 0) -> int:
     """The seed of run ``run`` of ``planner`` on ``puzzle``: stable across machines, orders and processes."""
-    digest = hashlib.sha256(f"run:{base_seed}:{planner}:{puzzle}:{run}".encode()).digest()
-    return int.from_bytes(digest[:4], "little") % 2_147_483_646 + 1
-
-
-def seed_ompl_for_run(seed: int) -> None:
-    """Seed OMPL's global RNG (only the first call in a process has an effect)."""
-    from ompl import util as ou
-
-    ou.RNG.setSeed(int(seed))
+    return stable_seed("run", base_seed, planner, puzzle, run)

@@ -1,13 +1,13 @@
-"""What every planner shares: the problem over a chain, its factors, and the anytime result.
+"""What every benchmark planner shares: the anytime result and its recorder.
 
-A planner gets a :class:`~solver.validation.Problem` (the collision model and
+A planner gets a :class:`~solver.problem.Problem` (the collision model and
 the free joints' bounds, start and goal) and a time limit; it reports a
 :class:`PlanResult`: the best path it found, scored with the paper's action
 cost (:func:`solver.actions.count_actions`, the same function for every
 planner), when it found its first solution, and how the best cost evolved.
 Paths in a result list states in the problem's joint order
-(``problem.model.joint_order``); :func:`chain_path` expands them to the
-chain's full joint order.
+(``problem.model.joint_order``); :func:`solver.problem.chain_path` expands
+them to the chain's full joint order.
 """
 
 from __future__ import annotations
@@ -19,82 +19,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from phyrogen_core.chain import KinematicChain
-from phyrogen_core.puzzle import Goal
-
 from .actions import count_actions
-from .collision import CollisionModel
-from .validation import FINE_RESOLUTION, Problem
-
-Path = tuple[tuple[float, ...], ...]
+from .problem import FINE_RESOLUTION, Path, Problem, in_goal, path_is_valid, problem_factors
 
 PLANNING_RESOLUTION = 0.01
 """Metres any collision point may move between two states checked while planning, for every
 planner alike. At 0.02, diagonal RRT* edges sometimes clipped a corner that the final
-fine-resolution check (:data:`~solver.validation.FINE_RESOLUTION`) then caught."""
-
-
-def problem_for_chain(chain: KinematicChain, goal: Goal) -> Problem:
-    """The planning problem of a puzzle chain (e.g. a folder's URDF) with its goal.
-
-    Joints whose limits have zero width are locked at their only value.
-    Raises ValueError when a goal joint is not a free joint of the chain.
-    """
-    locked = {j.name: j.lower for j in chain.active_joints if j.upper - j.lower < 1e-12}
-    model = CollisionModel(chain, locked)
-    order = model.joint_order
-    missing = [n for n in goal.values if n not in order]
-    if missing:
-        raise ValueError(f"goal joints {missing} are not free joints of chain {chain.name!r}; "
-                         f"valid: {list(order)}")
-    lower = np.array([chain.joint(n).lower for n in order])
-    upper = np.array([chain.joint(n).upper for n in order])
-    start = np.clip(np.zeros(len(order)), lower, upper)
-    columns = {order.index(n): float(v) for n, v in goal.values.items()}
-    return Problem(model, start, columns, lower, upper, goal.tolerance)
-
-
-def problem_factors(problem: Problem) -> dict[str, tuple[int, ...]]:
-    """Object name -> columns of the problem's state it moves (one factor per object)."""
-    chain = problem.model.chain
-    out: dict[str, list[int]] = {}
-    for index, name in enumerate(problem.model.joint_order):
-        out.setdefault(chain.object_of_joint(name), []).append(index)
-    return {k: tuple(v) for k, v in out.items()}
-
-
-def chain_path(problem: Problem, path: Sequence[Sequence[float]]) -> Path:
-    """``path`` (problem joint order) expanded to every active joint of the chain (locked ones at their value)."""
-    model = problem.model
-    column = {n: i for i, n in enumerate(model.joint_order)}
-    return tuple(
-        tuple(float(state[column[n]]) if n in column else float(model.locked[n]) for n in model.chain.joint_order)
-        for state in path
-    )
-
-
-def in_goal(problem: Problem, state: np.ndarray) -> bool:
-    return all(abs(state[i] - v) <= problem.tolerance + 1e-12 for i, v in problem.goal_columns.items())
-
-
-def segment_points(states: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Interpolated states along every segment of ``states`` (excluding the first state) and,
-    per point, the index of its segment; no joint moves more than ``steps`` between points."""
-    diffs = states[1:] - states[:-1]
-    counts = np.maximum(1, np.ceil(np.max(np.abs(diffs) / steps, axis=1))).astype(np.int64)
-    segment = np.repeat(np.arange(len(diffs)), counts)
-    offsets = np.cumsum(counts) - counts
-    t = (np.arange(len(segment)) - offsets[segment] + 1) / counts[segment]
-    points = np.ascontiguousarray(states[segment] + diffs[segment] * t[:, None])
-    return points, segment
-
-
-def path_is_valid(model: CollisionModel, states: np.ndarray, steps: np.ndarray) -> bool:
-    """Whether every segment of ``states`` is collision-free at ``steps`` (the first state is assumed valid)."""
-    if len(states) < 2:
-        return True
-    points, _ = segment_points(states, steps)
-    return bool(model.check_prepared(points).all())
+fine-resolution check (:data:`~solver.problem.FINE_RESOLUTION`) then caught."""
 
 
 @dataclass(frozen=True)
@@ -139,11 +70,14 @@ class AnytimeRecorder:
     the coarser planning resolution while it runs); a path that fails is
     dropped with the improvements it made, and the previous best counts, so
     a result only ever holds fine-checked paths, with the times they were found.
+    The clock starts when the recorder is made, after the compiled collision
+    kernels are loaded (:func:`warm_up`).
     """
 
     def __init__(self, planner: str, problem: Problem, time_limit: float, progress_interval: float):
         if not time_limit > 0:
             raise ValueError(f"time limit must be a positive number of seconds, got {time_limit!r}")
+        warm_up(problem)
         self.planner = planner
         self.problem = problem
         self.time_limit = float(time_limit)

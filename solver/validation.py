@@ -1,16 +1,21 @@
 """ValidatePuzzle: can the target reach its goal? RRT-Connect (OMPL) on our collision model.
 
+This is OMPL's side of validation: the OMPL set-up of a
+:class:`~solver.problem.Problem`, RRT-Connect with a budget, and the Maker's
+validator. The problem itself, densifying and checking certificates, and
+the dependency graph need no OMPL and live in :mod:`solver.problem`.
+
 Budgets are counted in motion checks, never seconds, so the answer (and
 therefore every generated puzzle) is the same on any machine. OMPL's global
 RNG can be seeded only once per process; :mod:`solver.generation` therefore
-runs each puzzle in a fresh worker process and seeds it there, and the goal
-sampler draws from its own seeded numpy Generator.
+runs each puzzle in a fresh worker process and seeds it there
+(:func:`seed_ompl`), and the goal sampler draws from its own seeded numpy
+Generator.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from ompl import base as ob
@@ -22,14 +27,19 @@ from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 
 from .collision import CollisionModel
+from .problem import (
+    DEFAULT_RESOLUTION,
+    FINE_RESOLUTION,
+    Problem,
+    chain_path,
+    goal_distance,
+    problem_for_objects,
+    verify_certificate,
+)
 
 DEFAULT_BUDGET = 4000
 """Collision queries (motion checks plus single-state checks) RRT-Connect may spend
 before a puzzle counts as unsolved."""
-DEFAULT_RESOLUTION = 0.02
-"""Metres any collision point may move between two checked states while planning."""
-FINE_RESOLUTION = 0.002
-"""Metres between checked states when a certificate is re-checked."""
 
 
 class _MotionValidator(ob.MotionValidator):
@@ -55,17 +65,18 @@ class _MotionValidator(ob.MotionValidator):
 class _GoalRegion(ob.GoalSampleableRegion):
     """Target joints at their goal values; every other joint anywhere within limits."""
 
-    def __init__(self, si, goal_columns: dict[int, float], lower, upper, tolerance, rng):
+    def __init__(self, si, problem: Problem, rng: np.random.Generator):
         super().__init__(si)
-        self.columns = goal_columns
-        self.lower, self.upper = lower, upper
+        self.problem = problem
+        self.columns = problem.goal_columns
+        self.lower, self.upper = problem.lower, problem.upper
         self.rng = rng
-        self._block = np.empty((0, len(lower)))
+        self._block = np.empty((0, len(self.lower)))
         self._next = 0
-        self.setThreshold(tolerance)
+        self.setThreshold(problem.tolerance)
 
     def distanceGoal(self, state) -> float:  # noqa: N802
-        return max(abs(state[i] - v) for i, v in self.columns.items())
+        return goal_distance(self.problem, state)
 
     def sampleGoal(self, state) -> None:  # noqa: N802
         # Uniform draws come in blocks: one numpy call per state would dominate the cost.
@@ -80,38 +91,6 @@ class _GoalRegion(ob.GoalSampleableRegion):
 
     def maxSampleCount(self) -> int:  # noqa: N802
         return 1 << 30
-
-
-@dataclass(frozen=True)
-class Problem:
-    """A planning problem over the free joints of a chain (locked joints held at start)."""
-
-    model: CollisionModel
-    start: np.ndarray
-    goal_columns: dict[int, float]
-    lower: np.ndarray
-    upper: np.ndarray
-    tolerance: float
-
-
-def make_problem(objects: Sequence[PuzzleObject], goal: Goal) -> Problem | None:
-    """The problem for ``objects``; None when the target cannot move to its goal at all
-    (its goal joints are fixed away from the goal)."""
-    chain = build_chain(objects)
-    # Joints of fixed-range (lower == upper) count as locked: OMPL rejects empty bounds.
-    locked = {j.name: j.lower for j in chain.active_joints if j.upper - j.lower < 1e-12}
-    for name, value in goal.values.items():
-        if name not in chain.joint_order:
-            return None  # the target is fixed (FixJoint of the target)
-        if name in locked and abs(locked[name] - value) > goal.tolerance:
-            return None
-    model = CollisionModel(chain, {n: max(min(0.0, chain.joint(n).upper), chain.joint(n).lower) for n in locked})
-    order = model.joint_order
-    lower = np.array([chain.joint(n).lower for n in order])
-    upper = np.array([chain.joint(n).upper for n in order])
-    start = np.clip(np.zeros(len(order)), lower, upper)
-    columns = {order.index(n): v for n, v in goal.values.items() if n in order}
-    return Problem(model, start, columns, lower, upper, goal.tolerance)
 
 
 def ompl_setup(problem: Problem, steps: np.ndarray, goal_type: type, rng: np.random.Generator):
@@ -151,7 +130,7 @@ def ompl_setup(problem: Problem, steps: np.ndarray, goal_type: type, rng: np.ran
     for i in range(dimension):
         start[i] = float(problem.start[i])
     pdef.addStartState(start)
-    goal = goal_type(si, problem.goal_columns, problem.lower, problem.upper, problem.tolerance, rng)
+    goal = goal_type(si, problem, rng)
     pdef.setGoal(goal)
     return si, pdef, validator, (space, state_valid, start, goal)
 
@@ -174,16 +153,9 @@ def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
     return SolveResult(True, states, validator.calls)
 
 
-def full_path(objects: Sequence[PuzzleObject], problem: Problem, path) -> tuple[tuple[float, ...], ...]:
-    """Expand a path over the problem's free joints to all active joints (locked ones at their value)."""
-    chain = build_chain(objects)
-    order = problem.model.joint_order
-    locked = problem.model.locked
-    rows = []
-    for state in path:
-        values = dict(zip(order, state, strict=True))
-        rows.append(tuple(float(values.get(n, locked.get(n, 0.0))) for n in chain.joint_order))
-    return tuple(rows)
+def seed_ompl(seed: int) -> None:
+    """Seed OMPL's global RNG (see :mod:`solver.pool`); only the first call in a process has an effect."""
+    ou.RNG.setSeed(int(seed))
 
 
 EXTENSION_GRID = 25
@@ -200,7 +172,7 @@ class OmplValidator:
     solvability, checked at fine resolution). RRT-Connect, whose cost grows
     steeply with the number of objects in narrow-passage families, is the
     fallback. ``rng`` drives goal sampling; OMPL's own RNG must have been
-    seeded by the caller (see :func:`solver.generation.seed_ompl`).
+    seeded by the caller (:func:`seed_ompl`).
     """
 
     def __init__(self, rng: np.random.Generator, budget: int = DEFAULT_BUDGET,
@@ -213,7 +185,7 @@ class OmplValidator:
 
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult:
         objects = tuple(objects)
-        problem = make_problem(objects, goal)
+        problem = problem_for_objects(objects, goal)
         if problem is None:
             return SolveResult(False)
         path = self._extend_previous(objects, goal)
@@ -222,7 +194,7 @@ class OmplValidator:
             self.checks += result.checks
             if not result.solved:
                 return result
-            path = full_path(objects, problem, result.path)
+            path = chain_path(problem, result.path)
         self._solved[objects] = path
         return SolveResult(True, path, 0)
 
@@ -278,56 +250,3 @@ def _parking_values(chain, new_joints: list[str]) -> list[float]:
         if all(abs(v - u) > 1e-9 for u in unique):
             unique.append(float(v))
     return unique
-
-
-def densify(path, steps: np.ndarray) -> np.ndarray:
-    """All states along a piecewise-linear path with at most ``steps[j]`` per joint between rows."""
-    path = np.asarray(path, dtype=float)
-    rows = [path[:1]]
-    for a, b in zip(path[:-1], path[1:], strict=True):
-        count = max(1, int(np.ceil(np.max(np.abs(b - a) / steps))))
-        t = np.arange(1, count + 1)[:, None] / count
-        rows.append(a + (b - a) * t)
-    return np.concatenate(rows)
-
-
-def verify_certificate(chain, path, goal: Goal, resolution: float = FINE_RESOLUTION) -> list[str]:
-    """Problems with a certificate (empty when it is valid): starts at the start state,
-    stays collision-free at ``resolution``, within limits, and ends in the goal."""
-    problems: list[str] = []
-    if len(path) < 1:
-        return ["certificate is empty"]
-    model = CollisionModel(chain)
-    states = np.asarray(path, dtype=float)
-    if states.shape[1] != len(chain.joint_order):
-        return [f"certificate states have {states.shape[1]} values, chain has {len(chain.joint_order)} joints"]
-    if np.max(np.abs(states[0])) > 1e-9:
-        problems.append("certificate does not begin at the start state")
-    lower, upper = chain.lower_limits, chain.upper_limits
-    if np.any(states < lower - 1e-9) or np.any(states > upper + 1e-9):
-        problems.append("certificate leaves the joint limits")
-    dense = densify(states, model.motion_steps(resolution))
-    bad = np.flatnonzero(~model.check(dense))
-    if bad.size:
-        problems.append(f"certificate collides at {bad.size} of {len(dense)} checked states")
-    if not goal.is_reached(chain.state_dict(states[-1])):
-        problems.append("certificate does not end in the goal")
-    return problems
-
-
-def dependency_graph(objects: Sequence[PuzzleObject], certificate, resolution: float = DEFAULT_RESOLUTION
-                     ) -> tuple[tuple[str, str], ...]:
-    """(blocker, blocked) pairs read off a certificate.
-
-    Object B blocks object A when A's motion along the certificate would run
-    into B had B stayed at its start pose: B had to get out of A's way.
-    """
-    chain = build_chain(objects)
-    model = CollisionModel(chain)
-    states = densify(certificate, model.motion_steps(resolution))
-    edges: set[tuple[str, str]] = set()
-    for blocker, columns in chain.factors.items():
-        frozen = states.copy()
-        frozen[:, list(columns)] = 0.0
-        edges |= {(blocker, a if b == blocker else b) for a, b in model.colliding_objects(frozen) if blocker in (a, b)}
-    return tuple(sorted(edges))

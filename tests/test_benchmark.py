@@ -5,12 +5,13 @@ from __future__ import annotations
 import json
 import math
 import sqlite3
+from pathlib import Path
 
 import pytest
 
+from phyrogen_core.folder import BEST_SOLUTION, PuzzleFolder
 from solver.benchmark import (
     PAPER_TIME_LIMITS,
-    PuzzleEntry,
     RunRecord,
     build_database,
     estimate_seconds,
@@ -86,26 +87,28 @@ def test_profiles_and_jobs():
     with pytest.raises(ValueError, match="quick"):
         get_profile("huge")
     quick = get_profile("quick", runs=2, time_limit=0.5)
-    puzzles = [PuzzleEntry("rooms_1", "rooms", "/nowhere"), PuzzleEntry("grid_world_2", "grid_world", "/nowhere")]
+    puzzles = [PuzzleFolder(Path("/nowhere"), "rooms_1", "rooms"),
+               PuzzleFolder(Path("/nowhere"), "grid_world_2", "grid_world")]
     jobs = make_jobs(puzzles, ["la_rrt", "bit_star"], quick, base_seed=3)
     assert len(jobs) == 8 and {j.time_limit for j in jobs} == {0.5}
     assert len({j.seed for j in jobs}) == 8
     assert [j.seed for j in make_jobs(puzzles, ["la_rrt", "bit_star"], quick, base_seed=3)] == [j.seed for j in jobs]
     # 100 runs x 4 planners x (40 + 1) s on two workers for one Simple Slider puzzle
-    one = [PuzzleEntry("simple_slider_1", "simple_slider", "/nowhere")]
+    one = [PuzzleFolder(Path("/nowhere"), "simple_slider_1", "simple_slider")]
     assert estimate_seconds(one, ["la_rrt", "rrt_star", "lbt_rrt", "bit_star"], paper, 2, 1.0) == 8200
 
 
 @pytest.mark.slow
 def test_benchmark_end_to_end(tmp_path):
     from phyrogen_core.export import write_puzzle
-    from solver.benchmark import SOLUTION_FILE, find_puzzles, run_benchmark
+    from phyrogen_core.folder import find_puzzle_folders
+    from solver.benchmark import run_benchmark
     from solver.generation import generate_puzzle, versions
-    from solver.validation import verify_certificate
+    from solver.problem import verify_certificate
 
     puzzle = generate_puzzle("simple_slider", 1)
     folder = write_puzzle(puzzle, tmp_path / "puzzles", versions())
-    puzzles = find_puzzles(tmp_path / "puzzles")
+    puzzles = find_puzzle_folders(tmp_path / "puzzles")
     assert [p.name for p in puzzles] == ["simple_slider_1"]
     out = run_benchmark(puzzles, ["la_rrt", "rrt_star"], get_profile("quick", runs=2, time_limit=1.0),
                         tmp_path / "bench", workers=2, progress=False)
@@ -114,7 +117,7 @@ def test_benchmark_end_to_end(tmp_path):
     rows = summary_rows(out.database)
     assert {r.planner for r in rows} == {"LA-RRT", "RRT*"} and all(r.runs == 2 for r in rows)
     assert next(r for r in rows if r.planner == "LA-RRT").success == 1.0
-    saved = json.loads((folder / SOLUTION_FILE).read_text())
+    saved = json.loads((folder / BEST_SOLUTION).read_text())
     assert saved["planner"] == "LA-RRT" and saved["action_cost"] == 2
     assert saved["joint_order"] == list(puzzle.joint_order)
     assert verify_certificate(puzzle.planning_chain, saved["path"], puzzle.goal) == []

@@ -8,8 +8,9 @@ import pytest
 from blender_support import every_shape_puzzle, tool
 
 from blender_addon.gallery import write_gallery
-from blender_addon.rendering import find_puzzle_dirs, render_puzzles
+from blender_addon.rendering import render_puzzles
 from phyrogen_core.export import write_puzzle
+from phyrogen_core.folder import find_puzzle_folders
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 CHROMIUM = tool("chromium") or tool("chromium-browser") or tool("google-chrome")
@@ -20,7 +21,7 @@ def rendered(tmp_path_factory):
     pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
     root = tmp_path_factory.mktemp("out")
     folder = write_puzzle(every_shape_puzzle(), root)
-    report = render_puzzles(find_puzzle_dirs(root), views=("top", "oblique"))
+    report = render_puzzles([f.path for f in find_puzzle_folders(root)], views=("top", "oblique"))
     return root, folder, report
 
 

@@ -16,7 +16,7 @@ from blender_addon.phobos import phobostype  # noqa: E402
 from blender_addon.scene import build_chain, build_puzzle, build_puzzle_folder, read_chain  # noqa: E402
 from phyrogen_core.chain import Role  # noqa: E402
 from phyrogen_core.export import chain_to_urdf, read_puzzle_dir, write_puzzle  # noqa: E402
-from phyrogen_core.generators import PAPER_GENERATORS  # noqa: E402
+from phyrogen_core.registry import all_generators  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -114,7 +114,7 @@ def generated(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("generator", PAPER_GENERATORS)
+@pytest.mark.parametrize("generator", list(all_generators()))
 def test_round_trip_and_urdf_equality_for_every_generator(generator, generated, tmp_path):
     puzzle, folder = generated(generator)
     built = build_puzzle(puzzle)

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from solver.cli import main
+from phyrogen.cli import main
 
 
 @pytest.mark.parametrize(
@@ -59,8 +59,11 @@ def test_generate_then_check_and_detect_tampering(tmp_path, capsys):
     assert "INVALID" in capsys.readouterr().out
 
 
-def test_manipulate_takes_a_folder_of_puzzles_for_every_puzzle_in_it(tmp_path):
-    from solver.cli import puzzle_folders
+def test_a_folder_of_puzzles_stands_for_every_puzzle_in_it(tmp_path):
+    from phyrogen_core.folder import find_in_paths
+
+    def puzzle_folders(paths):
+        return [getattr(f, "path", f) for f in find_in_paths(paths)]
 
     for name in ("rooms/rooms_2", "rooms/rooms_1", "simple_slider/simple_slider_1"):
         (tmp_path / "out" / name).mkdir(parents=True)
@@ -68,6 +71,6 @@ def test_manipulate_takes_a_folder_of_puzzles_for_every_puzzle_in_it(tmp_path):
     (tmp_path / "out" / "manipulation" / "rooms_1").mkdir(parents=True)  # an output folder, no puzzle
     one = tmp_path / "out" / "rooms" / "rooms_2"
     assert puzzle_folders([str(tmp_path / "out")]) == [
-        tmp_path / "out" / n for n in ("rooms/rooms_1", "rooms/rooms_2", "simple_slider/simple_slider_1")]
+        tmp_path / "out" / n for n in ("simple_slider/simple_slider_1", "rooms/rooms_1", "rooms/rooms_2")]
     assert puzzle_folders([str(one)]) == [one]
     assert puzzle_folders([str(tmp_path / "missing")]) == [tmp_path / "missing"]  # reported later

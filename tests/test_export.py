@@ -294,9 +294,13 @@ def test_metadata_rejects_certificate_of_wrong_length():
 def test_write_puzzle_twice_gives_identical_bytes(tmp_path, written):
     again = write_puzzle(sample_puzzle(), tmp_path / "a")
     assert all_files(again) == all_files(written)
-    replaced = write_puzzle(sample_puzzle(), tmp_path / "a", extra_files={"images/x.png": b"png"})
+    (again / "images").mkdir()
+    (again / "images" / "x.png").write_bytes(b"png")
+    (again / "notes.txt").write_bytes(b"mine")
+    replaced = write_puzzle(sample_puzzle(), tmp_path / "a")
     assert replaced == again
-    assert all_files(replaced) == {**all_files(written), "images/x.png": b"png"}
+    # Another stage's files and a user's are kept: the export stage replaces only its own entries.
+    assert all_files(replaced) == {**all_files(written), "images/x.png": b"png", "notes.txt": b"mine"}
     assert [f.name for f in replaced.parent.iterdir()] == ["sample_7"]  # no temporary or old folders
 
 
@@ -332,13 +336,6 @@ def test_atomic_directory_appears_only_when_complete(tmp_path):
         assert not final.exists()
     assert (final / "a.txt").read_text() == "new"
     assert os.listdir(final.parent) == ["run"]
-
-
-def test_write_puzzle_rejects_extra_files_outside_the_folder(tmp_path):
-    with pytest.raises(ValueError, match="relative path"):
-        write_puzzle(sample_puzzle(), tmp_path, extra_files={"../escape.txt": b""})
-    with pytest.raises(ValueError, match="overwrite"):
-        write_puzzle(sample_puzzle(), tmp_path, extra_files={"puzzle.json": b"{}"})
 
 
 # -- reading back ----------------------------------------------------------------

@@ -13,11 +13,12 @@ from manipulation.grasp import grasp_point
 from manipulation.linalg import damped_least_squares, manipulability
 from manipulation.placement import fit_placement, joint_value_scale, link_pose, scale_chain
 from manipulation.robot import ROBOT_JOINTS, RobotSpec, mobile_iiwa_urdf
-from manipulation.solution import SOLUTION_FILE, load_solution, split_actions
+from manipulation.solution import load_solution
 from phyrogen_core.chain import Geometry, JointType, KinematicChain, Role
+from phyrogen_core.folder import BEST_SOLUTION
 from phyrogen_core.geometry import Box, Pose
 from phyrogen_core.objects import Motion, PuzzleObject, build_chain
-from solver.actions import count_actions
+from solver.actions import count_actions, split_actions
 
 
 def _two_sliders() -> KinematicChain:
@@ -50,12 +51,12 @@ def test_solution_file_is_preferred_and_reordered_by_joint_name(tmp_path):
     order = ("a", "b")
     certificate = ((0.0, 0.0), (1.0, 1.0))
     assert load_solution(tmp_path, order, certificate).source == "certificate"
-    (tmp_path / SOLUTION_FILE).parent.mkdir()
-    (tmp_path / SOLUTION_FILE).write_text(json.dumps({"joint_order": ["b", "a"], "path": [[0, 0], [2, 1]]}))
+    (tmp_path / BEST_SOLUTION).parent.mkdir()
+    (tmp_path / BEST_SOLUTION).write_text(json.dumps({"joint_order": ["b", "a"], "path": [[0, 0], [2, 1]]}))
     solution = load_solution(tmp_path, order, certificate)
     assert solution.source != "certificate"
     assert solution.path.tolist() == [[0.0, 0.0], [1.0, 2.0]]
-    (tmp_path / SOLUTION_FILE).write_text(json.dumps({"joint_order": ["b", "c"], "path": [[0, 0], [2, 1]]}))
+    (tmp_path / BEST_SOLUTION).write_text(json.dumps({"joint_order": ["b", "c"], "path": [[0, 0], [2, 1]]}))
     with pytest.raises(ValueError, match="does not match"):
         load_solution(tmp_path, order, certificate)
 
@@ -120,11 +121,13 @@ def test_robot_executes_a_simple_slider_end_to_end(tmp_path):
     from manipulation.execution import execute_puzzle
     from manipulation.outputs import write_outputs
     from phyrogen_core.export import write_puzzle
-    from solver.generation import generate_puzzle, seed_ompl
+    from solver.generation import generate_puzzle
+    from solver.pool import stable_seed
+    from solver.validation import seed_ompl
 
     puzzle = generate_puzzle("simple_slider", 1)
     folder = write_puzzle(puzzle, tmp_path / "puzzles")
-    seed_ompl("manipulation-test", 1)
+    seed_ompl(stable_seed("ompl", "manipulation-test", 1))
     report, recording, setup = execute_puzzle(folder)
     assert report.success, report.message
     assert report.target_at_goal

@@ -11,7 +11,8 @@ from pybullet_scene import PENETRATION, PyBulletScene
 
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.registry import get_generator
-from solver.validation import DEFAULT_BUDGET, densify, make_problem, rrt_connect, verify_certificate
+from solver.problem import densify, problem_for_objects, verify_certificate
+from solver.validation import DEFAULT_BUDGET, rrt_connect
 
 pytestmark = pytest.mark.slow
 
@@ -49,7 +50,7 @@ def _solvable_with_object_fixed(args) -> tuple[str, int, str, bool]:
 
     ou.RNG.setSeed(seed)
     objects = [o.fixed() if o.name == name else o for o in puzzle.objects]
-    problem = make_problem(objects, puzzle.goal)
+    problem = problem_for_objects(objects, puzzle.goal)
     if problem is None:
         return generator, seed, name, False
     result = rrt_connect(problem, budget, np.random.default_rng(seed))

@@ -8,8 +8,14 @@ import pytest
 from solver.actions import count_actions
 from solver.defragment import Defragmenter
 from solver.planners import PLANNERS, get_planner, run_seed
-from solver.planning import chain_path, in_goal, path_is_valid, problem_factors, problem_for_chain
-from solver.validation import verify_certificate
+from solver.problem import (
+    chain_path,
+    in_goal,
+    path_is_valid,
+    problem_factors,
+    problem_for_chain,
+    verify_certificate,
+)
 
 FACTORS = {"a": (0,), "b": (1,), "c": (2, 3)}
 

@@ -15,6 +15,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from ..chain import KinematicChain
 from ..puzzle import Puzzle
 
 FORMAT_VERSION = 1
@@ -119,3 +120,42 @@ def _jsonable(value: Any, where: str) -> Any:
         return [_jsonable(item, f"{where}[{i}]") for i, item in enumerate(value)]
     raise ValueError(f"{where}: {value!r} ({type(value).__name__}) cannot be written as JSON; "
                      "valid: numbers, strings, booleans, None, lists, mappings, enums")
+
+
+def metadata_for_chain(stored: Mapping[str, Any], chain: KinematicChain) -> dict[str, Any]:
+    """``puzzle.json`` data for ``chain`` (e.g. a puzzle edited in Blender) from the metadata of the
+    puzzle it was made from.
+
+    Everything the URDF states is taken from ``chain``: joint order and
+    limits, which objects exist. The certificate and the dependency graph
+    were found for the old chain, so they are kept (the certificate only
+    while the joint order is unchanged, so it can be re-checked) but marked
+    ``"certificate_verified": false``: ``phyrogen check`` or a new plan
+    decides whether they still hold.
+    """
+    data = json.loads(json.dumps(dict(stored)))  # a deep copy of plain JSON data
+    order = list(chain.joint_order)
+    same_joints = list(data.get("joint_order", [])) == order
+    data["joint_order"] = order
+    data["joint_limits"] = {
+        name: {"type": chain.joint(name).type.value, "lower": _float(chain.joint(name).lower),
+               "upper": _float(chain.joint(name).upper)}
+        for name in order
+    }
+    present = {link.name for link in chain.links}  # an object's body link carries its name
+    data["objects"] = [o for o in data.get("objects", []) if isinstance(o, Mapping) and o.get("name") in present]
+    graph = data.get("dependency_graph", {})
+    data["dependency_graph"] = {
+        "nodes": [n for n in graph.get("nodes", []) if n in present],
+        "edges": [e for e in graph.get("edges", []) if all(n in present for n in e)],
+    }
+    if not same_joints:
+        data["start"] = [_float(min(max(0.0, chain.joint(n).lower), chain.joint(n).upper)) for n in order]
+        data["certificate"] = []
+    goal = data.get("goal", {})
+    missing = [n for n in goal.get("values", {}) if n not in order]
+    if missing:
+        raise ValueError(f"the edited puzzle has no joint {missing[0]!r}, which the goal moves; "
+                         f"valid goal joints: {order}")
+    data["certificate_verified"] = False
+    return data

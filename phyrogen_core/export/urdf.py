@@ -86,7 +86,9 @@ def _link_lines(link: Link, mesh_dir: str, meshes: dict[str, str]) -> list[str]:
     return lines
 
 
-def _inertial_lines(link: Link) -> list[str]:
+def link_inertia(link: Link) -> tuple[np.ndarray, tuple[float, float, float]]:
+    """The link's centre of mass and principal moments (ixx, iyy, izz), link frame: a solid box
+    of the link's mass filling its collision bounds (a 0.1 m cube at the origin without collisions)."""
     if link.mass < 0:
         raise ValueError(f"link {link.name!r}: mass must be zero or positive, got {link.mass!r}")
     if link.collisions:
@@ -96,12 +98,16 @@ def _inertial_lines(link: Link) -> list[str]:
         centre, extent = np.zeros(3), np.full(3, _DEFAULT_INERTIA_EXTENT)
     sx, sy, sz = (float(e) ** 2 for e in extent)
     m = link.mass / 12.0
+    return centre, (m * (sy + sz), m * (sx + sz), m * (sx + sy))
+
+
+def _inertial_lines(link: Link) -> list[str]:
+    centre, (ixx, iyy, izz) = link_inertia(link)
     return [
         "    <inertial>",
         f'      <origin xyz="{numbers(centre)}" rpy="0 0 0"/>',
         f'      <mass value="{number(link.mass)}"/>',
-        f'      <inertia ixx="{number(m * (sy + sz))}" ixy="0" ixz="0" '
-        f'iyy="{number(m * (sx + sz))}" iyz="0" izz="{number(m * (sx + sy))}"/>',
+        f'      <inertia ixx="{number(ixx)}" ixy="0" ixz="0" iyy="{number(iyy)}" iyz="0" izz="{number(izz)}"/>',
         "    </inertial>",
     ]
 

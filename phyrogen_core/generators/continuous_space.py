@@ -4,9 +4,7 @@ The one generator whose layout is not solvable by construction: each new bar
 is dropped at a random pose on the swing of the bar added before it, and only
 the Maker decides whether it stays: necessary (the puzzle is unsolvable with
 it fixed) and harmless (solvable with it free). The transformation mapping
-aims the random poses at the swing so that enough candidates survive: over
-seeds 1-8, about half the candidates overlap an earlier bar and are refused
-before any planning, and about two thirds of the rest are kept.
+aims the random poses at the swing so that enough candidates survive.
 """
 
 from __future__ import annotations
@@ -19,17 +17,18 @@ import numpy as np
 from ..geometry import Pose
 from ..maker import Choice, Draft, MakerInput, Uniform
 from ..objects import Motion, PuzzleObject
-from ..puzzle import Goal, paper_goal
-from ..registry import ParameterError, register
-from .components import (
-    MAX_NAMED,
-    Footprint,
-    box,
-    footprints_overlap,
+from ..registry import ParameterError, parameter, register
+from .kit import (
+    OrientedRect,
+    box_geometry,
+    check_object_count,
+    check_positive,
     handle,
     hinge,
     movable_name,
+    overlaps,
     role_and_color,
+    target_paper_goal,
 )
 
 HINGE_DIAMETER = 0.25
@@ -43,22 +42,21 @@ REACH = (0.0, 1.0)
 
 @dataclass(frozen=True)
 class ContinuousSpaceParams:
-    """Bars are ``bar_length`` x ``bar_width`` x ``bar_height`` boxes hinged at their centre;
-    joint limits have a magnitude drawn from [``min_limit_deg``, ``max_limit_deg``]."""
+    """Parameters of Continuous Space (each field says what it means)."""
 
-    n_objects: int = 4
-    bar_length: float = 3.0
-    bar_width: float = 1.0
-    bar_height: float = 1.0
-    min_limit_deg: float = 90.0
-    max_limit_deg: float = 180.0
+    n_objects: int = parameter(4, "how many bars, the target included (Table I: 4)", difficulty=True)
+    bar_length: float = parameter(3.0, "length of every bar, hinged at its centre (m)", difficulty=True)
+    bar_width: float = parameter(1.0, "width of every bar, smaller than its length (m)", difficulty=True)
+    bar_height: float = parameter(1.0, "height of every bar (m)")
+    min_limit_deg: float = parameter(90.0, "smallest magnitude of a bar's one-sided joint limit (degrees, "
+                                           ">= 90 so that the target can make the goal's quarter turn)",
+                                     difficulty=True)
+    max_limit_deg: float = parameter(180.0, "largest magnitude of a bar's joint limit (degrees, <= 180)",
+                                     difficulty=True)
 
     def validate(self, seed: int) -> None:
-        if not 1 <= self.n_objects < MAX_NAMED:
-            raise ParameterError(f"n_objects must lie in 1..{MAX_NAMED - 1}, got {self.n_objects}")
-        for name in ("bar_length", "bar_width", "bar_height"):
-            if getattr(self, name) <= 0:
-                raise ParameterError(f"{name} must be positive, got {getattr(self, name)}")
+        check_object_count(self.n_objects)
+        check_positive(self, "bar_length", "bar_width", "bar_height")
         if not self.bar_width < self.bar_length:
             raise ParameterError(
                 f"bar_width {self.bar_width} must be smaller than bar_length {self.bar_length} "
@@ -79,8 +77,8 @@ class _Bar:
     yaw: float
     sign: int  # +1: limits (0, L), turns counter-clockwise; -1: limits (-L, 0)
 
-    def footprint(self, params: ContinuousSpaceParams) -> Footprint:
-        return Footprint(self.x, self.y, self.yaw, params.bar_length / 2, params.bar_width / 2)
+    def floor_area(self, params: ContinuousSpaceParams) -> OrientedRect:
+        return OrientedRect(self.x, self.y, self.yaw, params.bar_length / 2, params.bar_width / 2)
 
 
 def reach_radius(params: ContinuousSpaceParams, reach: float) -> float:
@@ -100,7 +98,7 @@ def _bar_object(params: ContinuousSpaceParams, index: int, bar: _Bar, limit: flo
     role, color = role_and_color(index)
     length, width, height = params.bar_length, params.bar_width, params.bar_height
     shaft, knob = handle(height / 2, (HANDLE_FRACTION * length, 0.0), color)
-    geometry = (box((length, width, height), color), shaft, knob)
+    geometry = (box_geometry((length, width, height), color), shaft, knob)
     visuals = (*geometry, hinge(HINGE_DIAMETER / 2, 1.1 * height))
     limits = ((0.0, limit),) if bar.sign > 0 else ((-limit, 0.0),)
     return PuzzleObject(movable_name(index), Motion.REVOLUTE, Pose.planar(bar.x, bar.y, height / 2, bar.yaw),
@@ -123,8 +121,8 @@ def _attach_for(params: ContinuousSpaceParams):
             angle = previous.yaw + end + previous.sign * math.radians(arc_deg)
             r = reach_radius(params, reach)
             bar = _Bar(previous.x + r * math.cos(angle), previous.y + r * math.sin(angle), angle, sign)
-            footprint = bar.footprint(params)
-            if any(footprints_overlap(footprint, old.footprint(params)) for old in bars):
+            area = bar.floor_area(params)
+            if any(overlaps(area, old.floor_area(params)) for old in bars):
                 return None
         new = _bar_object(params, len(bars), bar, limit)
         return Draft(draft.objects + (new,), bars + (bar,))
@@ -132,12 +130,8 @@ def _attach_for(params: ContinuousSpaceParams):
     return attach
 
 
-def _goal(draft: Draft) -> Goal:
-    # The target's limits allow only one direction, so the rule needs no draw.
-    return paper_goal(draft.objects[0])
-
-
-@register("continuous_space", "Continuous Space", ContinuousSpaceParams)
+@register("continuous_space", "Continuous Space", ContinuousSpaceParams, paper_row=2,
+          time_limits={"paper": 20.0, "quick": 2.0})
 def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
     """Continuous Space: revolute bars at continuous poses, each blocking the one before.
 
@@ -164,17 +158,18 @@ def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
         limits allow.
 
     Difficulty parameters:
-        ``n_objects``; the bar size; the limit range [``min_limit_deg``,
-        ``max_limit_deg``] (90 <= min <= max <= 180).
+        ``n_objects``; the bar's floor size ``bar_length`` x ``bar_width``;
+        the limit range [``min_limit_deg``, ``max_limit_deg``]
+        (90 <= min <= max <= 180). ``bar_height`` changes only the look.
 
     Departures:
-        Revolute bars only, as in the paper (the prototype mixed 2 prismatic
-        and 2 revolute bars). The prototype dropped a new bar uniformly in a
-        3 x 3 m square around a point 3 m out along the previous bar's
-        turned-by-90 axis, with a random yaw; here the two transformation
-        coordinates place it directly on the previous bar's swing, pointing at
-        its hinge, which blocks far more often. The handle is a box shaft
-        (the prototype's revolute bars had a cylinder) at 0.375 of the length.
+        Revolute bars only, as in the paper (the prototype mixed prismatic and
+        revolute bars). The two transformation coordinates place a new bar on
+        the previous bar's swing, pointing at its hinge, instead of the
+        prototype's uniform drop near it. The handle is a box shaft at 0.375 of
+        the length from the hinge.
+
+    Design notes: docs/generators.md#continuous-space
     """
     params.validate(seed)
     return MakerInput(
@@ -183,8 +178,9 @@ def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
         transforms=Uniform((ARC_DEGREES[0], REACH[0]), (ARC_DEGREES[1], REACH[1])),
         n_objects=params.n_objects,
         attach=_attach_for(params),
-        goal=_goal,
+        # The target's limits allow only one direction, so the paper's rule needs no draw.
+        goal=target_paper_goal,
         # Random placements can block only barely; a stronger FixJoint search keeps such
-        # near-superfluous bars out (6000 queries let one slip through in seed 2).
+        # near-superfluous bars out (docs/generators.md#continuous-space).
         fixed_budget_scale=5.0,
     )

@@ -7,24 +7,36 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..chain import Geometry
-from ..geometry import Box, Pose
+from ..geometry import Pose
 from ..maker import Choice, Draft, MakerInput
 from ..objects import Motion, PuzzleObject
-from ..puzzle import Goal, paper_goal
-from ..registry import ParameterError, register
-from .parts import MAX_OBJECTS, box_handle, hinge, movable_role, object_name, role_color, unit
+from ..registry import ParameterError, parameter, register
+from .kit import (
+    HINGE_OVERHANG,
+    QUARTER_TURNS,
+    Cell,
+    Direction,
+    add_cells,
+    axis_direction,
+    box_geometry,
+    check_object_count,
+    direction_yaw,
+    handle,
+    hinge,
+    movable_name,
+    role_and_color,
+    scale_cell,
+    target_paper_goal,
+    turn_left,
+)
 
-Cell = tuple[int, int]
-"""Grid cell (i, j): the unit square [i, i+1] x [j, j+1], centre (i + 0.5, j + 0.5)."""
-
+# Grid cell (i, j) is the unit square [i, i+1] x [j, j+1], centre (i + 0.5, j + 0.5).
 ORIGIN: Cell = (0, 0)
 PRISMATIC_CELLS = 2
 REVOLUTE_CELLS = 3
 HANDLE_FRACTION = 0.375
 """A revolute bar's handle sits this fraction of its length from the hinge (prototype)."""
 HINGE_RADIUS = 0.1
-TRANSFORMS = (0.0, 90.0, 180.0, 270.0)
 CCW, CW = 1, -1
 
 
@@ -37,18 +49,19 @@ def min_clearance() -> float:
 
 @dataclass(frozen=True)
 class GridWorldParams:
-    """``n_objects`` cuboids (Table I: 5); ``branching`` extra start cells a turning bar may
-    open in total (the prototype's branching_factor_target); ``clearance`` the prototype's e
-    (each box is one cell minus e per side pair); ``allow_clockwise`` lets bars turn clockwise."""
+    """Parameters of Grid World (each field says what it means)."""
 
-    n_objects: int = 5
-    branching: int = 6
-    clearance: float = 0.1
-    allow_clockwise: bool = True
+    n_objects: int = parameter(5, "how many cuboids, the target included (Table I: 5)", difficulty=True)
+    branching: int = parameter(6, "extra start cells turning bars may open in total (the prototype's "
+                                  "branching_factor_target); 0 gives a single chain of dependencies",
+                               difficulty=True)
+    clearance: float = parameter(0.1, "the prototype's e: each box is a whole number of cells minus e per side "
+                                      "pair; smaller is tighter (min_clearance() < e < 0.5)", difficulty=True)
+    allow_clockwise: bool = parameter(True, "whether bars may turn clockwise too (else counter-clockwise only)",
+                                      difficulty=True)
 
     def validate(self, seed: int) -> None:
-        if not 1 <= self.n_objects < MAX_OBJECTS:
-            raise ParameterError(f"n_objects must be in 1..{MAX_OBJECTS - 1}, got {self.n_objects}")
+        check_object_count(self.n_objects)
         if self.branching < 0:
             raise ParameterError(f"branching must be >= 0, got {self.branching}")
         low = min_clearance()
@@ -73,37 +86,25 @@ class GridState:
     branches_left: int
 
 
-def _add(a: Cell, *others: Cell) -> Cell:
-    return (a[0] + sum(o[0] for o in others), a[1] + sum(o[1] for o in others))
-
-
-def _scale(a: Cell, k: int) -> Cell:
-    return (a[0] * k, a[1] * k)
-
-
-def _left(u: Cell) -> Cell:
-    return (-u[1], u[0])
-
-
-def prismatic_cells(start: Cell, u: Cell) -> tuple[Cell, ...]:
+def prismatic_cells(start: Cell, u: Direction) -> tuple[Cell, ...]:
     """Cells besides ``start`` that a box in (start, start + u) sliding one cell along u needs."""
-    return (_add(start, u), _add(start, _scale(u, 2)))
+    return (add_cells(start, u), add_cells(start, scale_cell(u, 2)))
 
 
-def revolute_cells(start: Cell, u: Cell, sense: int) -> tuple[Cell, ...]:
+def revolute_cells(start: Cell, u: Direction, sense: int) -> tuple[Cell, ...]:
     """Cells besides ``start`` that a bar over (start, start+u, start+2u), hinged at its middle
     and turning 90 degrees (``sense`` CCW or CW), needs: its other two cells, its two final
     cells and the two corners its ends sweep through, in that order."""
-    v = _scale(_left(u), sense)
-    hinge_cell = _add(start, u)
-    minus_v = _scale(v, -1)
+    v = scale_cell(turn_left(u), sense)
+    hinge_cell = add_cells(start, u)
+    minus_v = scale_cell(v, -1)
     return (
         hinge_cell,
-        _add(start, _scale(u, 2)),
-        _add(hinge_cell, v),
-        _add(hinge_cell, minus_v),
-        _add(start, _scale(u, 2), v),
-        _add(start, minus_v),
+        add_cells(start, scale_cell(u, 2)),
+        add_cells(hinge_cell, v),
+        add_cells(hinge_cell, minus_v),
+        add_cells(start, scale_cell(u, 2), v),
+        add_cells(start, minus_v),
     )
 
 
@@ -111,14 +112,14 @@ def _free(cells: tuple[Cell, ...], occupied: frozenset[Cell]) -> bool:
     return not any(c in occupied for c in cells)
 
 
-def _senses(state: GridState, start: Cell, u: Cell, allow_clockwise: bool) -> list[int]:
+def _senses(state: GridState, start: Cell, u: Direction, allow_clockwise: bool) -> list[int]:
     senses = (CCW, CW) if allow_clockwise else (CCW,)
     return [s for s in senses if _free(revolute_cells(start, u, s), state.occupied)]
 
 
 def _anything_fits(state: GridState, start: Cell, allow_clockwise: bool) -> bool:
-    for angle in TRANSFORMS:
-        u = unit(angle)
+    for angle in QUARTER_TURNS:
+        u = axis_direction(angle)
         if _free(prismatic_cells(start, u), state.occupied) or _senses(state, start, u, allow_clockwise):
             return True
     return False
@@ -128,28 +129,27 @@ def _centre(cell: Cell) -> tuple[float, float]:
     return (cell[0] + 0.5, cell[1] + 0.5)
 
 
-def _cuboid(index: int, motion: Motion, start: Cell, u: Cell, sense: int, e: float) -> PuzzleObject:
-    role = movable_role(index)
-    color = role_color(role)
+def _cuboid(index: int, motion: Motion, start: Cell, u: Direction, sense: int, e: float) -> PuzzleObject:
+    role, color = role_and_color(index)
     height = 1.0 - e
     cells = PRISMATIC_CELLS if motion is Motion.PRISMATIC else REVOLUTE_CELLS
     length = cells - e
-    body = Geometry(Box((length, 1.0 - e, height)), Pose(), color, "body")
+    body = box_geometry((length, 1.0 - e, height), color)
     # The frame sits at the box centre: half a cell ahead of the start cell for a
     # two-cell slider, on the middle cell (the hinge) for a three-cell bar.
     offset = 0.5 if motion is Motion.PRISMATIC else 1.0
     x, y = _centre(start)
-    pose = Pose.planar(x + offset * u[0], y + offset * u[1], height / 2, math.atan2(u[1], u[0]))
+    pose = Pose.planar(x + offset * u[0], y + offset * u[1], height / 2, direction_yaw(u))
     if motion is Motion.PRISMATIC:
-        handle = box_handle(0.0, 0.0, height / 2, color)
-        visuals = (body, *handle)
+        grip = handle(height / 2, (0.0, 0.0), color)
+        visuals = (body, *grip)
         limits = ((0.0, 1.0),)
     else:
-        handle = box_handle(HANDLE_FRACTION * length, 0.0, height / 2, color)
-        visuals = (body, *handle, hinge(HINGE_RADIUS, height))
+        grip = handle(height / 2, (HANDLE_FRACTION * length, 0.0), color)
+        visuals = (body, *grip, hinge(HINGE_RADIUS, height + HINGE_OVERHANG))
         quarter = math.pi / 2
         limits = ((0.0, quarter),) if sense == CCW else ((-quarter, 0.0),)
-    return PuzzleObject(object_name(index), motion, pose, visuals, (body, *handle), role, limits)
+    return PuzzleObject(movable_name(index), motion, pose, visuals, (body, *grip), role, limits)
 
 
 def _attach_for(params: GridWorldParams):
@@ -163,7 +163,7 @@ def _attach_for(params: GridWorldParams):
             queue = queue[1:]
         if not queue:
             return None
-        start, u = queue[0], unit(tf_item)
+        start, u = queue[0], axis_direction(tf_item)
         if joint_item is Motion.PRISMATIC:
             cells = prismatic_cells(start, u)
             if not _free(cells, state.occupied):
@@ -189,11 +189,8 @@ def _attach_for(params: GridWorldParams):
     return attach
 
 
-def _goal(draft: Draft) -> Goal:
-    return paper_goal(draft.objects[0])
-
-
-@register("grid_world", "Grid World", GridWorldParams)
+@register("grid_world", "Grid World", GridWorldParams, paper_row=3,
+          time_limits={"paper": 40.0, "quick": 4.0})
 def build(seed: int, params: GridWorldParams) -> MakerInput:
     """Grid World: boxes on a unit grid; each new box is parked in a cell an earlier one needs.
 
@@ -229,20 +226,20 @@ def build(seed: int, params: GridWorldParams) -> MakerInput:
         sweep), ``allow_clockwise`` (True).
 
     Departures:
-        The joint of each object is drawn from {Revolute, Prismatic} as in the
-        paper, not fixed to the prototype's 3 prismatic + 2 revolute. A start cell
-        where nothing fits any more is dropped instead of restarting the puzzle.
-        A revolute box is oriented along its direction (yaw 0/90/180/270) rather
-        than the prototype's 0/90, which only moves its handle to the far end.
-        No ``link_shrink``: the collision checker treats touching as contact-free.
+        Each object's joint is drawn from {Revolute, Prismatic} as in the
+        paper (the prototype fixed 3 prismatic + 2 revolute). A start cell
+        where nothing fits any more is dropped instead of restarting the
+        puzzle. Revolute bars point along their direction (yaw 0/90/180/270).
+
+    Design notes: docs/generators.md#grid-world
     """
     params.validate(seed)
     return MakerInput(
         objects=Choice(("cuboid",)),
         joints=Choice((Motion.REVOLUTE, Motion.PRISMATIC)),
-        transforms=Choice(TRANSFORMS),
+        transforms=Choice(QUARTER_TURNS),
         n_objects=params.n_objects,
         attach=_attach_for(params),
-        goal=_goal,
+        goal=target_paper_goal,
         initial=Draft((), GridState(frozenset({ORIGIN}), (ORIGIN,), params.branching)),
     )

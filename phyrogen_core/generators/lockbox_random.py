@@ -8,24 +8,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..chain import Geometry
-from ..geometry import Box, Pose, slot_disc
+from ..geometry import Pose, slot_disc
 from ..maker import Choice, Draft, InfiniteSequence, MakerInput
 from ..objects import Motion, PuzzleObject
-from ..puzzle import Goal, paper_goal
-from ..registry import ParameterError, register
-from .parts import (
-    MAX_OBJECTS,
+from ..registry import ParameterError, parameter, register
+from .kit import (
+    HINGE_OVERHANG,
+    QUARTER_TURNS,
     Circle,
-    Footprint,
+    Direction,
     Rect,
-    box_handle,
-    cylinder_handle,
+    ahead,
+    axis_direction,
+    box_geometry,
+    check_object_count,
+    direction_yaw,
+    handle,
     hinge,
-    movable_role,
-    object_name,
+    movable_name,
     overlaps,
-    role_color,
-    unit,
+    role_and_color,
+    target_paper_goal,
 )
 
 SLIDER_SIZE = (1.4, 0.2, 1.0)
@@ -40,21 +43,20 @@ RADIUS_STEP = 0.5
 HANDLE_RADIUS_FRACTION = 0.75
 """A disc's handle stands this fraction of its radius from the hinge, beside the slot."""
 HINGE_RADIUS_FRACTION = 0.0625
-TRANSFORMS = (0.0, 90.0, 180.0, 270.0)
 CUBOID, DISK = "cuboid", "disk"
 
 
 @dataclass(frozen=True)
 class LockboxRandomParams:
-    """``n_objects`` alternating sliders and discs (Table I: 7, i.e. the target and three
-    disc-slider pairs); disc radii are drawn from 1, 1.5, ... up to ``max_radius``."""
+    """Parameters of Lockbox Random (each field says what it means)."""
 
-    n_objects: int = 7
-    max_radius: float = 3.0
+    n_objects: int = parameter(7, "how many objects, alternating sliders and discs from the target slider on "
+                                  "(Table I: 7, the target and three disc-slider pairs)", difficulty=True)
+    max_radius: float = parameter(3.0, "largest disc radius (m); radii are drawn from 1, 1.5, ... up to it",
+                                  difficulty=True)
 
     def validate(self, seed: int) -> None:
-        if not 1 <= self.n_objects < MAX_OBJECTS:
-            raise ParameterError(f"n_objects must be in 1..{MAX_OBJECTS - 1}, got {self.n_objects}")
+        check_object_count(self.n_objects)
         if not MIN_RADIUS <= self.max_radius <= 10.0:
             raise ParameterError(
                 f"max_radius must lie in [{MIN_RADIUS}, 10] (a slider sits 0.7 m deep in a slot "
@@ -70,20 +72,20 @@ class LockboxRandomParams:
 @dataclass(frozen=True)
 class _Slider:
     centre: tuple[float, float]
-    direction: tuple[int, int]
+    direction: Direction
 
 
 @dataclass(frozen=True)
 class _Disc:
     centre: tuple[float, float]
     radius: float
-    slot: tuple[int, int]
+    slot: Direction
 
 
 _Part = _Slider | _Disc
 
 
-def _footprint(part: _Part) -> Footprint:
+def _swept_area(part: _Part) -> Rect | Circle:
     """The floor area a part covers over its whole joint range."""
     if isinstance(part, _Disc):
         return Circle(part.centre[0], part.centre[1], part.radius)
@@ -92,41 +94,31 @@ def _footprint(part: _Part) -> Footprint:
 
 
 def _clear_of(part: _Part, others: tuple[_Part, ...]) -> bool:
-    footprint = _footprint(part)
-    return not any(overlaps(footprint, _footprint(other)) for other in others)
-
-
-def _ahead(point: tuple[float, float], direction: tuple[int, int], distance: float) -> tuple[float, float]:
-    return (point[0] + distance * direction[0], point[1] + distance * direction[1])
+    swept = _swept_area(part)
+    return not any(overlaps(swept, _swept_area(other)) for other in others)
 
 
 def _slider_in_slot(disc: _Disc) -> _Slider:
     # Centred on the rim: half its length inside the slot, sliding outward.
-    return _Slider(_ahead(disc.centre, disc.slot, disc.radius), disc.slot)
-
-
-def _yaw(direction: tuple[int, int]) -> float:
-    return math.atan2(direction[1], direction[0])
+    return _Slider(ahead(disc.centre, disc.slot, disc.radius), disc.slot)
 
 
 def _slider_object(index: int, slider: _Slider) -> PuzzleObject:
-    role = movable_role(index)
-    color = role_color(role)
-    body = Geometry(Box(SLIDER_SIZE), Pose(), color, "body")
-    geometry = (body, *box_handle(0.0, 0.0, HEIGHT / 2, color))
-    pose = Pose.planar(slider.centre[0], slider.centre[1], HEIGHT / 2, _yaw(slider.direction))
-    return PuzzleObject(object_name(index), Motion.PRISMATIC, pose, geometry, geometry, role,
+    role, color = role_and_color(index)
+    body = box_geometry(SLIDER_SIZE, color)
+    geometry = (body, *handle(HEIGHT / 2, (0.0, 0.0), color))
+    pose = Pose.planar(slider.centre[0], slider.centre[1], HEIGHT / 2, direction_yaw(slider.direction))
+    return PuzzleObject(movable_name(index), Motion.PRISMATIC, pose, geometry, geometry, role,
                         ((0.0, STROKE),))
 
 
 def _disc_object(index: int, disc: _Disc) -> PuzzleObject:
-    role = movable_role(index)
-    color = role_color(role)
+    role, color = role_and_color(index)
     body = Geometry(slot_disc(disc.radius, HEIGHT), Pose(), color, "body")
-    handle = cylinder_handle(0.0, HANDLE_RADIUS_FRACTION * disc.radius, HEIGHT / 2, color)
-    visuals = (body, *handle, hinge(HINGE_RADIUS_FRACTION * disc.radius, HEIGHT))
-    pose = Pose.planar(disc.centre[0], disc.centre[1], HEIGHT / 2, _yaw(disc.slot))
-    return PuzzleObject(object_name(index), Motion.REVOLUTE, pose, visuals, (body, *handle), role,
+    grip = handle(HEIGHT / 2, (0.0, HANDLE_RADIUS_FRACTION * disc.radius), color, round_shaft=True)
+    visuals = (body, *grip, hinge(HINGE_RADIUS_FRACTION * disc.radius, HEIGHT + HINGE_OVERHANG))
+    pose = Pose.planar(disc.centre[0], disc.centre[1], HEIGHT / 2, direction_yaw(disc.slot))
+    return PuzzleObject(movable_name(index), Motion.REVOLUTE, pose, visuals, (body, *grip), role,
                         ((-math.pi, math.pi),))
 
 
@@ -144,7 +136,7 @@ def _attach_for(params: LockboxRandomParams):
             )
         if obj_item == CUBOID:
             if not parts:
-                slider = _Slider((0.0, 0.0), unit(tf_item))
+                slider = _Slider((0.0, 0.0), axis_direction(tf_item))
             else:
                 # The pose is fixed by the slot of the disc just placed; the drawn
                 # transformation has nothing left to choose.
@@ -154,11 +146,11 @@ def _attach_for(params: LockboxRandomParams):
             new = _slider_object(index, slider)
             return Draft(draft.objects + (new,), parts + (slider,))
         previous = parts[-1]
-        slot = unit(tf_item)
+        slot = axis_direction(tf_item)
         if slot == (-previous.direction[0], -previous.direction[1]):
             return None  # the slot would face the slider this disc has to stop
         radius = radii[int(rng.integers(len(radii)))]
-        disc = _Disc(_ahead(previous.centre, previous.direction, radius + DISC_GAP), radius, slot)
+        disc = _Disc(ahead(previous.centre, previous.direction, radius + DISC_GAP), radius, slot)
         # The disc may meet only the slider it stops; the slider that will sit in its slot
         # must find room as well, or the next iteration would have nowhere to go.
         if not _clear_of(disc, parts[:-1]) or not _clear_of(_slider_in_slot(disc), parts):
@@ -169,11 +161,8 @@ def _attach_for(params: LockboxRandomParams):
     return attach
 
 
-def _goal(draft: Draft) -> Goal:
-    return paper_goal(draft.objects[0])
-
-
-@register("lockbox_random", "Lockbox Random", LockboxRandomParams)
+@register("lockbox_random", "Lockbox Random", LockboxRandomParams, paper_row=4,
+          time_limits={"paper": 600.0, "quick": 10.0})
 def build(seed: int, params: LockboxRandomParams) -> MakerInput:
     """Lockbox Random: a chain of sliders and slot discs, each locking its neighbours.
 
@@ -209,23 +198,21 @@ def build(seed: int, params: LockboxRandomParams) -> MakerInput:
         iteration), ``max_radius`` (3.0; radii are 1, 1.5, ... up to it).
 
     Departures:
-        In the prototype one iteration placed a disc and its slider together,
-        chose the direction relative to the previous one (no reversal) and
-        kept the pair if the start state was collision-free. Here, as in the
-        paper's Maker, disc and slider are separate iterations: the disc's
-        transformation is its slot's world direction (a reversal is rejected),
-        and a slider after the target takes its pose from the slot, ignoring
-        its drawn transformation. Objects must keep their swept footprints
-        apart except for the intended slider-disc pairs, which the prototype
-        did not check. The slot disc is exact convex pieces
+        Disc and slider are separate Maker iterations, as in the paper's Maker
+        (the prototype placed them as a pair): the disc's transformation is its
+        slot's world direction, and a slider after the target takes its pose
+        from the slot. Swept areas must stay apart except for the intended
+        slider-disc pairs. The slot disc is exact convex pieces
         (:func:`phyrogen_core.geometry.slot_disc`), not a mesh.
+
+    Design notes: docs/generators.md#lockbox-random
     """
     params.validate(seed)
     return MakerInput(
         objects=InfiniteSequence((CUBOID, DISK)),
         joints=InfiniteSequence((Motion.PRISMATIC, Motion.REVOLUTE)),
-        transforms=Choice(TRANSFORMS),
+        transforms=Choice(QUARTER_TURNS),
         n_objects=params.n_objects,
         attach=_attach_for(params),
-        goal=_goal,
+        goal=target_paper_goal,
     )

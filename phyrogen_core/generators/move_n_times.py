@@ -19,20 +19,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..chain import GREEN, RED, Role
 from ..geometry import Pose
 from ..maker import Draft, InfiniteSequence, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..puzzle import Goal
-from ..registry import ParameterError, register
-from .components import (
-    Footprint,
-    box,
+from ..registry import ParameterError, parameter, register
+from .kit import (
+    HALF_TURNS,
+    HANDLE_SHAFT_WIDTH,
+    OrientedRect,
+    box_geometry,
     count_fixed,
     count_movable,
-    footprints_overlap,
     handle,
     movable_name,
+    overlaps,
+    role_and_color,
     wall,
 )
 
@@ -85,9 +87,10 @@ class MoveNTimesItems:
 
 @dataclass(frozen=True)
 class MoveNTimesParams:
-    """``n`` is the number of door moves; 0 means the paper's n = Seed."""
+    """Parameters of Move N Times (each field says what it means)."""
 
-    n: int = 0
+    n: int = parameter(0, f"how many times the door must move (1..{MAX_N}); 0: n = Seed, taken from the seed "
+                          f"as the paper does", difficulty=True)
 
     def moves(self, seed: int) -> int:
         return self.n if self.n > 0 else seed
@@ -104,12 +107,11 @@ class MoveNTimesParams:
 
 
 def search_budget_scale(moves: int) -> float:
-    """How much more search the validator gets than its default.
+    """How much more search the validator gets than its default: 5 x 4^(n-2) for n >= 2.
 
-    RRT-Connect needs about 6e3, 3.5e4 and 1.3e5 motion checks to solve the
-    puzzles for n = 2, 3, 4 (the door and the target must meet at the far ends
-    of their ranges n times), about 4x more per move; this grants 5 x 4^(n-2)
-    times the default 4e3 checks, a margin of 2-3x.
+    The door and the target must meet at the far ends of their ranges n times,
+    so the search RRT-Connect needs grows about 4x per move
+    (docs/generators.md#move-n-times has the measurements).
     """
     return 1.0 if moves < 2 else 5.0 * 4.0 ** (moves - 2)
 
@@ -128,21 +130,24 @@ class _State:
 
 def _target(moves: int, motion: Motion, yaw_deg: float) -> PuzzleObject:
     sx, sy, sz = TARGET_SIZE
-    body = box(TARGET_SIZE, GREEN)
-    geometry = (body, *handle(sz / 2, color=GREEN))
+    role, color = role_and_color(0)
+    body = box_geometry(TARGET_SIZE, color)
+    geometry = (body, *handle(sz / 2, color=color))
     limits = ((-float(moves), float(moves)), (-float(moves), 0.5), (-math.pi, math.pi))
     return PuzzleObject(movable_name(0), motion, Pose.planar(0.0, 0.0, sz / 2, math.radians(yaw_deg)),
-                        geometry, geometry, Role.TARGET, limits)
+                        geometry, geometry, role, limits)
 
 
 def _door(index: int, moves: int, motion: Motion, yaw_deg: float) -> PuzzleObject:
     width = door_width(moves)
     size = (width, DOOR_THICKNESS, WALL_HEIGHT)
+    role, color = role_and_color(index)
     # The shaft is no wider than the door, so the handle never reaches over the walls.
-    geometry = (box(size, RED), *handle(WALL_HEIGHT / 2, color=RED, shaft_width=min(0.2, DOOR_THICKNESS)))
+    geometry = (box_geometry(size, color),
+                *handle(WALL_HEIGHT / 2, color=color, shaft_width=min(HANDLE_SHAFT_WIDTH, DOOR_THICKNESS)))
     return PuzzleObject(movable_name(index), motion,
                         Pose.planar(0.5 * CELL, DOOR_Y, WALL_HEIGHT / 2, math.radians(yaw_deg)),
-                        geometry, geometry, Role.BLOCKER, ((-width / 2, width / 2),))
+                        geometry, geometry, role, ((-width / 2, width / 2),))
 
 
 def _pocket_walls(first: int) -> tuple[PuzzleObject, ...]:
@@ -176,13 +181,13 @@ def corridor_walls(index: int, exit_deg: float, first: int) -> tuple[PuzzleObjec
 def goal_is_clear(goal: tuple[float, float, float], objects: tuple[PuzzleObject, ...]) -> bool:
     """Whether the target at ``goal`` touches no wall (walls are axis-aligned boxes)."""
     x, y, yaw = goal
-    target = Footprint(x, y, yaw, TARGET_SIZE[0] / 2, TARGET_SIZE[1] / 2)
+    target = OrientedRect(x, y, yaw, TARGET_SIZE[0] / 2, TARGET_SIZE[1] / 2)
     for obj in objects:
         if obj.is_movable:
             continue
         size = obj.collisions[0].shape.size  # type: ignore[union-attr]
         x0, y0, _ = obj.pose.xyz
-        if footprints_overlap(target, Footprint(x0, y0, 0.0, size[0] / 2, size[1] / 2)):
+        if overlaps(target, OrientedRect(x0, y0, 0.0, size[0] / 2, size[1] / 2)):
             return False
     return True
 
@@ -212,7 +217,9 @@ def _goal(draft: Draft) -> Goal:
     return Goal(target.name, {f"{target.name}_x": x, f"{target.name}_y": y, f"{target.name}_yaw": yaw})
 
 
-@register("move_n_times", "Move N Times", MoveNTimesParams)
+@register("move_n_times", "Move N Times", MoveNTimesParams, paper_row=5,
+          # The quick profile keeps the paper's 20 s: see docs/generators.md.
+          time_limits={"paper": 20.0, "quick": 20.0})
 def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     """Move N Times: the target escapes nested corridors through one sliding door.
 
@@ -246,21 +253,17 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     Difficulty parameters:
         ``n`` (0: n = Seed, the paper) is the number of door moves and sets
         the number of corridors (n - 1), the door width and the target's range.
-        Validation cost grows about 4x per move (n = 4: about 3e5 motion
-        checks over all iterations); past n = 5 RRT-Connect validation is
+        Validation cost grows about 4x per move; past n = 5 generation is
         impractical.
 
     Departures:
-        The Maker runs n + 1 iterations, not Table I's Seed + 2: Table I counts
-        the pocket as Corridor(1), but listed after the door, the door would
-        be superfluous when it is added (the target could walk around it) and
-        the Maker would reject it forever. Here the pocket comes with the door
-        (Door(N) is the door and the pocket it closes) and Corridor(i) is the
-        prototype's corridor i, so the puzzle is exactly the prototype's. The
-        door turned by 180 degrees only flips the sign of its joint (it is
-        symmetric, with symmetric limits). The door's handle shaft is 0.1 wide
-        (the door's thickness) instead of 0.2. No ``link_shrink``: walls and
-        door are exact and touch along the door's track.
+        The Maker runs n + 1 iterations, not Table I's Seed + 2: the pocket
+        comes with the door (Door(N) is the door and the pocket it closes) and
+        Corridor(i) is the prototype's corridor i, so the puzzle is exactly the
+        prototype's. The door's handle shaft is 0.1 wide (the door's
+        thickness) instead of 0.2.
+
+    Design notes: docs/generators.md#move-n-times
     """
     params.validate(seed)
     moves = params.moves(seed)
@@ -268,7 +271,7 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     return MakerInput(
         objects=MoveNTimesItems(moves),
         joints=InfiniteSequence((Motion.SE2, Motion.PRISMATIC, Motion.FIXED), repeat_from=2),
-        transforms=InfiniteSequence((0.0, 180.0), repeat_from=0),
+        transforms=InfiniteSequence(HALF_TURNS, repeat_from=0),
         n_objects=moves + 1,
         attach=_attach,
         goal=_goal,

@@ -12,30 +12,36 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..chain import GREEN, RED, Role
 from ..geometry import Pose, Vec3
 from ..maker import Choice, Draft, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..puzzle import Goal
-from ..registry import ParameterError, register
-from .components import (
-    MAX_NAMED,
-    box,
+from ..registry import ParameterError, parameter, register
+from .kit import (
+    AXIS_DIRECTIONS,
+    HANDLE_SHAFT_WIDTH,
+    MAX_OBJECTS,
+    QUARTER_TURNS,
+    Cell,
+    Direction,
+    add_cells,
+    axis_direction,
+    box_geometry,
+    check_positive,
     count_fixed,
     count_movable,
     handle,
     hinge,
     movable_name,
     pillar,
+    role_and_color,
+    turn_left,
     wall,
 )
 
-Cell = tuple[int, int]
-
+# Room cell (i, j) is the unit square centred on (i, j), before scaling.
 ROOM = "room"
 DOOR_ROOM = "door_room"
-TRANSFORMS = (0.0, 90.0, 180.0, 270.0)
-"""Exit side of a room, degrees from +x: 0 east, 90 north, 180 west, 270 south."""
 DOOR_PANEL_FRACTION = 0.8
 """Door panel length / doorway width (prototype); the hinge sits 0.4 doorway widths off centre."""
 ROBOT_SIZE: Vec3 = (0.09375, 0.125, 0.125)
@@ -46,27 +52,29 @@ HANDLE_FRACTION = 0.75
 
 @dataclass(frozen=True)
 class RoomsParams:
-    """Lengths are in cell units (a room is 1 x 1) before ``scaling``, as in the prototype."""
+    """Parameters of Rooms. Lengths are in cell units (a room is 1 x 1) before ``scaling``,
+    as in the prototype."""
 
-    n_rooms: int = 4
-    doors: int = 2
-    scaling: float = 4.0
-    wall_height: float = 0.2
-    wall_thickness: float = 0.075
-    door_width: float = 0.5
+    n_rooms: int = parameter(4, "how many rooms the robot must cross (Table I: 4)", difficulty=True)
+    doors: int = parameter(2, "how many of the rooms' doorways have a door to open (0..n_rooms)",
+                           difficulty=True)
+    scaling: float = parameter(4.0, "metres per cell unit, applied once to every length and to the goal")
+    wall_height: float = parameter(0.2, "height of walls, pillars and doors (cell units)")
+    wall_thickness: float = parameter(0.075, "thickness of walls and doors, side of the corner pillars "
+                                             "(cell units)", difficulty=True)
+    door_width: float = parameter(0.5, "width of a doorway (cell units); a closed door must block the robot "
+                                       "and an open one let it pass", difficulty=True)
 
     def validate(self, seed: int) -> None:
         fixed = 9 + 8 * (self.n_rooms - 1)
-        if self.n_rooms < 1 or fixed > MAX_NAMED:
+        if self.n_rooms < 1 or fixed > MAX_OBJECTS:
             raise ParameterError(
-                f"n_rooms must lie in 1..{(MAX_NAMED - 9) // 8 + 1} (walls and pillars are named with two "
+                f"n_rooms must lie in 1..{(MAX_OBJECTS - 9) // 8 + 1} (walls and pillars are named with two "
                 f"digits), got {self.n_rooms}"
             )
         if not 0 <= self.doors <= self.n_rooms:
             raise ParameterError(f"doors must lie in 0..n_rooms = {self.n_rooms}, got {self.doors}")
-        for name in ("scaling", "wall_height", "wall_thickness", "door_width"):
-            if getattr(self, name) <= 0:
-                raise ParameterError(f"{name} must be positive, got {getattr(self, name)}")
+        check_positive(self, "scaling", "wall_height", "wall_thickness", "door_width")
         if 2 * self.wall_thickness + self.door_width >= 1.0:
             raise ParameterError(
                 f"doorway {self.door_width} plus two pillars {self.wall_thickness} must be narrower than "
@@ -93,26 +101,12 @@ class _Walk:
 
     rooms: tuple[Cell, ...]
     exit_cell: Cell
-    exits: tuple[Cell, ...]  # exit direction of every room
+    exits: tuple[Direction, ...]  # exit direction of every room
     doors: int
 
     @property
     def cells(self) -> tuple[Cell, ...]:
         return (*self.rooms, self.exit_cell)
-
-
-def _direction(angle_deg: float) -> Cell:
-    rad = math.radians(angle_deg)
-    return int(round(math.cos(rad))), int(round(math.sin(rad)))
-
-
-def _add(a: Cell, b: Cell) -> Cell:
-    return a[0] + b[0], a[1] + b[1]
-
-
-def _left(d: Cell) -> Cell:
-    """``d`` turned by +90 degrees."""
-    return -d[1], d[0]
 
 
 def _scaled(params: RoomsParams, value: float) -> float:
@@ -127,12 +121,13 @@ def _robot(params: RoomsParams, walk_cells: tuple[Cell, ...]) -> PuzzleObject:
     ys = [c[1] for c in walk_cells]
     limits = ((_scaled(params, min(xs) - 0.5), _scaled(params, max(xs) + 0.5)),
               (_scaled(params, min(ys) - 0.5), _scaled(params, max(ys) + 0.5)))
-    geometry = (box(size, GREEN), *handle(size[2] / 2, color=GREEN))  # type: ignore[arg-type]
+    role, color = role_and_color(0)
+    geometry = (box_geometry(size, color), *handle(size[2] / 2, color=color))  # type: ignore[arg-type]
     return PuzzleObject(movable_name(0), Motion.R2, Pose.planar(0.0, 0.0, size[2] / 2), geometry, geometry,
-                        Role.TARGET, limits)
+                        role, limits)
 
 
-def _room(params: RoomsParams, cell: Cell, exit_dir: Cell, entry_dir: Cell | None,
+def _room(params: RoomsParams, cell: Cell, exit_dir: Direction, entry_dir: Direction | None,
           first: int) -> tuple[PuzzleObject, ...]:
     """Pillars and walls of one room, inside its own cell: a doorway on the exit side,
     nothing on the side it is entered from, full walls elsewhere."""
@@ -141,14 +136,14 @@ def _room(params: RoomsParams, cell: Cell, exit_dir: Cell, entry_dir: Cell | Non
     inset = (1 - t) / 2  # cell centre to the middle of a wall
     out: list[PuzzleObject] = []
 
-    def place(kind, cx: float, cy: float, along: float, across: float, d: Cell) -> None:
+    def place(kind, cx: float, cy: float, along: float, across: float, d: Direction) -> None:
         # ``along`` runs parallel to the side facing ``d``.
         sx, sy = (along, across) if d[1] != 0 else (across, along)
         size = (_scaled(params, sx), _scaled(params, sy), h)
         out.append(kind(first + len(out), _scaled(params, cx), _scaled(params, cy), size))
 
-    for d in ((1, 0), (0, 1), (-1, 0), (0, -1)):
-        a = _left(d)
+    for d in AXIS_DIRECTIONS:
+        a = turn_left(d)
         px, py = cell[0] + (d[0] + a[0]) * inset, cell[1] + (d[1] + a[1]) * inset
         place(pillar, px, py, t, t, d)
         mx, my = cell[0] + d[0] * inset, cell[1] + d[1] * inset
@@ -162,7 +157,7 @@ def _room(params: RoomsParams, cell: Cell, exit_dir: Cell, entry_dir: Cell | Non
     return tuple(out)
 
 
-def _door(params: RoomsParams, index: int, cell: Cell, exit_dir: Cell) -> PuzzleObject:
+def _door(params: RoomsParams, index: int, cell: Cell, exit_dir: Direction) -> PuzzleObject:
     """A revolute door in the exit doorway, hinged beside it and opening (0 .. 90 degrees)
     into the room."""
     t, dw = params.wall_thickness, params.door_width
@@ -176,12 +171,14 @@ def _door(params: RoomsParams, index: int, cell: Cell, exit_dir: Cell) -> Puzzle
     length = _scaled(params, dw * DOOR_PANEL_FRACTION)
     thickness = _scaled(params, t)
     height = _scaled(params, params.wall_height)
-    panel = box((length, thickness, height), RED, Pose((length / 2, 0.0, 0.0)))
-    shaft, knob = handle(height / 2, (HANDLE_FRACTION * length, 0.0), RED, shaft_width=min(0.2, thickness))
+    role, color = role_and_color(index)
+    panel = box_geometry((length, thickness, height), color, Pose((length / 2, 0.0, 0.0)))
+    shaft, knob = handle(height / 2, (HANDLE_FRACTION * length, 0.0), color,
+                         shaft_width=min(HANDLE_SHAFT_WIDTH, thickness))
     visuals = (panel, shaft, knob, hinge(0.55 * thickness, 1.1 * height))
     return PuzzleObject(movable_name(index), Motion.REVOLUTE,
                         Pose.planar(_scaled(params, hx), _scaled(params, hy), height / 2, yaw),
-                        visuals, (panel, shaft, knob), Role.BLOCKER, ((0.0, math.pi / 2),))
+                        visuals, (panel, shaft, knob), role, ((0.0, math.pi / 2),))
 
 
 def _attach_for(params: RoomsParams):
@@ -189,13 +186,13 @@ def _attach_for(params: RoomsParams):
                rng: np.random.Generator) -> Draft | None:
         walk: _Walk = draft.context
         cell = walk.exit_cell
-        exit_dir = _direction(tf_item)
-        next_cell = _add(cell, exit_dir)
+        exit_dir = axis_direction(tf_item)
+        next_cell = add_cells(cell, exit_dir)
         if next_cell in walk.cells:
             return None  # the walk must not cross itself
         rooms_left = params.n_rooms - n
-        if rooms_left > 0 and all(_add(next_cell, d) in walk.cells + (next_cell,)
-                                  for d in ((1, 0), (0, 1), (-1, 0), (0, -1))):
+        if rooms_left > 0 and all(add_cells(next_cell, d) in walk.cells + (next_cell,)
+                                  for d in AXIS_DIRECTIONS):
             return None  # a dead end: the next room would have nowhere to exit
         with_door = obj_item == DOOR_ROOM
         doors = walk.doors + int(with_door)
@@ -226,7 +223,7 @@ def _goal_for(params: RoomsParams):
     return goal
 
 
-@register("rooms", "Rooms", RoomsParams)
+@register("rooms", "Rooms", RoomsParams, paper_row=6, time_limits={"paper": 60.0, "quick": 6.0})
 def build(seed: int, params: RoomsParams) -> MakerInput:
     """Rooms: a robot must get out of a chain of rooms, through doors it has to open.
 
@@ -257,27 +254,25 @@ def build(seed: int, params: RoomsParams) -> MakerInput:
     Difficulty parameters:
         ``n_rooms`` (length of the escape), ``doors`` (how many doorways have
         doors), ``door_width`` and ``wall_thickness`` (cell units; validated so
-        that a closed door blocks the robot and an open one lets it pass),
-        ``wall_height``, ``scaling``.
+        that a closed door blocks the robot and an open one lets it pass).
+        ``wall_height`` and ``scaling`` change only the size.
 
     Departures:
         The robot is not a Maker item (Table I lists only rooms): it is
-        ``MakerInput.initial``, present before the first room, since every
-        room is built around it. Its limits are the bounding box of the cells
-        visited so far (the prototype's rule), so each iteration re-issues it
-        with wider limits. Scaling is applied once, to positions, sizes and
-        the goal alike (the prototype scaled some twice and the goal not at
-        all). The prototype's SE(2) door obstacles (0 in its configuration)
-        are left out. Doors carry a handle on top (the common grasp
-        convention) rather than hooks on both faces; the hinge is visual
-        only. No ``link_shrink``: walls of neighbouring rooms touch exactly.
+        ``MakerInput.initial``, present before the first room, and re-issued
+        each iteration with limits that cover the cells visited so far.
+        Scaling is applied once, to positions, sizes and the goal alike. Doors
+        carry a handle on top rather than hooks on both faces.
+
+    Design notes: docs/generators.md#rooms
     """
     params.validate(seed)
     start = _Walk((), (0, 0), (), 0)
     return MakerInput(
         objects=Choice((ROOM, DOOR_ROOM)),
         joints=Choice((Motion.FIXED,)),
-        transforms=Choice(TRANSFORMS),
+        # The transformation is the room's exit side: 0 east, 90 north, 180 west, 270 south.
+        transforms=Choice(QUARTER_TURNS),
         n_objects=params.n_rooms,
         attach=_attach_for(params),
         goal=_goal_for(params),

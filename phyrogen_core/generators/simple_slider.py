@@ -2,18 +2,29 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..chain import Geometry
-from ..geometry import Box, Pose
+from ..geometry import Pose
 from ..maker import Choice, Draft, MakerInput
 from ..objects import Motion, PuzzleObject
-from ..puzzle import Goal, paper_goal
-from ..registry import ParameterError, register
-from .parts import MAX_OBJECTS, Rect, box_handle, movable_role, object_name, overlaps, role_color, unit
+from ..registry import ParameterError, parameter, register
+from .kit import (
+    HALF_TURNS,
+    MAX_OBJECTS,
+    Direction,
+    Rect,
+    ahead,
+    axis_direction,
+    box_geometry,
+    direction_yaw,
+    handle,
+    movable_name,
+    overlaps,
+    role_and_color,
+    target_paper_goal,
+)
 
 SLIDER_WIDTH = 0.2
 SLIDER_HEIGHT = 0.2
@@ -23,16 +34,17 @@ PITCH = 1.0
 """Distance from a slider's centre to the centre of the slider across its path."""
 BASE_ANGLES = (-90.0, 0.0)
 """The prototype's orientation (degrees) of even and odd sliders, before the transformation."""
-TRANSFORMS = (0.0, 180.0)
 
 
 @dataclass(frozen=True)
 class SimpleSliderParams:
-    """``n_objects`` = 0 means the paper's Seed + 1; ``gap`` is the free play in front of
-    each slider (the prototype's 0.1), which also sets the slider length 1.8 - 2 * gap."""
+    """Parameters of Simple Slider (each field says what it means)."""
 
-    n_objects: int = 0
-    gap: float = 0.1
+    n_objects: int = parameter(0, "how many sliders; 0: Seed + 1, taken from the seed as the paper does",
+                               difficulty=True)
+    gap: float = parameter(0.1, "free play in front of each slider before it hits the next, 0 < gap < 0.5 "
+                                "(the prototype's 0.1); also sets the slider length 1.8 - 2 * gap",
+                           difficulty=True)
 
     def count(self, seed: int) -> int:
         return self.n_objects if self.n_objects > 0 else seed + 1
@@ -62,22 +74,21 @@ class _Slider:
     """Where a slider sits and which way it slides (an axis-aligned unit vector)."""
 
     centre: tuple[float, float]
-    direction: tuple[int, int]
+    direction: Direction
 
 
-def _footprint(slider: _Slider, half_length: float) -> Rect:
+def _swept_area(slider: _Slider, half_length: float) -> Rect:
     """The floor area the slider covers over its whole stroke."""
     return Rect.along(slider.centre, slider.direction, half_length, half_length + STROKE, SLIDER_WIDTH / 2)
 
 
 def _slider_object(index: int, slider: _Slider, motion: Motion, length: float) -> PuzzleObject:
-    role = movable_role(index)
-    color = role_color(role)
-    body = Geometry(Box((length, SLIDER_WIDTH, SLIDER_HEIGHT)), Pose(), color, "body")
-    geometry = (body, *box_handle(0.0, 0.0, SLIDER_HEIGHT / 2, color))
-    yaw = math.atan2(slider.direction[1], slider.direction[0])
+    role, color = role_and_color(index)
+    body = box_geometry((length, SLIDER_WIDTH, SLIDER_HEIGHT), color)
+    geometry = (body, *handle(SLIDER_HEIGHT / 2, (0.0, 0.0), color))
+    yaw = direction_yaw(slider.direction)
     pose = Pose.planar(slider.centre[0], slider.centre[1], SLIDER_HEIGHT / 2, yaw)
-    return PuzzleObject(object_name(index), motion, pose, geometry, geometry, role, ((0.0, STROKE),))
+    return PuzzleObject(movable_name(index), motion, pose, geometry, geometry, role, ((0.0, STROKE),))
 
 
 def _attach_for(params: SimpleSliderParams):
@@ -87,19 +98,18 @@ def _attach_for(params: SimpleSliderParams):
                rng: np.random.Generator) -> Draft | None:
         placed: tuple[_Slider, ...] = draft.context or ()
         index = len(draft.objects)
-        direction = unit(BASE_ANGLES[index % 2] + tf_item)
+        direction = axis_direction(BASE_ANGLES[index % 2] + tf_item)
         if placed:
             # Across the previous slider's path, PITCH ahead of its centre: the prototype's step.
             previous = placed[-1]
-            centre = (previous.centre[0] + PITCH * previous.direction[0],
-                      previous.centre[1] + PITCH * previous.direction[1])
+            centre = ahead(previous.centre, previous.direction, PITCH)
         else:
             centre = (0.0, 0.0)
         slider = _Slider(centre, direction)
-        footprint = _footprint(slider, half_length)
+        swept = _swept_area(slider, half_length)
         # Only the previous slider may interact with the new one; a staircase that folds back
         # onto an older slider would add dependencies nobody asked for.
-        if any(overlaps(footprint, _footprint(old, half_length)) for old in placed[:-1]):
+        if any(overlaps(swept, _swept_area(old, half_length)) for old in placed[:-1]):
             return None
         new = _slider_object(index, slider, joint_item, params.slider_length)
         return Draft(draft.objects + (new,), placed + (slider,))
@@ -107,11 +117,8 @@ def _attach_for(params: SimpleSliderParams):
     return attach
 
 
-def _goal(draft: Draft) -> Goal:
-    return paper_goal(draft.objects[0])
-
-
-@register("simple_slider", "Simple Slider", SimpleSliderParams)
+@register("simple_slider", "Simple Slider", SimpleSliderParams, paper_row=1,
+          time_limits={"paper": 40.0, "quick": 4.0})
 def build(seed: int, params: SimpleSliderParams) -> MakerInput:
     """Simple Slider: a chain of T-shaped sliders laid out as a staircase.
 
@@ -141,19 +148,19 @@ def build(seed: int, params: SimpleSliderParams) -> MakerInput:
         ``gap`` the free play between a slider and the next (0 < gap < 0.5).
 
     Departures:
-        The prototype uses no randomness (a fixed staircase stepping down and to
-        the right). Here the placement of slider i+1 follows slider i's actual
-        sliding direction (the prototype's relative step), so that every flip
-        still yields a chain in which each slider is necessary; with all
-        transformations 0 the layout is exactly the prototype's staircase. No
-        ``link_shrink``: the collision checker treats touching as contact-free.
+        Each slider's flip is drawn, and the next slider follows the flipped
+        slider's sliding direction, so that every flip still yields a chain in
+        which each slider is necessary; with all transformations 0 the layout
+        is exactly the prototype's fixed staircase.
+
+    Design notes: docs/generators.md#simple-slider
     """
     params.validate(seed)
     return MakerInput(
         objects=Choice(("t_slider",)),
         joints=Choice((Motion.PRISMATIC,)),
-        transforms=Choice(TRANSFORMS),
+        transforms=Choice(HALF_TURNS),
         n_objects=params.count(seed),
         attach=_attach_for(params),
-        goal=_goal,
+        goal=target_paper_goal,
     )

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Sequence
 from pathlib import Path
 
+from phyrogen_core.folder import PuzzleFolder, find_in_paths, find_puzzle_folders
 from phyrogen_core.registry import ParameterError, all_generators
 
 EXIT_BAD_INPUT = 2
@@ -49,9 +49,7 @@ def parse_overrides(items: list[str]) -> dict[str, str]:
 def _generators(text: str) -> list[str]:
     registry = all_generators()
     if text == "all":
-        from phyrogen_core.generators import PAPER_GENERATORS
-
-        return list(PAPER_GENERATORS)
+        return [name for name, spec in registry.items() if spec.paper]
     names = [n.strip() for n in text.split(",") if n.strip()]
     for name in names:
         if name not in registry:
@@ -67,7 +65,7 @@ def cmd_list(args) -> int:
 
 
 def cmd_generate(args) -> int:
-    from .generation import Job, run_jobs
+    from solver.generation import Job, run_jobs
 
     names = _generators(args.generator)
     seeds = parse_seeds(args.seeds)
@@ -101,38 +99,26 @@ def cmd_generate(args) -> int:
 
 def cmd_check(args) -> int:
     from phyrogen_core.export import read_puzzle_dir
-
-    from .validation import verify_certificate
+    from solver.problem import verify_certificate
 
     loaded = read_puzzle_dir(Path(args.puzzle_dir))
-    chain = loaded.chain
-    problems = verify_certificate(chain, loaded.certificate, loaded.goal)
+    problems = verify_certificate(loaded.chain, loaded.certificate, loaded.goal)
     name = loaded.metadata.get("name", args.puzzle_dir)
+    # An edited puzzle (the Blender panel's Export) keeps its old certificate, marked as not verified for it.
+    edited = loaded.metadata.get("certificate_verified") is False
+    note = " (found for the puzzle before it was edited)" if edited else ""
     if problems:
-        print(f"{name}: INVALID: " + "; ".join(problems))
+        print(f"{name}: INVALID{note}: " + "; ".join(problems))
         return 1
-    print(f"{name}: certificate valid ({len(loaded.certificate)} states, checked at fine resolution)")
+    print(f"{name}: certificate valid{note} ({len(loaded.certificate)} states, checked at fine resolution)")
     return 0
-
-
-def puzzle_folders(paths: Sequence[str]) -> list[Path]:
-    """The puzzle folders named: a folder of generated puzzles (``phyrogen generate --out``,
-    ``<dir>/<generator>/<puzzle>/puzzle.json``) stands for every puzzle in it, sorted."""
-    from .benchmark import find_puzzles
-
-    folders: list[Path] = []
-    for given in map(Path, paths):
-        if given.is_dir() and not (given / "puzzle.json").is_file():
-            folders += sorted(Path(entry.folder) for entry in find_puzzles(given))
-        else:
-            folders.append(given)
-    return folders
 
 
 def cmd_manipulate(args) -> int:
     from manipulation.batch import manipulate_folders
 
-    reports = manipulate_folders(puzzle_folders(args.puzzle_dirs), Path(args.out), video=not args.no_video,
+    folders = [f.path if isinstance(f, PuzzleFolder) else f for f in find_in_paths(args.puzzle_dirs)]
+    reports = manipulate_folders(folders, Path(args.out), video=not args.no_video,
                                  table=Path(args.table) if args.table else None, gui=args.gui, quiet=args.quiet)
     return 0 if all(r.success for r in reports) else 1
 
@@ -140,15 +126,13 @@ def cmd_manipulate(args) -> int:
 def cmd_render(args) -> int:
     from blender_addon.gallery import write_gallery
     from blender_addon.render_worker import parse_size
-    from blender_addon.rendering import RenderError, find_puzzle_dirs, render_puzzles
+    from blender_addon.rendering import RenderError, render_puzzles
     from blender_addon.views import parse_views
 
     views = parse_views(args.views)
     if not args.gallery_only:
         size = parse_size(args.size)
-        folders = find_puzzle_dirs(Path(args.out))
-        if not folders:
-            raise UsageError(f"no puzzle folders under {args.out}; run 'phyrogen generate --out {args.out}' first")
+        folders = [f.path for f in find_puzzle_folders(Path(args.out))]
         progress = _progress(len(folders), args.quiet)
         try:
             report = render_puzzles(folders, args.engine, size, views, args.workers,
@@ -166,8 +150,8 @@ def cmd_render(args) -> int:
 
 
 def cmd_benchmark(args) -> int:
-    from .benchmark import estimate_seconds, find_puzzles, get_profile, run_benchmark
-    from .planners import PLANNERS
+    from solver.benchmark import estimate_seconds, get_profile, run_benchmark
+    from solver.planners import PLANNERS
 
     generators = None if args.generator == "all" else _generators(args.generator)
     planners = list(PLANNERS) if args.planners == "all" else [p.strip() for p in args.planners.split(",")]
@@ -175,7 +159,7 @@ def cmd_benchmark(args) -> int:
         if name not in PLANNERS:
             raise UsageError(f"unknown planner {name!r} (known: {', '.join(PLANNERS)})")
     profile = get_profile(args.profile, args.runs, args.time_limit)
-    puzzles = find_puzzles(Path(args.puzzles), generators)
+    puzzles = find_puzzle_folders(Path(args.puzzles), generators)
     estimate = estimate_seconds(puzzles, planners, profile, args.workers, overhead=1.0)
     print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
           f"about {estimate / 3600:.1f} h on {args.workers} workers", file=sys.stderr)

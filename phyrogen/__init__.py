@@ -1,0 +1,72 @@
+"""PhyRoGen's public Python API and the ``phyrogen`` command line: the top layer.
+
+A thin facade over the layers below it (``phyrogen_core`` <- ``solver`` <-
+``blender_addon``, ``manipulation``); each function imports its layer when
+called, so ``import phyrogen`` needs neither Blender nor PyBullet::
+
+    import phyrogen
+
+    phyrogen.generators()                                   # name -> GeneratorSpec
+    puzzle = phyrogen.generate("grid_world", seed=7, n_objects=4)
+    folder = phyrogen.generate_into("output", "grid_world", seed=7)
+    loaded = phyrogen.load(folder)                          # chain, start, goal, certificate
+    assert phyrogen.check(folder) == []                     # problems with its certificate
+    for puzzle_folder in phyrogen.find_puzzles("output"): ...
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from phyrogen_core import __version__
+from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
+
+__all__ = ["PuzzleFolder", "__version__", "check", "find_puzzles", "generate", "generate_into", "generators",
+           "load"]
+
+
+def generators() -> dict:
+    """The registered generators by name (:class:`phyrogen_core.registry.GeneratorSpec`)."""
+    from phyrogen_core.registry import all_generators
+
+    return all_generators()
+
+
+def generate(generator: str, seed: int, **params: Any):
+    """One certified :class:`phyrogen_core.puzzle.Puzzle`, generated deterministically in a fresh
+    process; ``params`` override the generator's defaults (``phyrogen list`` shows them)."""
+    from solver.generation import generate_puzzle
+
+    return generate_puzzle(generator, seed, params)
+
+
+def generate_into(out: str | Path, generator: str, seed: int, **params: Any) -> Path:
+    """Generate like :func:`generate` and write the puzzle folder under ``out``; its path."""
+    from phyrogen_core.maker import GenerationError
+    from solver.generation import Job, run_jobs
+
+    (report,) = list(run_jobs([Job(generator, seed, dict(params))], Path(out), workers=1))
+    if report.error is not None or report.folder is None:
+        raise GenerationError(report.error or "generation failed")
+    return Path(report.folder)
+
+
+def load(folder: str | Path):
+    """The puzzle in a folder (:class:`phyrogen_core.export.LoadedPuzzle`), read strictly."""
+    from phyrogen_core.export import read_puzzle_dir
+
+    return read_puzzle_dir(folder)
+
+
+def check(folder: str | Path) -> list[str]:
+    """Problems with a puzzle folder's certificate (empty when it is valid at fine resolution)."""
+    from solver.problem import verify_certificate
+
+    loaded = load(folder)
+    return verify_certificate(loaded.chain, loaded.certificate, loaded.goal)
+
+
+def find_puzzles(root: str | Path, generators: list[str] | None = None) -> list[PuzzleFolder]:
+    """The puzzle folders under ``root`` (or ``root`` itself), in a stable order."""
+    return find_puzzle_folders(root, generators)

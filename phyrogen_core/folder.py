@@ -1,0 +1,262 @@
+"""The puzzle folder: its layout, which stage owns which entry, finding folders, writing a stage's files.
+
+A puzzle lives in one folder, ``<out>/<generator>/<name>/``::
+
+    urdf/<name>.urdf, srdf/<name>.srdf, meshes/, puzzle.json     export (generate, the panel's Export)
+    solutions/                                                    benchmark (planner solutions)
+    images/, <name>.blend                                         render
+
+Every stage writes only the entries it owns and keeps every other entry,
+another stage's or a user's file, as it was (:func:`stage_directory`). This
+module is the one place that knows the layout: other layers ask a
+:class:`PuzzleFolder` for paths and :func:`find_puzzle_folders` for folders.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+
+METADATA_FILE = "puzzle.json"
+BEST_SOLUTION = Path("solutions") / "la_rrt_best.json"
+"""The benchmark's lowest-cost solution, the one the manipulation stage executes (inside a puzzle folder)."""
+
+
+class Stage(StrEnum):
+    """A stage that writes into puzzle folders."""
+
+    EXPORT = "export"
+    BENCHMARK = "benchmark"
+    RENDER = "render"
+
+
+def stage_entries(stage: Stage, name: str) -> tuple[str, ...]:
+    """The top-level entries of puzzle ``name``'s folder that ``stage`` owns."""
+    return {
+        Stage.EXPORT: ("urdf", "srdf", "meshes", METADATA_FILE),
+        Stage.BENCHMARK: ("solutions",),
+        Stage.RENDER: ("images", f"{name}.blend"),
+    }[stage]
+
+
+@dataclass(frozen=True)
+class PuzzleFolder:
+    """Where everything of one puzzle lives; ``name`` names the files inside."""
+
+    path: Path
+    name: str
+    generator: str = ""
+
+    @classmethod
+    def at(cls, out_root: str | Path, generator: str, name: str) -> PuzzleFolder:
+        """The folder of puzzle ``name`` under an output root: ``<out_root>/<generator>/<name>``."""
+        for part in (generator, name):
+            if not part or part in (".", "..") or "/" in part or "\\" in part or part.startswith("."):
+                raise ValueError(f"{part!r} cannot name a puzzle folder; valid names have no slashes "
+                                 "and do not start with '.'")
+        return cls(Path(out_root) / generator / name, name, generator)
+
+    @classmethod
+    def open(cls, path: str | Path) -> PuzzleFolder:
+        """An existing puzzle folder; its name and generator come from its ``puzzle.json``.
+
+        Raises FileNotFoundError when ``path`` holds no ``puzzle.json`` and
+        ValueError when that file is not a JSON object naming the puzzle.
+        """
+        path = Path(path)
+        metadata_file = path / METADATA_FILE
+        if not metadata_file.is_file():
+            raise FileNotFoundError(f"{path}: not a puzzle folder (no {METADATA_FILE})")
+        try:
+            data = json.loads(metadata_file.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{metadata_file}: unreadable ({exc})") from None
+        if not isinstance(data, dict) or not isinstance(data.get("name", path.name), str):
+            raise ValueError(f"{metadata_file}: expected a JSON object with a string 'name'")
+        name = data.get("name", path.name)
+        if not name or "/" in name or "\\" in name or name.startswith("."):
+            raise ValueError(f"{metadata_file}: name {name!r} cannot name files inside the folder")
+        return cls(path, name, str(data.get("generator", path.parent.name)))
+
+    @property
+    def metadata(self) -> Path:
+        return self.path / METADATA_FILE
+
+    @property
+    def urdf(self) -> Path:
+        return self.path / "urdf" / f"{self.name}.urdf"
+
+    @property
+    def srdf(self) -> Path:
+        return self.path / "srdf" / f"{self.name}.srdf"
+
+    @property
+    def meshes(self) -> Path:
+        return self.path / "meshes"
+
+    @property
+    def solutions(self) -> Path:
+        return self.path / "solutions"
+
+    @property
+    def best_solution(self) -> Path:
+        return self.path / BEST_SOLUTION
+
+    @property
+    def images(self) -> Path:
+        return self.path / "images"
+
+    @property
+    def blend(self) -> Path:
+        return self.path / f"{self.name}.blend"
+
+    @property
+    def seed(self) -> int:
+        """The seed in a generated puzzle's name (``<generator>_<seed>``), else 0."""
+        tail = self.name.rsplit("_", 1)[-1]
+        return int(tail) if tail.isdigit() else 0
+
+
+def find_puzzle_folders(root: str | Path, generators: Iterable[str] | None = None) -> list[PuzzleFolder]:
+    """The puzzle folders ``root`` stands for, in a stable order.
+
+    ``root`` is either one puzzle folder (it holds ``puzzle.json``) or a
+    folder of generated puzzles (``<root>/<generator>/<name>/puzzle.json``);
+    folders being written (dot-prefixed temporary names) are skipped. The
+    order is the registry's generator order, then seed, then name. Raises
+    FileNotFoundError when ``root`` is missing or holds no puzzle (of
+    ``generators``, when given).
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise FileNotFoundError(f"{root}: no such folder of puzzles (make one with `phyrogen generate --out {root}`)")
+    if (root / METADATA_FILE).is_file():
+        found = [PuzzleFolder.open(root)]
+    else:
+        found = [PuzzleFolder.open(meta.parent) for meta in sorted(root.glob(f"*/*/{METADATA_FILE}"))
+                 if not meta.parent.name.startswith(".") and not meta.parent.parent.name.startswith(".")]
+    wanted = None if generators is None else set(generators)
+    found = [f for f in found if wanted is None or f.generator in wanted]
+    if not found:
+        raise FileNotFoundError(f"{root}: no puzzle folders (*/*/{METADATA_FILE})"
+                                + (f" of generators {sorted(wanted)}" if wanted else ""))
+    from .registry import all_generators
+
+    order = {name: i for i, name in enumerate(all_generators())}
+    return sorted(found, key=lambda f: (order.get(f.generator, len(order)), f.generator, f.seed, f.name))
+
+
+def find_in_paths(paths: Sequence[str | Path]) -> list[PuzzleFolder | Path]:
+    """Every puzzle folder named: each path is a puzzle folder or a folder of generated puzzles.
+
+    A path that is neither is passed through as it is, for the caller to
+    report with its own reader's message.
+    """
+    out: list[PuzzleFolder | Path] = []
+    for given in map(Path, paths):
+        if given.is_dir():
+            out += find_puzzle_folders(given)
+        else:
+            out.append(given)
+    return out
+
+
+@contextmanager
+def stage_directory(final: str | Path, owned: Sequence[str]) -> Iterator[Path]:
+    """Yield an empty temporary folder for one stage's entries of the folder ``final``.
+
+    When the block succeeds, ``final`` becomes the temporary folder's entries
+    plus every entry of the old ``final`` that is not in ``owned`` (another
+    stage's files or a user's, hard-linked or copied over), swapped in
+    atomically. The stage's own old entries are replaced as a whole. If the
+    block raises or is interrupted, ``final`` is left as it was.
+    """
+    final = Path(final)
+    owned_set = set(owned)
+    with atomic_directory(final) as temporary:
+        yield temporary
+        if final.is_dir():
+            for entry in sorted(final.iterdir()):
+                if entry.name in owned_set or (temporary / entry.name).exists():
+                    continue
+                _link_or_copy(entry, temporary / entry.name)
+
+
+def _link_or_copy(source: Path, target: Path) -> None:
+    if source.is_symlink():
+        os.symlink(os.readlink(source), target)
+    elif source.is_dir():
+        shutil.copytree(source, target, symlinks=True, copy_function=_link_file)
+    else:
+        _link_file(source, target)
+
+
+def _link_file(source: str | Path, target: str | Path) -> None:
+    try:
+        os.link(source, target)
+    except OSError:
+        shutil.copy2(source, target)
+
+
+@contextmanager
+def atomic_directory(final: str | Path) -> Iterator[Path]:
+    """Yield an empty temporary folder that becomes ``final`` when the block succeeds.
+
+    The temporary folder is a dot-prefixed sibling of ``final`` (same file
+    system, so the rename is atomic). An existing ``final`` folder is first
+    renamed aside, then deleted once the new one is in place. If the block
+    raises (or is interrupted), the temporary folder is removed and ``final``
+    is left as it was. Missing parent folders are created and kept, even on
+    failure: removing them could race with another writer using the same parent.
+    """
+    final = Path(final)
+    if final.exists() and not final.is_dir():
+        raise FileExistsError(f"{final} exists and is not a folder; remove it or choose another output path")
+    final.parent.mkdir(parents=True, exist_ok=True)
+    temporary = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent))
+    try:
+        # mkdtemp makes the folder private (0700); the result should be as readable as its parent.
+        os.chmod(temporary, final.parent.stat().st_mode & 0o777)
+        yield temporary
+        aside = temporary.with_name(temporary.name + ".old")
+        moved_aside = False
+        if final.exists():
+            os.replace(final, aside)
+            moved_aside = True
+        try:
+            os.replace(temporary, final)
+        except BaseException:
+            if moved_aside:
+                os.replace(aside, final)
+            raise
+        if moved_aside:
+            # The new folder is in place: failing to delete the old copy must not undo that.
+            shutil.rmtree(aside, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(temporary, ignore_errors=True)
+        raise
+
+
+def write_file_atomic(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary sibling and a rename: readers see the old
+    file or the new one, never a part."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.NamedTemporaryFile("wb", dir=path.parent, prefix=f".{path.name}.", suffix=".tmp",
+                                     delete=False) as handle:
+        handle.write(data)
+        temporary = Path(handle.name)
+    try:
+        os.chmod(temporary, 0o644)
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+    return path
