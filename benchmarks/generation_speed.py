@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from phyrogen_core.generators import PAPER_GENERATORS
+from phyrogen_core.registry import paper_generators
 from solver.generation import Job, run_jobs
 
 PAPER_SECONDS = 127.0
@@ -21,7 +21,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
-    jobs = [Job(name, seed) for name in PAPER_GENERATORS for seed in range(1, 5)]
+    jobs = [Job(name, seed) for name in paper_generators() for seed in range(1, 5)]
     started = time.perf_counter()
     reports = list(run_jobs(jobs, None, args.workers))
     wall = time.perf_counter() - started

@@ -11,6 +11,7 @@ import dataclasses
 import json
 import subprocess
 import typing
+from collections.abc import Callable
 from pathlib import Path
 
 import bpy
@@ -34,7 +35,8 @@ def editable_fields(params_type: type) -> list[dataclasses.Field]:
 def _parameter_group(name: str, params_type: type) -> type:
     hints = typing.get_type_hints(params_type)
     annotations = {f.name: _PROPERTY_OF_TYPE[hints[f.name]](name=f.name.replace("_", " ").capitalize(),
-                                                            default=f.default)
+                                                            default=f.default,
+                                                            description=str(f.metadata.get("doc", "")))
                    for f in editable_fields(params_type)}
     return type(f"PHYROGEN_PG_{name}", (bpy.types.PropertyGroup,), {"__annotations__": annotations})
 
@@ -98,6 +100,18 @@ def puzzle_folder(settings, collection) -> PuzzleFolder:
     return PuzzleFolder.at(_output(settings), generator, collection.name)
 
 
+def run_reported(operator: bpy.types.Operator, work: Callable[[], str]) -> set[str]:
+    """Run an operator's work and report its message; bad input or a failed step is reported
+    as an error (the operator is cancelled) instead of a traceback in the console."""
+    try:
+        message = work()
+    except (ParameterError, ValueError, KeyError, OSError, RuntimeError) as exc:
+        operator.report({"ERROR"}, str(exc))
+        return {"CANCELLED"}
+    operator.report({"INFO"}, message)
+    return {"FINISHED"}
+
+
 class PHYROGEN_OT_generate(bpy.types.Operator):  # noqa: N801 (Blender's naming)
     """Generate and certify the puzzle, then build it in the scene"""
 
@@ -106,23 +120,22 @@ class PHYROGEN_OT_generate(bpy.types.Operator):  # noqa: N801 (Blender's naming)
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
+        return run_reported(self, lambda: self.generate(context))
+
+    @staticmethod
+    def generate(context) -> str:
         from .scene import build_puzzle_folder
 
         settings = context.scene.phyrogen
-        try:
-            spec, params = chosen_params(settings)
-            spec.check(settings.seed, params)
-            folder = generate_folder(spec.name, settings.seed, params, _output(settings))
-        except (ParameterError, ValueError, RuntimeError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        spec, params = chosen_params(settings)
+        spec.check(settings.seed, params)
+        folder = generate_folder(spec.name, settings.seed, params, _output(settings))
         old = bpy.data.collections.get(folder.name)
         if old is not None:
             _remove_collection(old)
         built = build_puzzle_folder(folder, context.scene)
         settings.puzzle = built.collection.name
-        self.report({"INFO"}, f"{folder.name}: written to {folder}")
-        return {"FINISHED"}
+        return f"{folder.name}: written to {folder}"
 
 
 def generate_folder(generator: str, seed: int, params, out: Path) -> Path:
@@ -156,29 +169,27 @@ class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
     bl_label = "Validate"
 
     def execute(self, context):
+        return run_reported(self, lambda: self.validate(context))
+
+    @staticmethod
+    def validate(context) -> str:
         from phyrogen_core.puzzle import Goal
         from solver.problem import verify_certificate
 
         from . import annotations as keys
         from .scene import read_chain
 
-        try:
-            collection = current_collection(context)
-            if keys.METADATA not in collection:
-                raise ValueError(f"{collection.name!r} keeps no puzzle.json: nothing to validate against")
-            metadata = json.loads(collection[keys.METADATA])
-            chain = read_chain(collection)
-            stored = metadata["goal"]
-            goal = Goal(stored["target"], stored["values"], stored["tolerance"])
-            problems = verify_certificate(chain, metadata["certificate"], goal)
-        except (ValueError, KeyError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        collection = current_collection(context)
+        if keys.METADATA not in collection:
+            raise ValueError(f"{collection.name!r} keeps no puzzle.json: nothing to validate against")
+        metadata = json.loads(collection[keys.METADATA])
+        chain = read_chain(collection)
+        stored = metadata["goal"]
+        goal = Goal(stored["target"], stored["values"], stored["tolerance"])
+        problems = verify_certificate(chain, metadata["certificate"], goal)
         if problems:
-            self.report({"ERROR"}, f"{collection.name}: INVALID: " + "; ".join(problems))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"{collection.name}: certificate valid ({len(metadata['certificate'])} states)")
-        return {"FINISHED"}
+            raise ValueError(f"{collection.name}: INVALID: " + "; ".join(problems))
+        return f"{collection.name}: certificate valid ({len(metadata['certificate'])} states)"
 
 
 class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801
@@ -190,14 +201,11 @@ class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801
     def execute(self, context):
         from .export import export_collection
 
-        try:
+        def export() -> str:
             collection = current_collection(context)
-            path = export_collection(collection, puzzle_folder(context.scene.phyrogen, collection).path)
-        except (ValueError, OSError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"wrote {path}")
-        return {"FINISHED"}
+            return f"wrote {export_collection(collection, puzzle_folder(context.scene.phyrogen, collection).path)}"
+
+        return run_reported(self, export)
 
 
 class PHYROGEN_OT_render(bpy.types.Operator):  # noqa: N801
@@ -207,21 +215,20 @@ class PHYROGEN_OT_render(bpy.types.Operator):  # noqa: N801
     bl_label = "Render"
 
     def execute(self, context):
+        return run_reported(self, lambda: self.render(context))
+
+    @staticmethod
+    def render(context) -> str:
         from phyrogen_core.folder import atomic_directory
 
         from .render import render_views, setup_stage
 
         settings = context.scene.phyrogen
-        try:
-            collection = current_collection(context)
-            setup_stage(context.scene, collection, settings.engine, (480, 360))
-            with atomic_directory(puzzle_folder(settings, collection).images) as folder:
-                paths = render_views(context.scene, collection, folder, collection.name)
-        except (ValueError, OSError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"rendered {len(paths)} views of {collection.name}")
-        return {"FINISHED"}
+        collection = current_collection(context)
+        setup_stage(context.scene, collection, settings.engine, (480, 360))
+        with atomic_directory(puzzle_folder(settings, collection).images) as folder:
+            paths = render_views(context.scene, collection, folder, collection.name)
+        return f"rendered {len(paths)} views of {collection.name}"
 
 
 class PHYROGEN_PT_panel(bpy.types.Panel):  # noqa: N801

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from phyrogen_core.folder import PuzzleFolder, find_in_paths, find_puzzle_folders
-from phyrogen_core.registry import ParameterError, all_generators
+from phyrogen_core.registry import ParameterError, all_generators, describe_generators, paper_generators
 
 EXIT_BAD_INPUT = 2
 
@@ -49,7 +49,7 @@ def parse_overrides(items: list[str]) -> dict[str, str]:
 def _generators(text: str) -> list[str]:
     registry = all_generators()
     if text == "all":
-        return [name for name, spec in registry.items() if spec.paper]
+        return list(paper_generators())
     names = [n.strip() for n in text.split(",") if n.strip()]
     for name in names:
         if name not in registry:
@@ -58,9 +58,7 @@ def _generators(text: str) -> list[str]:
 
 
 def cmd_list(args) -> int:
-    for name, spec in all_generators().items():
-        params = ", ".join(f"{k}={v!r}" for k, v in vars(spec.default_params()).items())
-        print(f"{name:18s} {spec.title:18s} {params}")
+    print(describe_generators())
     return 0
 
 

@@ -49,12 +49,6 @@ def test_paper_generators_in_table_one_order():
     assert GENERATORS[:6] == list(paper_generators())
 
 
-def test_derived_paper_generators_constant_agrees():
-    from phyrogen_core.generators import PAPER_GENERATORS
-
-    assert PAPER_GENERATORS == paper_generators()
-
-
 def test_paper_time_limits_are_the_papers():
     # Paper, Sec. V: Simple Sliders 40 s, Grid World 40 s, Continuous Space 20 s,
     # Lockbox Random 600 s, Move N Times 20 s, Rooms 60 s.

@@ -5,7 +5,6 @@ the generators the first time it is asked. :mod:`.kit` holds what the
 generators share.
 """
 
-from ..registry import paper_generators
 from . import (  # noqa: F401  (each module registers its generator)
     continuous_space,
     grid_world,
@@ -14,7 +13,3 @@ from . import (  # noqa: F401  (each module registers its generator)
     rooms,
     simple_slider,
 )
-
-PAPER_GENERATORS = paper_generators()
-"""The paper's six generators in Table I order, from the registry (kept for older callers;
-new code calls :func:`phyrogen_core.registry.paper_generators`)."""
