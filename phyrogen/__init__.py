@@ -64,7 +64,7 @@ def check(folder: str | Path) -> list[str]:
     from solver.problem import verify_certificate
 
     loaded = load(folder)
-    return verify_certificate(loaded.chain, loaded.certificate, loaded.goal)
+    return verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)
 
 
 def find_puzzles(root: str | Path, generators: list[str] | None = None) -> list[PuzzleFolder]:

@@ -100,7 +100,7 @@ def cmd_check(args) -> int:
     from solver.problem import verify_certificate
 
     loaded = read_puzzle_dir(Path(args.puzzle_dir))
-    problems = verify_certificate(loaded.chain, loaded.certificate, loaded.goal)
+    problems = verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)
     name = loaded.metadata.get("name", args.puzzle_dir)
     # An edited puzzle (the Blender panel's Export) keeps its old certificate, marked as not verified for it.
     edited = loaded.metadata.get("certificate_verified") is False

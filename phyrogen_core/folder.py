@@ -15,8 +15,10 @@ module is the one place that knows the layout: other layers ask a
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -27,6 +29,158 @@ from pathlib import Path
 METADATA_FILE = "puzzle.json"
 BEST_SOLUTION = Path("solutions") / "la_rrt_best.json"
 """The benchmark's lowest-cost solution, the one the manipulation stage executes (inside a puzzle folder)."""
+MAX_FILE_BYTES = 16 * 2**20
+"""The largest file a puzzle folder may hand to a reader (``puzzle.json``, URDF, OBJ mesh, solution):
+16 MiB, some five hundred times the largest file of the paper's puzzles, checked before the file is read."""
+MAX_NAME_LENGTH = 200
+"""The longest puzzle or generator name: ``<name>.blend`` and friends stay within file-name limits."""
+
+
+class PuzzleFormatError(ValueError):
+    """A puzzle folder, its ``puzzle.json``, its URDF or a mesh is missing or malformed."""
+
+
+def name_problem(name: object) -> str | None:
+    """Why ``name`` cannot name a puzzle (or a generator's folder), or None when it can.
+
+    The one rule for names that build paths: a non-empty string of at most
+    :data:`MAX_NAME_LENGTH` printable characters, without ``/`` or ``\\``, not
+    starting with ``.`` (which also excludes ``.`` and ``..``, and the
+    temporary folders of :func:`atomic_directory`). Such a name stays one
+    entry inside the folder it is joined to.
+    """
+    if not isinstance(name, str) or not name:
+        return "must be a non-empty string"
+    if len(name) > MAX_NAME_LENGTH:
+        return f"is {len(name)} characters long; valid names have at most {MAX_NAME_LENGTH}"
+    if "/" in name or "\\" in name or name.startswith(".") or not name.isprintable():
+        return ("cannot name an entry inside a folder; valid names have no slashes, no control characters "
+                "and do not start with '.'")
+    return None
+
+
+def read_folder_file(path: str | Path, root: str | Path, label: str | None = None,
+                     limit: int = MAX_FILE_BYTES) -> bytes:
+    """The bytes of the file ``path``, a file of the puzzle folder ``root``.
+
+    The one rule for every file a reader takes from a puzzle folder: after
+    resolving symbolic links it lies inside ``root``; it is a regular file
+    (``os.stat`` is asked before anything is opened, so a FIFO or a device
+    is refused instead of blocking or streaming forever); it holds at most
+    ``limit`` bytes. Raises :class:`PuzzleFormatError` ``"<label>: <what is
+    wrong>"``; ``label`` defaults to the path.
+    """
+    path = Path(path)
+    label = str(path) if label is None else label
+    try:
+        real_root = Path(os.path.realpath(root))
+        real = Path(os.path.realpath(path))
+    except (OSError, ValueError) as exc:
+        raise PuzzleFormatError(f"{label} cannot be resolved: {_reason(exc)}") from None
+    if not real.is_relative_to(real_root):
+        raise PuzzleFormatError(f"{label} resolves to {real}, outside the puzzle folder {real_root}; "
+                                "a puzzle folder must be self-contained")
+    try:
+        info = os.stat(real)
+    except FileNotFoundError:
+        raise PuzzleFormatError(f"{label} is missing") from None
+    except (OSError, ValueError) as exc:
+        raise PuzzleFormatError(f"{label} cannot be read: {_reason(exc)}") from None
+    _require_regular(info, label, limit)
+    try:
+        # O_NONBLOCK: should the entry be swapped for a FIFO after the stat, opening it still returns at once.
+        descriptor = os.open(real, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0)
+                             | getattr(os, "O_CLOEXEC", 0))
+    except OSError as exc:
+        raise PuzzleFormatError(f"{label} cannot be read: {_reason(exc)}") from None
+    try:
+        _require_regular(os.fstat(descriptor), label, limit)
+        chunks: list[bytes] = []
+        size = 0
+        while size <= limit:
+            chunk = os.read(descriptor, min(1 << 20, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as exc:
+        raise PuzzleFormatError(f"{label} cannot be read: {_reason(exc)}") from None
+    finally:
+        os.close(descriptor)
+    if size > limit:
+        raise PuzzleFormatError(f"{label} grew past {_size(limit)} while being read")
+    return b"".join(chunks)
+
+
+def read_folder_json(path: str | Path, root: str | Path, label: str | None = None) -> object:
+    """The JSON data of the file ``path`` of the puzzle folder ``root``: :func:`read_folder_file`'s
+    rule, UTF-8 text, and every number in it finite (JSON itself has no NaN or infinity; Python's
+    parser accepts ``NaN``, ``Infinity`` and ``1e999``). Raises :class:`PuzzleFormatError` naming
+    the file and, for a number, the field (``certificate[3][1]``)."""
+    label = str(path) if label is None else label
+    raw = read_folder_file(path, root, label)
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise PuzzleFormatError(f"{path}: not UTF-8 text: {_one_line(exc)}") from None
+    except RecursionError:
+        raise PuzzleFormatError(f"{path}: malformed JSON: nested too deeply") from None
+    except ValueError as exc:  # json.JSONDecodeError, or an integer of too many digits
+        raise PuzzleFormatError(f"{path}: malformed JSON: {_one_line(exc)}") from None
+    bad = _non_finite_number(data)
+    if bad is not None:
+        field, value = bad
+        raise PuzzleFormatError(f"{path}: {field} is {value}; every number in the file must be finite")
+    return data
+
+
+def _non_finite_number(data: object) -> tuple[str, str] | None:
+    """(field, value) of the first number in JSON ``data`` that is not a finite float, else None."""
+    stack: list[tuple[object, str]] = [(data, "")]
+    while stack:
+        value, field = stack.pop()
+        if isinstance(value, dict):
+            stack += [(item, _member(field, key)) for key, item in reversed(value.items())]
+        elif isinstance(value, list):
+            stack += [(item, f"{field}[{i}]") for i, item in reversed(list(enumerate(value)))]
+        elif isinstance(value, float) and not math.isfinite(value):
+            return field or "the value", repr(value)
+        elif isinstance(value, int) and not isinstance(value, bool):
+            try:
+                float(value)
+            except OverflowError:
+                return field or "the value", f"an integer of {len(str(abs(value)))} digits, beyond any float"
+    return None
+
+
+def _member(field: str, key: str) -> str:
+    plain = key.isidentifier() or (key.replace("_", "").replace("-", "").isalnum() and key.isascii())
+    name = key if plain else repr(key)
+    return f"{field}.{name}" if field else name
+
+
+def _require_regular(info: os.stat_result, label: str, limit: int) -> None:
+    mode = info.st_mode
+    if not stat.S_ISREG(mode):
+        kinds = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                 (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+        kind = next((name for test, name in kinds if test(mode)), "not a file")
+        raise PuzzleFormatError(f"{label} is {kind}, not a regular file")
+    if info.st_size > limit:
+        raise PuzzleFormatError(f"{label} is {info.st_size} bytes, more than the {_size(limit)} "
+                                "a puzzle-folder file may have")
+
+
+def _size(limit: int) -> str:
+    return f"{limit // 2**20} MiB" if limit % 2**20 == 0 else f"{limit} bytes"
+
+
+def _reason(exc: BaseException) -> str:
+    return exc.strerror if isinstance(exc, OSError) and exc.strerror else _one_line(exc)
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 class Stage(StrEnum):
@@ -58,9 +212,9 @@ class PuzzleFolder:
     def at(cls, out_root: str | Path, generator: str, name: str) -> PuzzleFolder:
         """The folder of puzzle ``name`` under an output root: ``<out_root>/<generator>/<name>``."""
         for part in (generator, name):
-            if not part or part in (".", "..") or "/" in part or "\\" in part or part.startswith("."):
-                raise ValueError(f"{part!r} cannot name a puzzle folder; valid names have no slashes "
-                                 "and do not start with '.'")
+            problem = name_problem(part)
+            if problem is not None:
+                raise ValueError(f"{part!r} cannot name a puzzle folder: it {problem}")
         return cls(Path(out_root) / generator / name, name, generator)
 
     @classmethod
@@ -68,21 +222,21 @@ class PuzzleFolder:
         """An existing puzzle folder; its name and generator come from its ``puzzle.json``.
 
         Raises FileNotFoundError when ``path`` holds no ``puzzle.json`` and
-        ValueError when that file is not a JSON object naming the puzzle.
+        :class:`PuzzleFormatError` (a ValueError) when that file breaks
+        :func:`read_folder_json`'s rule or is not a JSON object whose ``name``
+        keeps :func:`name_problem`'s rule.
         """
         path = Path(path)
         metadata_file = path / METADATA_FILE
-        if not metadata_file.is_file():
+        if not os.path.lexists(metadata_file):
             raise FileNotFoundError(f"{path}: not a puzzle folder (no {METADATA_FILE})")
-        try:
-            data = json.loads(metadata_file.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ValueError(f"{metadata_file}: unreadable ({exc})") from None
-        if not isinstance(data, dict) or not isinstance(data.get("name", path.name), str):
-            raise ValueError(f"{metadata_file}: expected a JSON object with a string 'name'")
+        data = read_folder_json(metadata_file, path, f"{metadata_file}: {METADATA_FILE}")
+        if not isinstance(data, dict):
+            raise PuzzleFormatError(f"{metadata_file}: expected a JSON object with a string 'name'")
         name = data.get("name", path.name)
-        if not name or "/" in name or "\\" in name or name.startswith("."):
-            raise ValueError(f"{metadata_file}: name {name!r} cannot name files inside the folder")
+        problem = name_problem(name)
+        if problem is not None:
+            raise PuzzleFormatError(f"{metadata_file}: name {name!r} {problem}")
         return cls(path, name, str(data.get("generator", path.parent.name)))
 
     @property

@@ -127,7 +127,7 @@ def metadata_for_chain(stored: Mapping[str, Any], chain: KinematicChain) -> dict
     puzzle it was made from.
 
     Everything the URDF states is taken from ``chain``: joint order and
-    limits, which objects exist. The certificate and the dependency graph
+    limits, the start state they imply, which objects exist. The certificate and the dependency graph
     were found for the old chain, so they are kept (the certificate only
     while the joint order is unchanged, so it can be re-checked) but marked
     ``"certificate_verified": false``: ``phyrogen check`` or a new plan
@@ -149,8 +149,10 @@ def metadata_for_chain(stored: Mapping[str, Any], chain: KinematicChain) -> dict
         "nodes": [n for n in graph.get("nodes", []) if n in present],
         "edges": [e for e in graph.get("edges", []) if all(n in present for n in e)],
     }
+    from .reader import start_state  # the reader imports this module
+
+    data["start"] = [_float(v) for v in start_state(chain)]
     if not same_joints:
-        data["start"] = [_float(min(max(0.0, chain.joint(n).lower), chain.joint(n).upper)) for n in order]
         data["certificate"] = []
     goal = data.get("goal", {})
     missing = [n for n in goal.get("values", {}) if n not in order]

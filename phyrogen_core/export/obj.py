@@ -37,11 +37,12 @@ def prism_piece_obj(piece: tuple[Point2, ...], height: float, name: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def read_prism_piece(text: str) -> tuple[tuple[Point2, ...], float]:
+def read_prism_piece(text: str, limit: float = math.inf) -> tuple[tuple[Point2, ...], float]:
     """The (piece, height) of a prism mesh: its distinct (x, y) ring, counter-clockwise.
 
     Raises ValueError when the mesh is not a prism centred on z = 0 over a
-    convex polygon.
+    convex polygon, or a vertex coordinate is not a finite number within
+    +-``limit``.
     """
     vertices: list[tuple[float, float, float]] = []
     for number_, line in enumerate(text.splitlines(), start=1):
@@ -49,11 +50,15 @@ def read_prism_piece(text: str) -> tuple[tuple[Point2, ...], float]:
         if not fields or fields[0] != "v":
             continue
         if len(fields) < 4:
-            raise ValueError(f"line {number_}: vertex needs x y z, got {line!r}")
+            raise ValueError(f"line {number_}: vertex needs x y z, got {_show(line)}")
         try:
-            vertices.append((float(fields[1]), float(fields[2]), float(fields[3])))
+            vertex = (float(fields[1]), float(fields[2]), float(fields[3]))
         except ValueError:
-            raise ValueError(f"line {number_}: vertex coordinates must be numbers, got {line!r}") from None
+            raise ValueError(f"line {number_}: vertex coordinates must be numbers, got {_show(line)}") from None
+        if not all(-limit <= c <= limit for c in vertex):  # also false for NaN
+            raise ValueError(f"line {number_}: vertex coordinates must be finite numbers"
+                             + (f" within +-{limit:g}" if limit < math.inf else "") + f", got {_show(line)}")
+        vertices.append(vertex)
     if len(vertices) < 6:
         raise ValueError(f"a prism needs at least 6 vertices, found {len(vertices)}")
     low = min(v[2] for v in vertices)
@@ -76,6 +81,11 @@ def read_prism_piece(text: str) -> tuple[tuple[Point2, ...], float]:
         if not _is_convex_ccw(ring):
             raise ValueError(f"the (x, y) corners do not form a convex polygon: {ring}")
     return tuple(ring), high - low
+
+
+def _show(line: str, width: int = 80) -> str:
+    text = repr(line)
+    return text if len(text) <= width else text[:width - 3] + "..."
 
 
 def _is_convex_ccw(ring: list[Point2]) -> bool:

@@ -10,18 +10,46 @@ uses), numbers exact. What URDF cannot hold is restored from the metadata
 - a fixed joint gets :class:`Joint`'s default axis and limits;
 - a collision shape takes the colour of the visual with the same shape and
   origin (URDF collisions have no colour), else :class:`Geometry`'s default.
+
+Reading is strict, so that no later stage (``phyrogen check``, the
+benchmark, the robot) meets a puzzle it cannot trust:
+
+- **Files**: every file read (``puzzle.json``, the URDF, each OBJ mesh) must
+  lie inside the puzzle folder after symbolic links are resolved, be a
+  regular file and hold at most :data:`~phyrogen_core.folder.MAX_FILE_BYTES`
+  (:func:`~phyrogen_core.folder.read_folder_file`). Mesh paths are relative
+  to the URDF file; the puzzle's ``name`` keeps
+  :func:`~phyrogen_core.folder.name_problem`'s rule.
+- **Numbers**: every number in ``puzzle.json`` is finite; every number of
+  the URDF and the meshes, and every joint value in ``puzzle.json`` (start,
+  goal, certificate, joint limits), is finite and within
+  :data:`MAX_MAGNITUDE`. Sizes, radii, lengths and mesh heights are positive,
+  masses, efforts and velocities not negative, colour channels in [0, 1],
+  lower limits at most upper ones.
+- **Agreement**: ``joint_order`` and ``joint_limits`` state exactly the
+  URDF's active joints (type, lower, upper); ``start`` is the start state
+  every planner uses (:func:`start_state`); the goal keeps
+  :func:`goal_problems`' rule (its target is an object, its joints are active
+  joints, its tolerance small against their ranges, its values reachable,
+  the start not already in it).
+
+Every violation raises :class:`PuzzleFormatError` naming the file and the
+field, in one line.
 """
 
 from __future__ import annotations
 
-import json
+import math
+import os
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields
+from numbers import Real
 from pathlib import Path
 from typing import Any, TypeVar
 
 from ..chain import Geometry, Joint, JointType, KinematicChain, Link, Role
+from ..folder import METADATA_FILE, PuzzleFolder, PuzzleFormatError, name_problem, read_folder_file, read_folder_json
 from ..geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from ..objects import Motion
 from ..puzzle import Goal
@@ -30,12 +58,18 @@ from .obj import read_prism_piece
 from .urdf import MESH_NAME
 
 GOAL_LINK = "goal"
+MAX_MAGNITUDE = 1e6
+"""The largest magnitude of a number in the URDF, a mesh or a joint value of ``puzzle.json``
+(metres, radians, kilograms, ...). Puzzles are table- to room-sized (the largest generated
+number is below 100); the bound keeps every product the collision model forms far from overflow."""
+GOAL_TOLERANCE_SHARE = 0.1
+"""A goal's tolerance must be less than this share of the range of each goal joint: the goal
+region then covers at most a fifth of the range, so reaching it takes a real move (generators use
+1e-3, against ranges of 1 or more)."""
+STATE_SLACK = 1e-9
+"""How far a state may lie outside the joint limits, or off the start state, and still count as on it."""
 _T = TypeVar("_T")
 _DEFAULT_COLOR = next(f.default for f in fields(Geometry) if f.name == "color")
-
-
-class PuzzleFormatError(ValueError):
-    """A puzzle folder, its ``puzzle.json`` or its URDF is missing or malformed."""
 
 
 @dataclass(frozen=True)
@@ -51,31 +85,93 @@ class LoadedPuzzle:
 
 
 def read_puzzle_dir(path: str | Path) -> LoadedPuzzle:
-    """Read the folder written by :func:`~phyrogen_core.export.output.write_puzzle`.
+    """Read the folder written by :func:`~phyrogen_core.export.output.write_puzzle`, strictly
+    (see the module's docstring for the rules).
 
     Raises :class:`PuzzleFormatError` naming the file and the problem when the
-    folder, ``puzzle.json``, the URDF or a mesh is missing or malformed.
+    folder, ``puzzle.json``, the URDF or a mesh is missing, malformed, outside
+    the folder, or disagrees with the rest.
     """
     folder = Path(path)
     if not folder.is_dir():
         raise PuzzleFormatError(f"{folder}: no such puzzle folder")
-    json_path = folder / "puzzle.json"
-    metadata = _read_metadata(json_path)
+    json_path = folder / METADATA_FILE
+    metadata = _read_metadata(json_path, folder)
     name = _field(metadata, "name", str, json_path)
+    problem = name_problem(name)
+    if problem is not None:
+        raise PuzzleFormatError(f"{json_path}: name {name!r} {problem}")
     joint_order = tuple(_string_list(metadata, "joint_order", json_path))
     objects = _field(metadata, "objects", list, json_path)
-    urdf_path = folder / "urdf" / f"{name}.urdf"
-    chain = read_urdf(urdf_path, link_roles(objects, json_path))
+    urdf_path = PuzzleFolder(folder, name).urdf
+    chain = read_urdf(urdf_path, link_roles(objects, json_path), root=folder)
     if chain.joint_order != joint_order:
         raise PuzzleFormatError(f"{json_path}: joint_order {list(joint_order)} does not match the active "
                                 f"joints of {urdf_path.name}: {list(chain.joint_order)}")
+    _check_joint_limits(metadata, chain, json_path, urdf_path.name)
     start = _state(metadata.get("start"), len(joint_order), "start", json_path)
+    _check_start(start, chain, json_path)
     certificate = tuple(
         _state(state, len(joint_order), f"certificate[{i}]", json_path)
         for i, state in enumerate(_field(metadata, "certificate", list, json_path))
     )
-    return LoadedPuzzle(chain, metadata, start, _goal(metadata, joint_order, json_path), certificate,
-                        joint_order)
+    goal = _goal(metadata, joint_order, json_path)
+    targets = {entry["name"] for entry in objects}  # link_roles checked every entry
+    if goal.target not in targets:
+        raise PuzzleFormatError(f"{json_path}: goal.target {goal.target!r} is not one of the objects "
+                                f"{sorted(targets)}")
+    problems = goal_problems(goal, chain, start)
+    if problems:
+        raise PuzzleFormatError(f"{json_path}: goal: {problems[0]}")
+    return LoadedPuzzle(chain, metadata, start, goal, certificate, joint_order)
+
+
+def start_state(chain: KinematicChain) -> tuple[float, ...]:
+    """The start state of a puzzle chain (joint order): every active joint at 0, clipped into its limits.
+
+    It is the state the planners start from
+    (:func:`solver.problem.problem_for_chain`), the one generated puzzles
+    and :func:`~phyrogen_core.export.metadata.metadata_for_chain` write,
+    and the one a certificate must begin at.
+    """
+    return tuple(max(min(0.0, j.upper), j.lower) + 0.0 for j in chain.active_joints)
+
+
+def goal_problems(goal: Goal, chain: KinematicChain, start: Sequence[float] | None = None) -> list[str]:
+    """Why ``goal`` is no sensible goal for ``chain`` (empty when it is one).
+
+    The tolerance is a finite positive number below
+    :data:`GOAL_TOLERANCE_SHARE` of the range (upper - lower limit) of every
+    goal joint; each goal joint is an active joint of the chain and its value
+    a finite number within its limits (give or take the tolerance), so the
+    goal can be reached; and ``start`` (joint order), when given, is not
+    already in the goal.
+    """
+    tolerance = goal.tolerance
+    if not isinstance(tolerance, Real) or not math.isfinite(tolerance) or tolerance <= 0:
+        return [f"tolerance {tolerance!r} must be a finite positive number"]
+    if not goal.values:
+        return ["it constrains no joint"]
+    problems: list[str] = []
+    for name, value in goal.values.items():
+        if name not in chain.joint_order:
+            problems.append(f"joint {name!r} is not an active joint; valid: {list(chain.joint_order)}")
+            continue
+        joint = chain.joint(name)
+        if not isinstance(value, Real) or not math.isfinite(value):
+            problems.append(f"value of joint {name!r} is {value!r}; it must be a finite number")
+            continue
+        span = joint.upper - joint.lower
+        if not tolerance < GOAL_TOLERANCE_SHARE * span:
+            problems.append(f"tolerance {tolerance!r} is not small against joint {name!r}'s range {span!r}: "
+                            f"it must be less than {GOAL_TOLERANCE_SHARE} x the range")
+        if not joint.lower - tolerance <= value <= joint.upper + tolerance:
+            problems.append(f"value {value!r} of joint {name!r} lies outside its limits "
+                            f"[{joint.lower!r}, {joint.upper!r}]: the goal cannot be reached")
+    if not problems and start is not None and len(start) == len(chain.joint_order):
+        if goal.is_reached(dict(zip(chain.joint_order, start, strict=True))):
+            problems.append("the start state is already in the goal")
+    return problems
 
 
 def link_roles(objects: Sequence[Any], source: Path | str = "puzzle.json") -> dict[str, tuple[Role, str]]:
@@ -99,34 +195,38 @@ def link_roles(objects: Sequence[Any], source: Path | str = "puzzle.json") -> di
     return roles
 
 
-def read_urdf(path: Path, roles: Mapping[str, tuple[Role, str]] | None = None) -> KinematicChain:
+def read_urdf(path: Path, roles: Mapping[str, tuple[Role, str]] | None = None,
+              root: str | Path | None = None) -> KinematicChain:
     """The chain described by the URDF file at ``path``.
 
     ``roles`` maps link names to (role, object name); the root link gets
     :attr:`Role.BASE`, other unnamed links :class:`Link`'s defaults.
-    Mesh paths are resolved relative to the URDF file.
+    Mesh paths are relative to the URDF file. ``root`` is the puzzle folder
+    the URDF and every mesh must lie in (by default the folder above the
+    URDF's, as in ``<puzzle>/urdf/<name>.urdf``).
     """
     path = Path(path)
+    root = path.parent.parent if root is None else Path(root)
+    raw = read_folder_file(path, root, f"{path}: URDF file")
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise PuzzleFormatError(f"{path}: URDF file is missing") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PuzzleFormatError(f"{path}: cannot read the URDF: {exc}") from None
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise PuzzleFormatError(f"{path}: the URDF is not UTF-8 text: {exc}") from None
     try:
         robot = ET.fromstring(text)
     except ET.ParseError as exc:
         raise PuzzleFormatError(f"{path}: malformed XML: {exc}") from None
-    return _UrdfReader(path, roles or {}).chain(robot)
+    return _UrdfReader(path, roles or {}, root).chain(robot)
 
 
 class _UrdfReader:
     """One URDF file's parse; holds the file name for error messages and a mesh cache."""
 
-    def __init__(self, path: Path, roles: Mapping[str, tuple[Role, str]]) -> None:
+    def __init__(self, path: Path, roles: Mapping[str, tuple[Role, str]], root: Path) -> None:
         self.path = path
         self.roles = roles
-        self.meshes: dict[Path, tuple[tuple[tuple[float, float], ...], float]] = {}
+        self.root = root
+        self.meshes: dict[str, tuple[tuple[tuple[float, float], ...], float]] = {}
         self.materials: dict[str, tuple[float, float, float, float]] = {}
 
     def error(self, message: str) -> PuzzleFormatError:
@@ -139,7 +239,8 @@ class _UrdfReader:
         for material in robot.findall("material"):
             color = material.find("color")
             if color is not None:
-                self.materials[self.attribute(material, "name", "<material>")] = self.rgba(color)
+                name = self.attribute(material, "name", "<material>")
+                self.materials[name] = self.rgba(color, f"<material> {name!r} <color>")
         joints = [self.joint(element) for element in robot.findall("joint")]
         children = {j.child for j in joints}
         link_elements = robot.findall("link")
@@ -160,9 +261,7 @@ class _UrdfReader:
     def link(self, element: ET.Element, root: str) -> Link:
         name = self.attribute(element, "name", "<link>")
         role, object_name = (Role.BASE, "") if name == root else self.roles.get(name, (Role.STATIC, ""))
-        inertial = element.find("inertial")
-        mass_element = inertial.find("mass") if inertial is not None else None
-        mass = 0.0 if mass_element is None else self.number(mass_element, "value", f"link {name!r} <mass>")
+        mass = self.mass(element.find("inertial"), f"link {name!r} <inertial>")
         visuals = self.geometries(element.findall("visual"), name, "visual")
         collisions = self.geometries(element.findall("collision"), name, "collision")
         colors = {(g.shape, g.origin): g.color for g in reversed(visuals)}
@@ -216,20 +315,25 @@ class _UrdfReader:
             raise self.error(f"{where}: mesh scale {scale!r} is not supported; valid: '1 1 1' or none")
         if filename.startswith("file://"):
             filename = filename[len("file://"):]
-        if "://" in filename:
-            raise self.error(f"{where}: mesh {filename!r} must be a path relative to the URDF file")
-        mesh_path = (self.path.parent / filename).resolve()
-        if mesh_path not in self.meshes:
+        if ("://" in filename or not filename or os.path.isabs(filename) or filename.startswith("\\")
+                or "\0" in filename):
+            raise self.error(f"{where}: mesh {filename!r} must be a path relative to the URDF file, "
+                             "inside the puzzle folder")
+        mesh_path = self.path.parent / filename
+        key = os.path.realpath(mesh_path)
+        if key not in self.meshes:
+            raw = read_folder_file(mesh_path, self.root, f"{self.path}: {where}: cannot read mesh {filename!r}: "
+                                                         "the file")
             try:
-                text = mesh_path.read_text(encoding="utf-8")
-            except (OSError, UnicodeDecodeError) as exc:
-                raise self.error(f"{where}: cannot read mesh {filename!r}: {exc}") from None
+                text = raw.decode("utf-8")
+            except UnicodeDecodeError as exc:
+                raise self.error(f"{where}: cannot read mesh {filename!r}: not UTF-8 text: {exc}") from None
             try:
-                self.meshes[mesh_path] = read_prism_piece(text)
+                self.meshes[key] = read_prism_piece(text, MAX_MAGNITUDE)
             except ValueError as exc:
-                raise PuzzleFormatError(f"{mesh_path}: not a convex prism: {exc}") from None
-        piece, height = self.meshes[mesh_path]
-        match = MESH_NAME.match(mesh_path.name)
+                raise PuzzleFormatError(f"{os.path.normpath(mesh_path)}: not a convex prism: {exc}") from None
+        piece, height = self.meshes[key]
+        match = MESH_NAME.match(os.path.basename(key))
         group = (match["kind"], match["geometry"]) if match else None
         return self.guarded(lambda: ConvexPrism((piece,), height), where), group
 
@@ -238,15 +342,29 @@ class _UrdfReader:
             return _DEFAULT_COLOR
         color = element.find("color")
         if color is not None:
-            return self.rgba(color)
+            return self.rgba(color, f"{where} <material> <color>")
         name = element.get("name", "")
         if name not in self.materials:
             raise self.error(f"{where}: material {name!r} has no colour and is not defined at the top level")
         return self.materials[name]
 
-    def rgba(self, element: ET.Element) -> tuple[float, float, float, float]:
-        r, g, b, a = self.vector(element, "rgba", "<color>", 4)
+    def rgba(self, element: ET.Element, where: str) -> tuple[float, float, float, float]:
+        r, g, b, a = self.vector(element, "rgba", where, 4, low=0.0, high=1.0)
         return (r, g, b, a)
+
+    def mass(self, inertial: ET.Element | None, where: str) -> float:
+        """The link's mass (0 without ``<inertial>``); the other inertial numbers are checked, not kept
+        (the writer derives them from the collision shapes)."""
+        if inertial is None:
+            return 0.0
+        self.pose(inertial.find("origin"), where)
+        inertia = inertial.find("inertia")
+        if inertia is not None:
+            for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
+                if inertia.get(key) is not None:
+                    self.number(inertia, key, f"{where} <inertia>")
+        mass_element = inertial.find("mass")
+        return 0.0 if mass_element is None else self.number(mass_element, "value", f"{where} <mass>", low=0.0)
 
     # -- joints ------------------------------------------------------------
     def joint(self, element: ET.Element) -> Joint:
@@ -260,15 +378,25 @@ class _UrdfReader:
         parent = self.attribute(self.child(element, "parent", where), "link", f"{where} <parent>")
         child = self.attribute(self.child(element, "child", where), "link", f"{where} <child>")
         origin = self.pose(element.find("origin"), where)
-        if joint_type is JointType.FIXED:
-            return self.guarded(lambda: Joint(name, joint_type, parent, child, origin), where)
         axis_element = element.find("axis")
-        axis = (1.0, 0.0, 0.0) if axis_element is None else self.vector(axis_element, "xyz", where, 3)
-        limit = self.child(element, "limit", where)
-        lower = self.number(limit, "lower", where, 0.0)
-        upper = self.number(limit, "upper", where, 0.0)
-        effort = self.number(limit, "effort", where)
-        velocity = self.number(limit, "velocity", where)
+        limit = element.find("limit")
+        if joint_type is JointType.FIXED:
+            # Not kept (a fixed joint has no axis or limits), but no number in the file may be bad.
+            if axis_element is not None and axis_element.get("xyz") is not None:
+                self.vector(axis_element, "xyz", f"{where} <axis>", 3)
+            for key in ("lower", "upper", "effort", "velocity"):
+                if limit is not None and limit.get(key) is not None:
+                    self.number(limit, key, f"{where} <limit>")
+            return self.guarded(lambda: Joint(name, joint_type, parent, child, origin), where)
+        axis = (1.0, 0.0, 0.0) if axis_element is None else self.vector(axis_element, "xyz", f"{where} <axis>", 3)
+        if limit is None:
+            raise self.error(f"{where}: missing <limit>")
+        lower = self.number(limit, "lower", f"{where} <limit>", 0.0)
+        upper = self.number(limit, "upper", f"{where} <limit>", 0.0)
+        if not lower <= upper:
+            raise self.error(f"{where} <limit>: lower={lower!r} exceeds upper={upper!r}")
+        effort = self.number(limit, "effort", f"{where} <limit>", low=0.0)
+        velocity = self.number(limit, "velocity", f"{where} <limit>", low=0.0)
         return self.guarded(
             lambda: Joint(name, joint_type, parent, child, origin, axis, lower, upper, effort, velocity),
             where,
@@ -287,23 +415,32 @@ class _UrdfReader:
             raise self.error(f"{where}: missing attribute {name!r}")
         return value
 
-    def number(self, element: ET.Element, name: str, where: str, default: float | None = None) -> float:
+    def number(self, element: ET.Element, name: str, where: str, default: float | None = None,
+               low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE) -> float:
+        """The attribute ``name`` as a finite number in [``low``, ``high``] (``default`` when absent, if given)."""
         if default is not None and element.get(name) is None:
             return default
-        text = self.attribute(element, name, where)
-        try:
-            return float(text)
-        except ValueError:
-            raise self.error(f"{where}: attribute {name}={text!r} is not a number") from None
+        return self.vector(element, name, where, 1, low, high)[0]
 
-    def vector(self, element: ET.Element, name: str, where: str, size: int) -> tuple[float, ...]:
+    def vector(self, element: ET.Element, name: str, where: str, size: int,
+               low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE) -> tuple[float, ...]:
+        """The attribute ``name`` as ``size`` finite numbers, each in [``low``, ``high``]."""
         text = self.attribute(element, name, where)
+        wanted = "a number" if size == 1 else f"{size} numbers"
         try:
             values = tuple(float(v) for v in text.split())
         except ValueError:
-            raise self.error(f"{where}: attribute {name}={text!r} must be {size} numbers") from None
+            raise self.error(f"{where}: attribute {name}={_show(text)} is not {wanted}" if size == 1 else
+                             f"{where}: attribute {name}={_show(text)} must be {wanted}") from None
         if len(values) != size:
-            raise self.error(f"{where}: attribute {name}={text!r} must be {size} numbers")
+            raise self.error(f"{where}: attribute {name}={_show(text)} must be {wanted}")
+        for value in values:
+            if not math.isfinite(value):
+                raise self.error(f"{where}: attribute {name}={_show(text)} "
+                                 + ("is not a finite number" if size == 1 else "holds a number that is not finite")
+                                 + "; every number in a puzzle's URDF must be finite")
+            if not low <= value <= high:
+                raise self.error(f"{where}: attribute {name}={_show(text)} must lie in [{low:g}, {high:g}]")
         return values
 
     def pose(self, element: ET.Element | None, where: str) -> Pose:
@@ -324,17 +461,8 @@ class _UrdfReader:
 
 
 # -- puzzle.json -------------------------------------------------------------
-def _read_metadata(path: Path) -> dict[str, Any]:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise PuzzleFormatError(f"{path}: puzzle.json is missing") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PuzzleFormatError(f"{path}: cannot read: {exc}") from None
-    try:
-        metadata = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise PuzzleFormatError(f"{path}: malformed JSON: {exc}") from None
+def _read_metadata(path: Path, folder: Path) -> dict[str, Any]:
+    metadata = read_folder_json(path, folder, f"{path}: puzzle.json")
     if not isinstance(metadata, dict):
         raise PuzzleFormatError(f"{path}: must hold a JSON object, got {type(metadata).__name__}")
     version = metadata.get("format_version")
@@ -344,33 +472,68 @@ def _read_metadata(path: Path) -> dict[str, Any]:
     return metadata
 
 
+def _check_joint_limits(metadata: Mapping[str, Any], chain: KinematicChain, source: Path, urdf: str) -> None:
+    """``joint_limits`` must state each active joint of the URDF, with its type and limits, and nothing else."""
+    limits = _field(metadata, "joint_limits", dict, source)
+    if set(limits) != set(chain.joint_order):
+        raise PuzzleFormatError(f"{source}: joint_limits names the joints {sorted(limits)}; the active joints of "
+                                f"{urdf} are {sorted(chain.joint_order)}")
+    for name in chain.joint_order:
+        label = f"joint_limits.{name}"
+        entry = limits[name]
+        if not isinstance(entry, Mapping):
+            raise PuzzleFormatError(f"{source}: {label} must be an object with type, lower, upper")
+        kind = _field(entry, "type", str, source, label)
+        lower, upper = (_number(entry.get(key), f"{label}.{key}", source) for key in ("lower", "upper"))
+        joint = chain.joint(name)
+        if (kind, lower, upper) != (joint.type.value, joint.lower, joint.upper):
+            raise PuzzleFormatError(f"{source}: {label} says {kind} [{lower!r}, {upper!r}], but {urdf} has "
+                                    f"{joint.type.value} [{joint.lower!r}, {joint.upper!r}]")
+
+
+def _check_start(start: Sequence[float], chain: KinematicChain, source: Path) -> None:
+    """``start`` must lie within the limits and be :func:`start_state`, the state every planner starts from."""
+    for index, (joint, value, rest) in enumerate(zip(chain.active_joints, start, start_state(chain), strict=True)):
+        label = f"start[{index}] (joint {joint.name!r})"
+        if not joint.lower - STATE_SLACK <= value <= joint.upper + STATE_SLACK:
+            raise PuzzleFormatError(f"{source}: {label} = {value!r} lies outside the joint's limits "
+                                    f"[{joint.lower!r}, {joint.upper!r}]")
+        if abs(value - rest) > STATE_SLACK:
+            raise PuzzleFormatError(f"{source}: {label} = {value!r} is not the start state every planner uses "
+                                    f"(each joint at 0 clipped into its limits, here {rest!r})")
+
+
 def _field(mapping: Mapping[str, Any], key: str, kind: type, source: Path | str, where: str = "") -> Any:
     label = f"{where}.{key}" if where else key
     if key not in mapping:
         raise PuzzleFormatError(f"{source}: missing key {label!r}")
     value = mapping[key]
     if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
-        raise PuzzleFormatError(f"{source}: {label} must be a {kind.__name__}, got {value!r}")
+        raise PuzzleFormatError(f"{source}: {label} must be a {kind.__name__}, got {_show(value)}")
     return value
 
 
 def _string_list(mapping: Mapping[str, Any], key: str, source: Path) -> list[str]:
     values = _field(mapping, key, list, source)
     if not all(isinstance(v, str) for v in values):
-        raise PuzzleFormatError(f"{source}: {key} must be a list of strings, got {values!r}")
+        raise PuzzleFormatError(f"{source}: {key} must be a list of strings, got {_show(values)}")
     return values
 
 
 def _number(value: Any, label: str, source: Path) -> float:
+    """A joint value of ``puzzle.json``: a finite number within :data:`MAX_MAGNITUDE`."""
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise PuzzleFormatError(f"{source}: {label} must be a number, got {value!r}")
+        raise PuzzleFormatError(f"{source}: {label} must be a number, got {_show(value)}")
+    if not -MAX_MAGNITUDE <= value <= MAX_MAGNITUDE:  # also false for NaN
+        raise PuzzleFormatError(f"{source}: {label} = {value!r} must be a finite number within "
+                                f"+-{MAX_MAGNITUDE:g}")
     return float(value)
 
 
 def _state(value: Any, size: int, label: str, source: Path) -> tuple[float, ...]:
     if not isinstance(value, list) or len(value) != size:
         raise PuzzleFormatError(f"{source}: {label} must be a list of {size} numbers (one per joint), "
-                                f"got {value!r}")
+                                f"got {_show(value)}")
     return tuple(_number(v, f"{label}[{i}]", source) for i, v in enumerate(value))
 
 
@@ -386,9 +549,15 @@ def _goal(metadata: Mapping[str, Any], joint_order: Sequence[str], source: Path)
     return Goal(target, {k: _number(v, f"goal.values.{k}", source) for k, v in values.items()}, tolerance)
 
 
+def _show(value: Any, width: int = 80) -> str:
+    """``repr(value)``, cut to ``width`` characters: messages stay one short line whatever a file holds."""
+    text = repr(value)
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
 def _enum(kind, value: str, source: Path | str, label: str):
     try:
         return kind(value)
     except ValueError:
         valid = [member.value for member in kind]
-        raise PuzzleFormatError(f"{source}: {label} {value!r} is not valid; valid: {valid}") from None
+        raise PuzzleFormatError(f"{source}: {label} {_show(value)} is not valid; valid: {valid}") from None
