@@ -12,19 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from phyrogen_core.generators.kit import (
-    HALF_TURNS,
-    ahead,
-    axis_direction,
-    box_geometry,
-    direction_yaw,
-    handle,
-    movable_name,
-    role_and_color,
-    scale_cell,
-    target_paper_goal,
-    turn_left,
-)
+from phyrogen_core.generators import kit
 from phyrogen_core.geometry import Pose
 from phyrogen_core.maker import Choice, Draft, MakerInput
 from phyrogen_core.objects import Motion, PuzzleObject
@@ -44,24 +32,24 @@ class TwoSlidersParams:
 
 
 def _slider(index: int, centre: tuple[float, float], direction: tuple[int, int]) -> PuzzleObject:
-    role, color = role_and_color(index)
-    geometry = (box_geometry((LENGTH, WIDTH, HEIGHT), color), *handle(HEIGHT / 2, color=color))
-    pose = Pose.planar(centre[0], centre[1], HEIGHT / 2, direction_yaw(direction))
-    return PuzzleObject(movable_name(index), Motion.PRISMATIC, pose, geometry, geometry, role, ((0.0, STROKE),))
+    role, color = kit.role_and_color(index)
+    geometry = (kit.box_geometry((LENGTH, WIDTH, HEIGHT), color), *kit.handle(HEIGHT / 2, color=color))
+    pose = Pose.planar(centre[0], centre[1], HEIGHT / 2, kit.direction_yaw(direction))
+    return PuzzleObject(kit.movable_name(index), Motion.PRISMATIC, pose, geometry, geometry, role, ((0.0, STROKE),))
 
 
 def _attach_for(params: TwoSlidersParams):
     def attach(draft: Draft, obj_item: str, joint_item: Motion, tf_item: float, n: int,
                rng: np.random.Generator) -> Draft | None:
         if not draft.objects:  # the target, at the origin, slides along +x or -x
-            forward = axis_direction(tf_item)
+            forward = kit.axis_direction(tf_item)
             return Draft((_slider(0, (0.0, 0.0), forward),), forward)
         # The blocker lies across the target's path, ``gap`` ahead of the target's front end,
         # and slides sideways out of the way, to the left or the right.
         forward = draft.context  # the target's direction, kept by the first iteration
-        centre = ahead((0.0, 0.0), forward, LENGTH / 2 + params.gap + WIDTH / 2)
-        left = turn_left(forward)
-        sideways = left if tf_item == 0.0 else scale_cell(left, -1)
+        centre = kit.ahead((0.0, 0.0), forward, LENGTH / 2 + params.gap + WIDTH / 2)
+        left = kit.turn_left(forward)
+        sideways = left if tf_item == 0.0 else kit.scale_cell(left, -1)
         return Draft(draft.objects + (_slider(1, centre, sideways),), forward)
 
     return attach
@@ -91,5 +79,5 @@ def build(seed: int, params: TwoSlidersParams) -> MakerInput:
     """
     params.validate(seed)
     return MakerInput(objects=Choice(("slider",)), joints=Choice((Motion.PRISMATIC,)),
-                      transforms=Choice(HALF_TURNS), n_objects=2, attach=_attach_for(params),
-                      goal=target_paper_goal)
+                      transforms=Choice(kit.HALF_TURNS), n_objects=2, attach=_attach_for(params),
+                      goal=kit.target_paper_goal)

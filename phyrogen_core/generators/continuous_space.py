@@ -18,18 +18,7 @@ from ..geometry import Pose
 from ..maker import Choice, Draft, MakerInput, Uniform
 from ..objects import Motion, PuzzleObject
 from ..registry import ParameterError, parameter, register
-from .kit import (
-    OrientedRect,
-    box_geometry,
-    check_object_count,
-    check_positive,
-    handle,
-    hinge,
-    movable_name,
-    overlaps,
-    role_and_color,
-    target_paper_goal,
-)
+from . import kit
 
 HINGE_DIAMETER = 0.25
 HANDLE_FRACTION = 0.375
@@ -55,8 +44,8 @@ class ContinuousSpaceParams:
                                      difficulty=True)
 
     def validate(self, seed: int) -> None:
-        check_object_count(self.n_objects)
-        check_positive(self, "bar_length", "bar_width", "bar_height")
+        kit.check_object_count(self.n_objects)
+        kit.check_positive(self, "bar_length", "bar_width", "bar_height")
         if not self.bar_width < self.bar_length:
             raise ParameterError(
                 f"bar_width {self.bar_width} must be smaller than bar_length {self.bar_length} "
@@ -77,8 +66,8 @@ class _Bar:
     yaw: float
     sign: int  # +1: limits (0, L), turns counter-clockwise; -1: limits (-L, 0)
 
-    def floor_area(self, params: ContinuousSpaceParams) -> OrientedRect:
-        return OrientedRect(self.x, self.y, self.yaw, params.bar_length / 2, params.bar_width / 2)
+    def floor_area(self, params: ContinuousSpaceParams) -> kit.OrientedRect:
+        return kit.OrientedRect(self.x, self.y, self.yaw, params.bar_length / 2, params.bar_width / 2)
 
 
 def reach_radius(params: ContinuousSpaceParams, reach: float) -> float:
@@ -95,13 +84,13 @@ def reach_radius(params: ContinuousSpaceParams, reach: float) -> float:
 
 
 def _bar_object(params: ContinuousSpaceParams, index: int, bar: _Bar, limit: float) -> PuzzleObject:
-    role, color = role_and_color(index)
+    role, color = kit.role_and_color(index)
     length, width, height = params.bar_length, params.bar_width, params.bar_height
-    shaft, knob = handle(height / 2, (HANDLE_FRACTION * length, 0.0), color)
-    geometry = (box_geometry((length, width, height), color), shaft, knob)
-    visuals = (*geometry, hinge(HINGE_DIAMETER / 2, 1.1 * height))
+    shaft, knob = kit.handle(height / 2, (HANDLE_FRACTION * length, 0.0), color)
+    geometry = (kit.box_geometry((length, width, height), color), shaft, knob)
+    visuals = (*geometry, kit.hinge(HINGE_DIAMETER / 2, 1.1 * height))
     limits = ((0.0, limit),) if bar.sign > 0 else ((-limit, 0.0),)
-    return PuzzleObject(movable_name(index), Motion.REVOLUTE, Pose.planar(bar.x, bar.y, height / 2, bar.yaw),
+    return PuzzleObject(kit.movable_name(index), Motion.REVOLUTE, Pose.planar(bar.x, bar.y, height / 2, bar.yaw),
                         visuals, geometry, role, limits)
 
 
@@ -122,7 +111,7 @@ def _attach_for(params: ContinuousSpaceParams):
             r = reach_radius(params, reach)
             bar = _Bar(previous.x + r * math.cos(angle), previous.y + r * math.sin(angle), angle, sign)
             area = bar.floor_area(params)
-            if any(overlaps(area, old.floor_area(params)) for old in bars):
+            if any(kit.overlaps(area, old.floor_area(params)) for old in bars):
                 return None
         new = _bar_object(params, len(bars), bar, limit)
         return Draft(draft.objects + (new,), bars + (bar,))
@@ -179,7 +168,7 @@ def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
         n_objects=params.n_objects,
         attach=_attach_for(params),
         # The target's limits allow only one direction, so the paper's rule needs no draw.
-        goal=target_paper_goal,
+        goal=kit.target_paper_goal,
         # Random placements can block only barely; a stronger FixJoint search keeps such
         # near-superfluous bars out (docs/generators.md#continuous-space).
         fixed_budget_scale=5.0,

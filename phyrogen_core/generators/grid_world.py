@@ -11,27 +11,10 @@ from ..geometry import Pose
 from ..maker import Choice, Draft, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..registry import ParameterError, parameter, register
-from .kit import (
-    HINGE_OVERHANG,
-    QUARTER_TURNS,
-    Cell,
-    Direction,
-    add_cells,
-    axis_direction,
-    box_geometry,
-    check_object_count,
-    direction_yaw,
-    handle,
-    hinge,
-    movable_name,
-    role_and_color,
-    scale_cell,
-    target_paper_goal,
-    turn_left,
-)
+from . import kit
 
 # Grid cell (i, j) is the unit square [i, i+1] x [j, j+1], centre (i + 0.5, j + 0.5).
-ORIGIN: Cell = (0, 0)
+ORIGIN: kit.Cell = (0, 0)
 PRISMATIC_CELLS = 2
 REVOLUTE_CELLS = 3
 HANDLE_FRACTION = 0.375
@@ -61,7 +44,7 @@ class GridWorldParams:
                                       difficulty=True)
 
     def validate(self, seed: int) -> None:
-        check_object_count(self.n_objects)
+        kit.check_object_count(self.n_objects)
         if self.branching < 0:
             raise ParameterError(f"branching must be >= 0, got {self.branching}")
         low = min_clearance()
@@ -81,75 +64,75 @@ class GridState:
     ``branches_left``: how many extra start cells turning bars may still open.
     """
 
-    occupied: frozenset[Cell]
-    queue: tuple[Cell, ...]
+    occupied: frozenset[kit.Cell]
+    queue: tuple[kit.Cell, ...]
     branches_left: int
 
 
-def prismatic_cells(start: Cell, u: Direction) -> tuple[Cell, ...]:
+def prismatic_cells(start: kit.Cell, u: kit.Direction) -> tuple[kit.Cell, ...]:
     """Cells besides ``start`` that a box in (start, start + u) sliding one cell along u needs."""
-    return (add_cells(start, u), add_cells(start, scale_cell(u, 2)))
+    return (kit.add_cells(start, u), kit.add_cells(start, kit.scale_cell(u, 2)))
 
 
-def revolute_cells(start: Cell, u: Direction, sense: int) -> tuple[Cell, ...]:
+def revolute_cells(start: kit.Cell, u: kit.Direction, sense: int) -> tuple[kit.Cell, ...]:
     """Cells besides ``start`` that a bar over (start, start+u, start+2u), hinged at its middle
     and turning 90 degrees (``sense`` CCW or CW), needs: its other two cells, its two final
     cells and the two corners its ends sweep through, in that order."""
-    v = scale_cell(turn_left(u), sense)
-    hinge_cell = add_cells(start, u)
-    minus_v = scale_cell(v, -1)
+    v = kit.scale_cell(kit.turn_left(u), sense)
+    hinge_cell = kit.add_cells(start, u)
+    minus_v = kit.scale_cell(v, -1)
     return (
         hinge_cell,
-        add_cells(start, scale_cell(u, 2)),
-        add_cells(hinge_cell, v),
-        add_cells(hinge_cell, minus_v),
-        add_cells(start, scale_cell(u, 2), v),
-        add_cells(start, minus_v),
+        kit.add_cells(start, kit.scale_cell(u, 2)),
+        kit.add_cells(hinge_cell, v),
+        kit.add_cells(hinge_cell, minus_v),
+        kit.add_cells(start, kit.scale_cell(u, 2), v),
+        kit.add_cells(start, minus_v),
     )
 
 
-def _free(cells: tuple[Cell, ...], occupied: frozenset[Cell]) -> bool:
+def _free(cells: tuple[kit.Cell, ...], occupied: frozenset[kit.Cell]) -> bool:
     return not any(c in occupied for c in cells)
 
 
-def _senses(state: GridState, start: Cell, u: Direction, allow_clockwise: bool) -> list[int]:
+def _senses(state: GridState, start: kit.Cell, u: kit.Direction, allow_clockwise: bool) -> list[int]:
     senses = (CCW, CW) if allow_clockwise else (CCW,)
     return [s for s in senses if _free(revolute_cells(start, u, s), state.occupied)]
 
 
-def _anything_fits(state: GridState, start: Cell, allow_clockwise: bool) -> bool:
-    for angle in QUARTER_TURNS:
-        u = axis_direction(angle)
+def _anything_fits(state: GridState, start: kit.Cell, allow_clockwise: bool) -> bool:
+    for angle in kit.QUARTER_TURNS:
+        u = kit.axis_direction(angle)
         if _free(prismatic_cells(start, u), state.occupied) or _senses(state, start, u, allow_clockwise):
             return True
     return False
 
 
-def _centre(cell: Cell) -> tuple[float, float]:
+def _centre(cell: kit.Cell) -> tuple[float, float]:
     return (cell[0] + 0.5, cell[1] + 0.5)
 
 
-def _cuboid(index: int, motion: Motion, start: Cell, u: Direction, sense: int, e: float) -> PuzzleObject:
-    role, color = role_and_color(index)
+def _cuboid(index: int, motion: Motion, start: kit.Cell, u: kit.Direction, sense: int, e: float) -> PuzzleObject:
+    role, color = kit.role_and_color(index)
     height = 1.0 - e
     cells = PRISMATIC_CELLS if motion is Motion.PRISMATIC else REVOLUTE_CELLS
     length = cells - e
-    body = box_geometry((length, 1.0 - e, height), color)
+    body = kit.box_geometry((length, 1.0 - e, height), color)
     # The frame sits at the box centre: half a cell ahead of the start cell for a
     # two-cell slider, on the middle cell (the hinge) for a three-cell bar.
     offset = 0.5 if motion is Motion.PRISMATIC else 1.0
     x, y = _centre(start)
-    pose = Pose.planar(x + offset * u[0], y + offset * u[1], height / 2, direction_yaw(u))
+    pose = Pose.planar(x + offset * u[0], y + offset * u[1], height / 2, kit.direction_yaw(u))
     if motion is Motion.PRISMATIC:
-        grip = handle(height / 2, (0.0, 0.0), color)
+        grip = kit.handle(height / 2, (0.0, 0.0), color)
         visuals = (body, *grip)
         limits = ((0.0, 1.0),)
     else:
-        grip = handle(height / 2, (HANDLE_FRACTION * length, 0.0), color)
-        visuals = (body, *grip, hinge(HINGE_RADIUS, height + HINGE_OVERHANG))
+        grip = kit.handle(height / 2, (HANDLE_FRACTION * length, 0.0), color)
+        visuals = (body, *grip, kit.hinge(HINGE_RADIUS, height + kit.HINGE_OVERHANG))
         quarter = math.pi / 2
         limits = ((0.0, quarter),) if sense == CCW else ((-quarter, 0.0),)
-    return PuzzleObject(movable_name(index), motion, pose, visuals, (body, *grip), role, limits)
+    return PuzzleObject(kit.movable_name(index), motion, pose, visuals, (body, *grip), role, limits)
 
 
 def _attach_for(params: GridWorldParams):
@@ -163,7 +146,7 @@ def _attach_for(params: GridWorldParams):
             queue = queue[1:]
         if not queue:
             return None
-        start, u = queue[0], axis_direction(tf_item)
+        start, u = queue[0], kit.axis_direction(tf_item)
         if joint_item is Motion.PRISMATIC:
             cells = prismatic_cells(start, u)
             if not _free(cells, state.occupied):
@@ -237,9 +220,9 @@ def build(seed: int, params: GridWorldParams) -> MakerInput:
     return MakerInput(
         objects=Choice(("cuboid",)),
         joints=Choice((Motion.REVOLUTE, Motion.PRISMATIC)),
-        transforms=Choice(QUARTER_TURNS),
+        transforms=Choice(kit.QUARTER_TURNS),
         n_objects=params.n_objects,
         attach=_attach_for(params),
-        goal=target_paper_goal,
+        goal=kit.target_paper_goal,
         initial=Draft((), GridState(frozenset({ORIGIN}), (ORIGIN,), params.branching)),
     )

@@ -12,24 +12,7 @@ from ..geometry import Pose, slot_disc
 from ..maker import Choice, Draft, InfiniteSequence, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..registry import ParameterError, parameter, register
-from .kit import (
-    HINGE_OVERHANG,
-    QUARTER_TURNS,
-    Circle,
-    Direction,
-    Rect,
-    ahead,
-    axis_direction,
-    box_geometry,
-    check_object_count,
-    direction_yaw,
-    handle,
-    hinge,
-    movable_name,
-    overlaps,
-    role_and_color,
-    target_paper_goal,
-)
+from . import kit
 
 SLIDER_SIZE = (1.4, 0.2, 1.0)
 HEIGHT = 1.0
@@ -56,7 +39,7 @@ class LockboxRandomParams:
                                   difficulty=True)
 
     def validate(self, seed: int) -> None:
-        check_object_count(self.n_objects)
+        kit.check_object_count(self.n_objects)
         if not MIN_RADIUS <= self.max_radius <= 10.0:
             raise ParameterError(
                 f"max_radius must lie in [{MIN_RADIUS}, 10] (a slider sits 0.7 m deep in a slot "
@@ -72,53 +55,53 @@ class LockboxRandomParams:
 @dataclass(frozen=True)
 class _Slider:
     centre: tuple[float, float]
-    direction: Direction
+    direction: kit.Direction
 
 
 @dataclass(frozen=True)
 class _Disc:
     centre: tuple[float, float]
     radius: float
-    slot: Direction
+    slot: kit.Direction
 
 
 _Part = _Slider | _Disc
 
 
-def _swept_area(part: _Part) -> Rect | Circle:
+def _swept_area(part: _Part) -> kit.Rect | kit.Circle:
     """The floor area a part covers over its whole joint range."""
     if isinstance(part, _Disc):
-        return Circle(part.centre[0], part.centre[1], part.radius)
+        return kit.Circle(part.centre[0], part.centre[1], part.radius)
     half = SLIDER_SIZE[0] / 2
-    return Rect.along(part.centre, part.direction, half, half + STROKE, SLIDER_SIZE[1] / 2)
+    return kit.Rect.along(part.centre, part.direction, half, half + STROKE, SLIDER_SIZE[1] / 2)
 
 
 def _clear_of(part: _Part, others: tuple[_Part, ...]) -> bool:
     swept = _swept_area(part)
-    return not any(overlaps(swept, _swept_area(other)) for other in others)
+    return not any(kit.overlaps(swept, _swept_area(other)) for other in others)
 
 
 def _slider_in_slot(disc: _Disc) -> _Slider:
     # Centred on the rim: half its length inside the slot, sliding outward.
-    return _Slider(ahead(disc.centre, disc.slot, disc.radius), disc.slot)
+    return _Slider(kit.ahead(disc.centre, disc.slot, disc.radius), disc.slot)
 
 
 def _slider_object(index: int, slider: _Slider) -> PuzzleObject:
-    role, color = role_and_color(index)
-    body = box_geometry(SLIDER_SIZE, color)
-    geometry = (body, *handle(HEIGHT / 2, (0.0, 0.0), color))
-    pose = Pose.planar(slider.centre[0], slider.centre[1], HEIGHT / 2, direction_yaw(slider.direction))
-    return PuzzleObject(movable_name(index), Motion.PRISMATIC, pose, geometry, geometry, role,
+    role, color = kit.role_and_color(index)
+    body = kit.box_geometry(SLIDER_SIZE, color)
+    geometry = (body, *kit.handle(HEIGHT / 2, (0.0, 0.0), color))
+    pose = Pose.planar(slider.centre[0], slider.centre[1], HEIGHT / 2, kit.direction_yaw(slider.direction))
+    return PuzzleObject(kit.movable_name(index), Motion.PRISMATIC, pose, geometry, geometry, role,
                         ((0.0, STROKE),))
 
 
 def _disc_object(index: int, disc: _Disc) -> PuzzleObject:
-    role, color = role_and_color(index)
+    role, color = kit.role_and_color(index)
     body = Geometry(slot_disc(disc.radius, HEIGHT), Pose(), color, "body")
-    grip = handle(HEIGHT / 2, (0.0, HANDLE_RADIUS_FRACTION * disc.radius), color, round_shaft=True)
-    visuals = (body, *grip, hinge(HINGE_RADIUS_FRACTION * disc.radius, HEIGHT + HINGE_OVERHANG))
-    pose = Pose.planar(disc.centre[0], disc.centre[1], HEIGHT / 2, direction_yaw(disc.slot))
-    return PuzzleObject(movable_name(index), Motion.REVOLUTE, pose, visuals, (body, *grip), role,
+    grip = kit.handle(HEIGHT / 2, (0.0, HANDLE_RADIUS_FRACTION * disc.radius), color, round_shaft=True)
+    visuals = (body, *grip, kit.hinge(HINGE_RADIUS_FRACTION * disc.radius, HEIGHT + kit.HINGE_OVERHANG))
+    pose = Pose.planar(disc.centre[0], disc.centre[1], HEIGHT / 2, kit.direction_yaw(disc.slot))
+    return PuzzleObject(kit.movable_name(index), Motion.REVOLUTE, pose, visuals, (body, *grip), role,
                         ((-math.pi, math.pi),))
 
 
@@ -136,7 +119,7 @@ def _attach_for(params: LockboxRandomParams):
             )
         if obj_item == CUBOID:
             if not parts:
-                slider = _Slider((0.0, 0.0), axis_direction(tf_item))
+                slider = _Slider((0.0, 0.0), kit.axis_direction(tf_item))
             else:
                 # The pose is fixed by the slot of the disc just placed; the drawn
                 # transformation has nothing left to choose.
@@ -146,11 +129,11 @@ def _attach_for(params: LockboxRandomParams):
             new = _slider_object(index, slider)
             return Draft(draft.objects + (new,), parts + (slider,))
         previous = parts[-1]
-        slot = axis_direction(tf_item)
+        slot = kit.axis_direction(tf_item)
         if slot == (-previous.direction[0], -previous.direction[1]):
             return None  # the slot would face the slider this disc has to stop
         radius = radii[int(rng.integers(len(radii)))]
-        disc = _Disc(ahead(previous.centre, previous.direction, radius + DISC_GAP), radius, slot)
+        disc = _Disc(kit.ahead(previous.centre, previous.direction, radius + DISC_GAP), radius, slot)
         # The disc may meet only the slider it stops; the slider that will sit in its slot
         # must find room as well, or the next iteration would have nowhere to go.
         if not _clear_of(disc, parts[:-1]) or not _clear_of(_slider_in_slot(disc), parts):
@@ -211,8 +194,8 @@ def build(seed: int, params: LockboxRandomParams) -> MakerInput:
     return MakerInput(
         objects=InfiniteSequence((CUBOID, DISK)),
         joints=InfiniteSequence((Motion.PRISMATIC, Motion.REVOLUTE)),
-        transforms=Choice(QUARTER_TURNS),
+        transforms=Choice(kit.QUARTER_TURNS),
         n_objects=params.n_objects,
         attach=_attach_for(params),
-        goal=target_paper_goal,
+        goal=kit.target_paper_goal,
     )

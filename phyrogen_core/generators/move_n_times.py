@@ -24,19 +24,7 @@ from ..maker import Draft, InfiniteSequence, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..puzzle import Goal
 from ..registry import ParameterError, parameter, register
-from .kit import (
-    HALF_TURNS,
-    HANDLE_SHAFT_WIDTH,
-    OrientedRect,
-    box_geometry,
-    count_fixed,
-    count_movable,
-    handle,
-    movable_name,
-    overlaps,
-    role_and_color,
-    wall,
-)
+from . import kit
 
 TARGET_SIZE = (0.375, 0.5, 0.5)
 """The prototype's robot (a droid mesh there) as a box."""
@@ -130,22 +118,22 @@ class _State:
 
 def _target(moves: int, motion: Motion, yaw_deg: float) -> PuzzleObject:
     sx, sy, sz = TARGET_SIZE
-    role, color = role_and_color(0)
-    body = box_geometry(TARGET_SIZE, color)
-    geometry = (body, *handle(sz / 2, color=color))
+    role, color = kit.role_and_color(0)
+    body = kit.box_geometry(TARGET_SIZE, color)
+    geometry = (body, *kit.handle(sz / 2, color=color))
     limits = ((-float(moves), float(moves)), (-float(moves), 0.5), (-math.pi, math.pi))
-    return PuzzleObject(movable_name(0), motion, Pose.planar(0.0, 0.0, sz / 2, math.radians(yaw_deg)),
+    return PuzzleObject(kit.movable_name(0), motion, Pose.planar(0.0, 0.0, sz / 2, math.radians(yaw_deg)),
                         geometry, geometry, role, limits)
 
 
 def _door(index: int, moves: int, motion: Motion, yaw_deg: float) -> PuzzleObject:
     width = door_width(moves)
     size = (width, DOOR_THICKNESS, WALL_HEIGHT)
-    role, color = role_and_color(index)
+    role, color = kit.role_and_color(index)
     # The shaft is no wider than the door, so the handle never reaches over the walls.
-    geometry = (box_geometry(size, color),
-                *handle(WALL_HEIGHT / 2, color=color, shaft_width=min(HANDLE_SHAFT_WIDTH, DOOR_THICKNESS)))
-    return PuzzleObject(movable_name(index), motion,
+    geometry = (kit.box_geometry(size, color),
+                *kit.handle(WALL_HEIGHT / 2, color=color, shaft_width=min(kit.HANDLE_SHAFT_WIDTH, DOOR_THICKNESS)))
+    return PuzzleObject(kit.movable_name(index), motion,
                         Pose.planar(0.5 * CELL, DOOR_Y, WALL_HEIGHT / 2, math.radians(yaw_deg)),
                         geometry, geometry, role, ((-width / 2, width / 2),))
 
@@ -154,9 +142,9 @@ def _pocket_walls(first: int) -> tuple[PuzzleObject, ...]:
     t, h = WALL_THICKNESS, WALL_HEIGHT
     inner = CELL - t
     return (
-        wall(first, 0.0, 0.5, (inner, t, h)),
-        wall(first + 1, -0.5, 0.0, (t, inner, h)),
-        wall(first + 2, 0.5, 0.0, (t, inner, h)),
+        kit.wall(first, 0.0, 0.5, (inner, t, h)),
+        kit.wall(first + 1, -0.5, 0.0, (t, inner, h)),
+        kit.wall(first + 2, 0.5, 0.0, (t, inner, h)),
     )
 
 
@@ -165,15 +153,15 @@ def corridor_walls(index: int, exit_deg: float, first: int) -> tuple[PuzzleObjec
     west for 180, and its cap (index >= 2) covers the other column, where it is entered."""
     i, t, h = index, WALL_THICKNESS, WALL_HEIGHT
     walls = [
-        wall(first, 0.5, -i - 0.5, (2 * i - t, t, h)),
-        wall(first + 1, 0.5 - i, -i / 2 - 0.5, (t, i - t, h)),
-        wall(first + 2, 0.5 + i, -i / 2 - 0.5, (t, i - t, h)),
+        kit.wall(first, 0.5, -i - 0.5, (2 * i - t, t, h)),
+        kit.wall(first + 1, 0.5 - i, -i / 2 - 0.5, (t, i - t, h)),
+        kit.wall(first + 2, 0.5 + i, -i / 2 - 0.5, (t, i - t, h)),
     ]
     if i > 1:
         entry = -1.0 if math.cos(math.radians(exit_deg)) > 0 else 1.0
         walls += [
-            wall(first + 3, 0.5 + entry * (i - 1), 0.5, (2 * CELL - t, t, h)),
-            wall(first + 4, 0.5 + entry * i, 0.0, (t, CELL - t, h)),
+            kit.wall(first + 3, 0.5 + entry * (i - 1), 0.5, (2 * CELL - t, t, h)),
+            kit.wall(first + 4, 0.5 + entry * i, 0.0, (t, CELL - t, h)),
         ]
     return tuple(walls)
 
@@ -181,13 +169,13 @@ def corridor_walls(index: int, exit_deg: float, first: int) -> tuple[PuzzleObjec
 def goal_is_clear(goal: tuple[float, float, float], objects: tuple[PuzzleObject, ...]) -> bool:
     """Whether the target at ``goal`` touches no wall (walls are axis-aligned boxes)."""
     x, y, yaw = goal
-    target = OrientedRect(x, y, yaw, TARGET_SIZE[0] / 2, TARGET_SIZE[1] / 2)
+    target = kit.OrientedRect(x, y, yaw, TARGET_SIZE[0] / 2, TARGET_SIZE[1] / 2)
     for obj in objects:
         if obj.is_movable:
             continue
         size = obj.collisions[0].shape.size  # type: ignore[union-attr]
         x0, y0, _ = obj.pose.xyz
-        if overlaps(target, OrientedRect(x0, y0, 0.0, size[0] / 2, size[1] / 2)):
+        if kit.overlaps(target, kit.OrientedRect(x0, y0, 0.0, size[0] / 2, size[1] / 2)):
             return False
     return True
 
@@ -200,9 +188,9 @@ def _attach(draft: Draft, obj_item: Cuboid | Door | Corridor, joint_item: Motion
         # The prototype's goal: anywhere on the line y = -n, below the outermost corridor.
         goal = (float(rng.uniform(-moves, moves)), -float(moves), float(rng.uniform(-math.pi, math.pi)))
         return Draft(draft.objects + (_target(moves, joint_item, tf_item),), _State(moves, goal))
-    first_wall = count_fixed(draft.objects)
+    first_wall = kit.count_fixed(draft.objects)
     if isinstance(obj_item, Door):
-        door = _door(count_movable(draft.objects), obj_item.moves, joint_item, tf_item)
+        door = _door(kit.count_movable(draft.objects), obj_item.moves, joint_item, tf_item)
         return Draft(draft.objects + (door, *_pocket_walls(first_wall)), draft.context)
     walls = corridor_walls(obj_item.index, tf_item, first_wall)
     state = draft.context
@@ -271,7 +259,7 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     return MakerInput(
         objects=MoveNTimesItems(moves),
         joints=InfiniteSequence((Motion.SE2, Motion.PRISMATIC, Motion.FIXED), repeat_from=2),
-        transforms=InfiniteSequence(HALF_TURNS, repeat_from=0),
+        transforms=InfiniteSequence(kit.HALF_TURNS, repeat_from=0),
         n_objects=moves + 1,
         attach=_attach,
         goal=_goal,

@@ -17,27 +17,7 @@ from ..maker import Choice, Draft, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..puzzle import Goal
 from ..registry import ParameterError, parameter, register
-from .kit import (
-    AXIS_DIRECTIONS,
-    HANDLE_SHAFT_WIDTH,
-    MAX_OBJECTS,
-    QUARTER_TURNS,
-    Cell,
-    Direction,
-    add_cells,
-    axis_direction,
-    box_geometry,
-    check_positive,
-    count_fixed,
-    count_movable,
-    handle,
-    hinge,
-    movable_name,
-    pillar,
-    role_and_color,
-    turn_left,
-    wall,
-)
+from . import kit
 
 # Room cell (i, j) is the unit square centred on (i, j), before scaling.
 ROOM = "room"
@@ -67,14 +47,14 @@ class RoomsParams:
 
     def validate(self, seed: int) -> None:
         fixed = 9 + 8 * (self.n_rooms - 1)
-        if self.n_rooms < 1 or fixed > MAX_OBJECTS:
+        if self.n_rooms < 1 or fixed > kit.MAX_OBJECTS:
             raise ParameterError(
-                f"n_rooms must lie in 1..{(MAX_OBJECTS - 9) // 8 + 1} (walls and pillars are named with two "
+                f"n_rooms must lie in 1..{(kit.MAX_OBJECTS - 9) // 8 + 1} (walls and pillars are named with two "
                 f"digits), got {self.n_rooms}"
             )
         if not 0 <= self.doors <= self.n_rooms:
             raise ParameterError(f"doors must lie in 0..n_rooms = {self.n_rooms}, got {self.doors}")
-        check_positive(self, "scaling", "wall_height", "wall_thickness", "door_width")
+        kit.check_positive(self, "scaling", "wall_height", "wall_thickness", "door_width")
         if 2 * self.wall_thickness + self.door_width >= 1.0:
             raise ParameterError(
                 f"doorway {self.door_width} plus two pillars {self.wall_thickness} must be narrower than "
@@ -99,13 +79,13 @@ class RoomsParams:
 class _Walk:
     """The rooms placed so far (their cells, in order) and the cell the last one exits to."""
 
-    rooms: tuple[Cell, ...]
-    exit_cell: Cell
-    exits: tuple[Direction, ...]  # exit direction of every room
+    rooms: tuple[kit.Cell, ...]
+    exit_cell: kit.Cell
+    exits: tuple[kit.Direction, ...]  # exit direction of every room
     doors: int
 
     @property
-    def cells(self) -> tuple[Cell, ...]:
+    def cells(self) -> tuple[kit.Cell, ...]:
         return (*self.rooms, self.exit_cell)
 
 
@@ -113,7 +93,7 @@ def _scaled(params: RoomsParams, value: float) -> float:
     return value * params.scaling
 
 
-def _robot(params: RoomsParams, walk_cells: tuple[Cell, ...]) -> PuzzleObject:
+def _robot(params: RoomsParams, walk_cells: tuple[kit.Cell, ...]) -> PuzzleObject:
     """The target: an R^2 robot at the centre of the first room; its limits are the
     bounding box of the cells visited so far (the prototype's rule)."""
     size = tuple(_scaled(params, v) for v in ROBOT_SIZE)
@@ -121,13 +101,13 @@ def _robot(params: RoomsParams, walk_cells: tuple[Cell, ...]) -> PuzzleObject:
     ys = [c[1] for c in walk_cells]
     limits = ((_scaled(params, min(xs) - 0.5), _scaled(params, max(xs) + 0.5)),
               (_scaled(params, min(ys) - 0.5), _scaled(params, max(ys) + 0.5)))
-    role, color = role_and_color(0)
-    geometry = (box_geometry(size, color), *handle(size[2] / 2, color=color))  # type: ignore[arg-type]
-    return PuzzleObject(movable_name(0), Motion.R2, Pose.planar(0.0, 0.0, size[2] / 2), geometry, geometry,
+    role, color = kit.role_and_color(0)
+    geometry = (kit.box_geometry(size, color), *kit.handle(size[2] / 2, color=color))  # type: ignore[arg-type]
+    return PuzzleObject(kit.movable_name(0), Motion.R2, Pose.planar(0.0, 0.0, size[2] / 2), geometry, geometry,
                         role, limits)
 
 
-def _room(params: RoomsParams, cell: Cell, exit_dir: Direction, entry_dir: Direction | None,
+def _room(params: RoomsParams, cell: kit.Cell, exit_dir: kit.Direction, entry_dir: kit.Direction | None,
           first: int) -> tuple[PuzzleObject, ...]:
     """Pillars and walls of one room, inside its own cell: a doorway on the exit side,
     nothing on the side it is entered from, full walls elsewhere."""
@@ -136,28 +116,28 @@ def _room(params: RoomsParams, cell: Cell, exit_dir: Direction, entry_dir: Direc
     inset = (1 - t) / 2  # cell centre to the middle of a wall
     out: list[PuzzleObject] = []
 
-    def place(kind, cx: float, cy: float, along: float, across: float, d: Direction) -> None:
+    def place(kind, cx: float, cy: float, along: float, across: float, d: kit.Direction) -> None:
         # ``along`` runs parallel to the side facing ``d``.
         sx, sy = (along, across) if d[1] != 0 else (across, along)
         size = (_scaled(params, sx), _scaled(params, sy), h)
         out.append(kind(first + len(out), _scaled(params, cx), _scaled(params, cy), size))
 
-    for d in AXIS_DIRECTIONS:
-        a = turn_left(d)
+    for d in kit.AXIS_DIRECTIONS:
+        a = kit.turn_left(d)
         px, py = cell[0] + (d[0] + a[0]) * inset, cell[1] + (d[1] + a[1]) * inset
-        place(pillar, px, py, t, t, d)
+        place(kit.pillar, px, py, t, t, d)
         mx, my = cell[0] + d[0] * inset, cell[1] + d[1] * inset
         if d == exit_dir:
             segment = (1 - 2 * t - dw) / 2
             offset = (segment + dw) / 2
             for sign in (-1, 1):
-                place(wall, mx + sign * offset * a[0], my + sign * offset * a[1], segment, t, d)
+                place(kit.wall, mx + sign * offset * a[0], my + sign * offset * a[1], segment, t, d)
         elif d != entry_dir:
-            place(wall, mx, my, 1 - 2 * t, t, d)
+            place(kit.wall, mx, my, 1 - 2 * t, t, d)
     return tuple(out)
 
 
-def _door(params: RoomsParams, index: int, cell: Cell, exit_dir: Direction) -> PuzzleObject:
+def _door(params: RoomsParams, index: int, cell: kit.Cell, exit_dir: kit.Direction) -> PuzzleObject:
     """A revolute door in the exit doorway, hinged beside it and opening (0 .. 90 degrees)
     into the room."""
     t, dw = params.wall_thickness, params.door_width
@@ -171,12 +151,12 @@ def _door(params: RoomsParams, index: int, cell: Cell, exit_dir: Direction) -> P
     length = _scaled(params, dw * DOOR_PANEL_FRACTION)
     thickness = _scaled(params, t)
     height = _scaled(params, params.wall_height)
-    role, color = role_and_color(index)
-    panel = box_geometry((length, thickness, height), color, Pose((length / 2, 0.0, 0.0)))
-    shaft, knob = handle(height / 2, (HANDLE_FRACTION * length, 0.0), color,
-                         shaft_width=min(HANDLE_SHAFT_WIDTH, thickness))
-    visuals = (panel, shaft, knob, hinge(0.55 * thickness, 1.1 * height))
-    return PuzzleObject(movable_name(index), Motion.REVOLUTE,
+    role, color = kit.role_and_color(index)
+    panel = kit.box_geometry((length, thickness, height), color, Pose((length / 2, 0.0, 0.0)))
+    shaft, knob = kit.handle(height / 2, (HANDLE_FRACTION * length, 0.0), color,
+                         shaft_width=min(kit.HANDLE_SHAFT_WIDTH, thickness))
+    visuals = (panel, shaft, knob, kit.hinge(0.55 * thickness, 1.1 * height))
+    return PuzzleObject(kit.movable_name(index), Motion.REVOLUTE,
                         Pose.planar(_scaled(params, hx), _scaled(params, hy), height / 2, yaw),
                         visuals, (panel, shaft, knob), role, ((0.0, math.pi / 2),))
 
@@ -186,13 +166,13 @@ def _attach_for(params: RoomsParams):
                rng: np.random.Generator) -> Draft | None:
         walk: _Walk = draft.context
         cell = walk.exit_cell
-        exit_dir = axis_direction(tf_item)
-        next_cell = add_cells(cell, exit_dir)
+        exit_dir = kit.axis_direction(tf_item)
+        next_cell = kit.add_cells(cell, exit_dir)
         if next_cell in walk.cells:
             return None  # the walk must not cross itself
         rooms_left = params.n_rooms - n
-        if rooms_left > 0 and all(add_cells(next_cell, d) in walk.cells + (next_cell,)
-                                  for d in AXIS_DIRECTIONS):
+        if rooms_left > 0 and all(kit.add_cells(next_cell, d) in walk.cells + (next_cell,)
+                                  for d in kit.AXIS_DIRECTIONS):
             return None  # a dead end: the next room would have nowhere to exit
         with_door = obj_item == DOOR_ROOM
         doors = walk.doors + int(with_door)
@@ -200,10 +180,10 @@ def _attach_for(params: RoomsParams):
             return None  # keep exactly ``params.doors`` doors over all rooms
         entry_dir = (-walk.exits[-1][0], -walk.exits[-1][1]) if walk.exits else None
         new_walk = _Walk((*walk.rooms, cell), next_cell, (*walk.exits, exit_dir), doors)
-        room = _room(params, cell, exit_dir, entry_dir, count_fixed(draft.objects))
+        room = _room(params, cell, exit_dir, entry_dir, kit.count_fixed(draft.objects))
         added = list(room)
         if with_door:
-            added.append(_door(params, count_movable(draft.objects), cell, exit_dir))
+            added.append(_door(params, kit.count_movable(draft.objects), cell, exit_dir))
         # The robot's workspace grows with the walk: it is re-issued with wider limits,
         # every other object is kept as it was.
         robot = _robot(params, new_walk.cells)
@@ -272,7 +252,7 @@ def build(seed: int, params: RoomsParams) -> MakerInput:
         objects=Choice((ROOM, DOOR_ROOM)),
         joints=Choice((Motion.FIXED,)),
         # The transformation is the room's exit side: 0 east, 90 north, 180 west, 270 south.
-        transforms=Choice(QUARTER_TURNS),
+        transforms=Choice(kit.QUARTER_TURNS),
         n_objects=params.n_rooms,
         attach=_attach_for(params),
         goal=_goal_for(params),

@@ -10,21 +10,7 @@ from ..geometry import Pose
 from ..maker import Choice, Draft, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..registry import ParameterError, parameter, register
-from .kit import (
-    HALF_TURNS,
-    MAX_OBJECTS,
-    Direction,
-    Rect,
-    ahead,
-    axis_direction,
-    box_geometry,
-    direction_yaw,
-    handle,
-    movable_name,
-    overlaps,
-    role_and_color,
-    target_paper_goal,
-)
+from . import kit
 
 SLIDER_WIDTH = 0.2
 SLIDER_HEIGHT = 0.2
@@ -52,10 +38,10 @@ class SimpleSliderParams:
     def validate(self, seed: int) -> None:
         if self.n_objects < 0:
             raise ParameterError(f"n_objects must be >= 0 (0 means Seed + 1), got {self.n_objects}")
-        if self.count(seed) >= MAX_OBJECTS:
+        if self.count(seed) >= kit.MAX_OBJECTS:
             raise ParameterError(
                 f"simple_slider would build {self.count(seed)} sliders (seed {seed}); at most "
-                f"{MAX_OBJECTS - 1} are possible: use a seed below {MAX_OBJECTS - 1} or set n_objects"
+                f"{kit.MAX_OBJECTS - 1} are possible: use a seed below {kit.MAX_OBJECTS - 1} or set n_objects"
             )
         # A slider must travel 1 - gap to clear the path it crosses but is stopped after
         # ``gap`` by the next one: it only blocks when gap < 1 - gap.
@@ -74,21 +60,21 @@ class _Slider:
     """Where a slider sits and which way it slides (an axis-aligned unit vector)."""
 
     centre: tuple[float, float]
-    direction: Direction
+    direction: kit.Direction
 
 
-def _swept_area(slider: _Slider, half_length: float) -> Rect:
+def _swept_area(slider: _Slider, half_length: float) -> kit.Rect:
     """The floor area the slider covers over its whole stroke."""
-    return Rect.along(slider.centre, slider.direction, half_length, half_length + STROKE, SLIDER_WIDTH / 2)
+    return kit.Rect.along(slider.centre, slider.direction, half_length, half_length + STROKE, SLIDER_WIDTH / 2)
 
 
 def _slider_object(index: int, slider: _Slider, motion: Motion, length: float) -> PuzzleObject:
-    role, color = role_and_color(index)
-    body = box_geometry((length, SLIDER_WIDTH, SLIDER_HEIGHT), color)
-    geometry = (body, *handle(SLIDER_HEIGHT / 2, (0.0, 0.0), color))
-    yaw = direction_yaw(slider.direction)
+    role, color = kit.role_and_color(index)
+    body = kit.box_geometry((length, SLIDER_WIDTH, SLIDER_HEIGHT), color)
+    geometry = (body, *kit.handle(SLIDER_HEIGHT / 2, (0.0, 0.0), color))
+    yaw = kit.direction_yaw(slider.direction)
     pose = Pose.planar(slider.centre[0], slider.centre[1], SLIDER_HEIGHT / 2, yaw)
-    return PuzzleObject(movable_name(index), motion, pose, geometry, geometry, role, ((0.0, STROKE),))
+    return PuzzleObject(kit.movable_name(index), motion, pose, geometry, geometry, role, ((0.0, STROKE),))
 
 
 def _attach_for(params: SimpleSliderParams):
@@ -98,18 +84,18 @@ def _attach_for(params: SimpleSliderParams):
                rng: np.random.Generator) -> Draft | None:
         placed: tuple[_Slider, ...] = draft.context or ()
         index = len(draft.objects)
-        direction = axis_direction(BASE_ANGLES[index % 2] + tf_item)
+        direction = kit.axis_direction(BASE_ANGLES[index % 2] + tf_item)
         if placed:
             # Across the previous slider's path, PITCH ahead of its centre: the prototype's step.
             previous = placed[-1]
-            centre = ahead(previous.centre, previous.direction, PITCH)
+            centre = kit.ahead(previous.centre, previous.direction, PITCH)
         else:
             centre = (0.0, 0.0)
         slider = _Slider(centre, direction)
         swept = _swept_area(slider, half_length)
         # Only the previous slider may interact with the new one; a staircase that folds back
         # onto an older slider would add dependencies nobody asked for.
-        if any(overlaps(swept, _swept_area(old, half_length)) for old in placed[:-1]):
+        if any(kit.overlaps(swept, _swept_area(old, half_length)) for old in placed[:-1]):
             return None
         new = _slider_object(index, slider, joint_item, params.slider_length)
         return Draft(draft.objects + (new,), placed + (slider,))
@@ -159,8 +145,8 @@ def build(seed: int, params: SimpleSliderParams) -> MakerInput:
     return MakerInput(
         objects=Choice(("t_slider",)),
         joints=Choice((Motion.PRISMATIC,)),
-        transforms=Choice(HALF_TURNS),
+        transforms=Choice(kit.HALF_TURNS),
         n_objects=params.count(seed),
         attach=_attach_for(params),
-        goal=target_paper_goal,
+        goal=kit.target_paper_goal,
     )
