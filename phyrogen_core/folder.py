@@ -36,6 +36,10 @@ MAX_NAME_LENGTH = 200
 """The longest puzzle or generator name: ``<name>.blend`` and friends stay within file-name limits."""
 
 
+class OutputError(ValueError):
+    """An output path that cannot be written (a file, a missing permission): bad input, found up front."""
+
+
 class PuzzleFormatError(ValueError):
     """A puzzle folder, its ``puzzle.json``, its URDF or a mesh is missing or malformed."""
 
@@ -396,6 +400,28 @@ def atomic_directory(final: str | Path) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(temporary, ignore_errors=True)
         raise
+
+
+def require_writable_dir(path: str | Path, label: str = "output folder") -> Path:
+    """Check, before any work, that ``path`` is (or can be created as) a folder we may write in.
+
+    Raises :class:`OutputError` (one line naming the path) when it is a file, lies under a file,
+    or is not writable. Creates nothing: a refused command leaves no output behind.
+    """
+    path = Path(path)
+    probe = path
+    while not probe.exists():
+        if probe.is_symlink():  # a dangling link: writing through it would create its target elsewhere
+            raise OutputError(f"{label} {path}: {probe} is a broken symbolic link")
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        what = "is a file" if probe == path else f"lies under {probe}, which is not a folder"
+        raise OutputError(f"{label} {path} {what}; choose another path")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise OutputError(f"{label} {path}: no permission to write in {probe}")
+    return path
 
 
 def write_file_atomic(path: str | Path, data: bytes) -> Path:
