@@ -12,10 +12,13 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
+import reprlib
 import textwrap
 import typing
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 from typing import Any
 
 from .maker import MakerInput
@@ -26,6 +29,11 @@ BENCHMARK_PROFILES = ("paper", "quick")
 
 Build = Callable[[int, Any], MakerInput]
 """``build(seed, params)``: a generator's input tuple to the Maker."""
+
+
+MAX_INTEGER = 2**63 - 1
+"""The largest magnitude of an integer parameter: numpy, OMPL and SQLite hold no larger integer,
+and no generator has a use for one (its ``validate`` sets the real range)."""
 
 
 class ParameterError(ValueError):
@@ -144,11 +152,26 @@ class GeneratorSpec:
         return self.params(**values)
 
     def check(self, seed: int, params: Any) -> None:
+        """Raise :class:`ParameterError` unless ``params`` (an instance of :attr:`params`) can be
+        generated with ``seed``: every field of its declared type and finite (the rule
+        :meth:`parse_params` applies to text), then the generator's own ``validate(seed)``."""
         if not isinstance(seed, int) or isinstance(seed, bool) or seed < 1:
             raise ParameterError(f"seed must be a positive integer, got {seed!r}")
+        if not isinstance(params, self.params):
+            raise ParameterError(f"generator {self.name!r}: parameters must be a {self.params.__name__}, "
+                                 f"got {type(params).__name__}")
+        hints = typing.get_type_hints(self.params)
+        for f in dataclasses.fields(self.params):
+            _check_value(self.name, f.name, getattr(params, f.name), hints[f.name])
         validate = getattr(params, "validate", None)
         if validate is not None:
-            validate(seed)
+            try:
+                validate(seed)
+            except ParameterError as exc:
+                # With --generator all the reader must see which generator refused.
+                if str(exc).startswith("generator "):
+                    raise
+                raise ParameterError(f"generator {self.name!r}: {exc}") from None
 
 
 def _convert(generator: str, key: str, raw: Any, kind: Any) -> Any:
@@ -163,13 +186,46 @@ def _convert(generator: str, key: str, raw: Any, kind: Any) -> Any:
         if kind is int:
             if isinstance(raw, float) and not raw.is_integer():
                 raise ValueError
-            return int(str(raw)) if not isinstance(raw, int | float) else int(raw)
-        if kind is float:
-            return float(raw)
-        return kind(raw)
-    except (TypeError, ValueError):
+            value = int(str(raw)) if not isinstance(raw, int | float) else int(raw)
+        elif kind is float:
+            value = float(raw)
+        else:
+            return kind(raw)
+    except (TypeError, ValueError, OverflowError):
         name = getattr(kind, "__name__", str(kind))
-        raise ParameterError(f"generator {generator!r}: parameter {key!r} must be {name}, got {raw!r}") from None
+        raise ParameterError(f"generator {generator!r}: parameter {key!r} must be {name}, got {_show(raw)}") from None
+    _check_value(generator, key, value, kind, raw)
+    return value
+
+
+_SHOW = reprlib.Repr()
+_SHOW.maxstring = _SHOW.maxlong = _SHOW.maxother = 40
+
+
+def _show(value: Any) -> str:
+    """``repr(value)``, shortened: a message stays one readable line whatever was passed."""
+    return _SHOW.repr(value)
+
+
+def _check_value(generator: str, key: str, value: Any, kind: Any, shown: Any = None) -> None:
+    """Refuse a value of the wrong type, a float that is not finite and an integer beyond
+    :data:`MAX_INTEGER`, for every parameter of every generator: each ``validate`` can then
+    compare numbers without NaN slipping through (``nan <= 0`` is False)."""
+    shown = _show(value if shown is None else shown)
+    where = f"generator {generator!r}: parameter {key!r}"
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise ParameterError(f"{where} must be bool, got {shown}")
+    elif kind is int:
+        if isinstance(value, bool) or not isinstance(value, Integral):
+            raise ParameterError(f"{where} must be int, got {shown}")
+        if not -MAX_INTEGER <= value <= MAX_INTEGER:
+            raise ParameterError(f"{where} must be an integer within +-{MAX_INTEGER}, got {shown}")
+    elif kind is float:
+        if isinstance(value, bool) or not isinstance(value, Real):
+            raise ParameterError(f"{where} must be float, got {shown}")
+        if not math.isfinite(value):
+            raise ParameterError(f"{where} must be a finite number, got {shown}")
 
 
 class Registry:

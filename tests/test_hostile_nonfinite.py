@@ -13,12 +13,19 @@ writer produces (found by scanning the written file, so a new one is covered
 without editing this test), every numeric field of ``puzzle.json`` (found by
 walking the written file), each coordinate column of every mesh, every entry
 of a solution path.
+
+Generator parameters keep the same rule before any work: every float parameter
+of every registered generator (found by asking the registry) must be finite
+and every integer one fit 64 bits, whether it comes as ``--set`` text or in a
+parameter dataclass; extreme finite values are refused up front, or generate.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import typing
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -39,11 +46,14 @@ from hostile_support import (
 )
 
 from manipulation.solution import load_solution
+from phyrogen.cli import main
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.export.reader import MAX_MAGNITUDE
 from phyrogen_core.export.urdf import chain_to_urdf
 from phyrogen_core.folder import BEST_SOLUTION, PuzzleFormatError
 from phyrogen_core.puzzle import Goal
+from phyrogen_core.registry import ParameterError, all_generators, get_generator
+from solver.generation import generate_puzzle
 from solver.problem import verify_certificate
 
 NON_FINITE = ("nan", "NaN", "inf", "-inf", "Infinity", "1e999", "-1e999")
@@ -329,3 +339,99 @@ def test_check_rejects_with_one_line_and_exit_2(written, tmp_path, corrupt, frag
 
 def test_puzzle_format_error_is_a_value_error():
     assert issubclass(PuzzleFormatError, ValueError)
+
+
+# -- generator parameters: refused before any work -------------------------------------------
+def _parameters_of_type(kind: type) -> list[tuple[str, str]]:
+    """(generator, parameter) for every registered generator's parameters of type ``kind``: a new
+    generator's parameters are covered as soon as it is registered."""
+    cases = []
+    for name, spec in all_generators().items():
+        hints = typing.get_type_hints(spec.params)
+        cases += [(name, f.name) for f in dataclasses.fields(spec.params) if hints[f.name] is kind]
+    return cases
+
+
+FLOAT_PARAMETERS = _parameters_of_type(float)
+INT_PARAMETERS = _parameters_of_type(int)
+PARAMETER_TEXTS = ("nan", "NaN", "inf", "-inf", "Infinity", "1e999", "-1e999")
+"""What ``--set key=value`` may carry that float() turns into NaN or an infinity."""
+
+
+def _parameter_error(call) -> str:
+    with pytest.raises(ParameterError) as caught:
+        call()
+    message = str(caught.value)
+    assert "\n" not in message, message
+    return message
+
+
+def test_the_registry_has_float_and_int_parameters():
+    # Guards the scan: the cases below are generated from it.
+    assert ("rooms", "scaling") in FLOAT_PARAMETERS and ("continuous_space", "bar_length") in FLOAT_PARAMETERS
+    assert ("move_n_times", "n") in INT_PARAMETERS
+
+
+@pytest.mark.parametrize("bad", PARAMETER_TEXTS)
+@pytest.mark.parametrize(("generator", "parameter"), FLOAT_PARAMETERS, ids=[f"{g}.{p}" for g, p in FLOAT_PARAMETERS])
+def test_every_float_parameter_text_must_be_finite(generator, parameter, bad):
+    message = _parameter_error(lambda: get_generator(generator).parse_params({parameter: bad}))
+    assert f"generator {generator!r}" in message and repr(parameter) in message and bad in message
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+@pytest.mark.parametrize(("generator", "parameter"), FLOAT_PARAMETERS, ids=[f"{g}.{p}" for g, p in FLOAT_PARAMETERS])
+def test_every_float_parameter_of_a_dataclass_must_be_finite(generator, parameter, bad):
+    # The Python API and Job.params pass a parameter dataclass, which parse_params never sees.
+    spec = get_generator(generator)
+    params = dataclasses.replace(spec.default_params(), **{parameter: bad})
+    message = _parameter_error(lambda: spec.check(1, params))
+    assert f"generator {generator!r}" in message and repr(parameter) in message
+
+
+@pytest.mark.parametrize("value", [1e308, -1e308, 1e20, 5e-324])
+@pytest.mark.parametrize(("generator", "parameter"), FLOAT_PARAMETERS, ids=[f"{g}.{p}" for g, p in FLOAT_PARAMETERS])
+def test_extreme_finite_floats_are_refused_up_front_or_generate(generator, parameter, value):
+    spec = get_generator(generator)
+    try:
+        params = spec.parse_params({parameter: repr(value)})
+        spec.check(1, params)
+    except ParameterError as exc:
+        message = str(exc)
+        assert "\n" not in message and parameter in message, message
+        return
+    # Accepted: then it is a size that works, not an overflow or endless work inside a worker.
+    assert generate_puzzle(generator, 1, params).certificate
+
+
+@pytest.mark.parametrize("bad", [str(2**63), "1" + "0" * 400, "1e300", "nan", "inf", "2.5"])
+@pytest.mark.parametrize(("generator", "parameter"), INT_PARAMETERS, ids=[f"{g}.{p}" for g, p in INT_PARAMETERS])
+def test_every_int_parameter_text_must_be_a_bounded_integer(generator, parameter, bad):
+    message = _parameter_error(lambda: get_generator(generator).parse_params({parameter: bad}))
+    assert f"generator {generator!r}" in message and repr(parameter) in message
+
+
+@pytest.mark.parametrize("bad", [2**63, -(2**64), math.nan, math.inf, 2.5, "3", True])
+@pytest.mark.parametrize(("generator", "parameter"), INT_PARAMETERS, ids=[f"{g}.{p}" for g, p in INT_PARAMETERS])
+def test_every_int_parameter_of_a_dataclass_must_be_a_bounded_integer(generator, parameter, bad):
+    spec = get_generator(generator)
+    params = dataclasses.replace(spec.default_params(), **{parameter: bad})
+    message = _parameter_error(lambda: spec.check(1, params))
+    assert f"generator {generator!r}" in message and repr(parameter) in message
+
+
+@pytest.mark.parametrize(("generator", "assignment"), [
+    ("rooms", "scaling=nan"), ("continuous_space", "bar_length=inf"), ("rooms", "wall_height=inf"),
+    ("grid_world", "clearance=-inf"), ("lockbox_random", "max_radius=1e999"), ("simple_slider", "gap=NaN"),
+    ("grid_world", "n_objects=1e300"),
+])
+def test_generate_refuses_a_non_finite_parameter_with_one_line(generator, assignment, tmp_path, capsys):
+    out = tmp_path / "out"
+    code = main(["generate", "--generator", generator, "--seeds", "1", "--set", assignment, "--out", str(out),
+                 "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("phyrogen: error: "), err
+    key, _, value = assignment.partition("=")
+    assert generator in err and key in err and value in err, err
+    assert not out.exists()

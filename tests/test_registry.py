@@ -118,6 +118,58 @@ def test_names_and_paper_rows_are_unique():
         registry.get("nope")
 
 
+@dataclasses.dataclass(frozen=True)
+class _Checked:
+    count: int = parameter(2, "how many")
+    size: float = parameter(1.0, "how big")
+    round: bool = parameter(False, "whether round")
+
+    def validate(self, seed: int) -> None:
+        if self.count > 3:
+            raise ParameterError(f"count must lie in 1..3, got {self.count}")
+
+
+@pytest.mark.parametrize(("raw", "shown"), [("nan", "'nan'"), ("-inf", "'-inf'"), ("1e999", "'1e999'"),
+                                            (10**400, "100000"), (float("inf"), "inf")])
+def test_a_float_parameter_must_be_finite_for_any_generator(raw, shown):
+    # The rule lives in the registry, not in each generator's validate: a new generator gets it for free.
+    spec = GeneratorSpec("toy", "Toy", _build, _Checked, "", None, LIMITS)
+    with pytest.raises(ParameterError) as caught:
+        spec.parse_params({"size": raw})
+    message = str(caught.value)
+    assert message.startswith("generator 'toy': parameter 'size' must be") and shown in message
+    assert "\n" not in message and len(message) < 200  # a 400-digit value is shortened
+
+
+@pytest.mark.parametrize("raw", [2**63, -(2**63), "9" * 30, 1e300])
+def test_an_int_parameter_must_fit_64_bits(raw):
+    spec = GeneratorSpec("toy", "Toy", _build, _Checked, "", None, LIMITS)
+    with pytest.raises(ParameterError, match="generator 'toy': parameter 'count'"):
+        spec.parse_params({"count": raw})
+    assert spec.parse_params({"count": 2**63 - 1}).count == 2**63 - 1
+
+
+@pytest.mark.parametrize(("field", "value", "fragment"), [
+    ("size", float("nan"), "must be a finite number"), ("size", float("-inf"), "must be a finite number"),
+    ("size", "1.0", "must be float"), ("size", True, "must be float"), ("count", 2.0, "must be int"),
+    ("count", 2**64, "must be an integer within"),
+    ("count", False, "must be int"), ("round", 1, "must be bool"),
+])
+def test_check_applies_the_same_rule_to_a_parameter_dataclass(field, value, fragment):
+    spec = GeneratorSpec("toy", "Toy", _build, _Checked, "", None, LIMITS)
+    spec.check(1, _Checked(count=3, size=2, round=True))  # an int is a fine float
+    with pytest.raises(ParameterError, match=f"generator 'toy': parameter '{field}' {fragment}"):
+        spec.check(1, dataclasses.replace(_Checked(), **{field: value}))
+
+
+def test_check_names_the_generator_when_validate_refuses():
+    spec = GeneratorSpec("toy", "Toy", _build, _Checked, "", None, LIMITS)
+    with pytest.raises(ParameterError, match=r"^generator 'toy': count must lie in 1\.\.3, got 4$"):
+        spec.check(1, _Checked(count=4))
+    with pytest.raises(ParameterError, match="parameters must be a _Checked, got _Documented"):
+        spec.check(1, _Documented())
+
+
 def test_registering_into_a_copy_leaves_the_registry_as_it_was():
     before = all_generators()
     with registry_copy() as copy:

@@ -27,16 +27,33 @@ ARC_DEGREES = (0.0, 90.0)
 """First transformation coordinate: where along the previous bar's quarter swing the new bar stands."""
 REACH = (0.0, 1.0)
 """Second transformation coordinate: how far out from the previous hinge (see :func:`reach_radius`)."""
+MAX_BARS = 20
+"""The most bars accepted: 20 take up to about 1 min of CPU time with the longest bars accepted, 25
+up to 2 min with the default ones (docs/generators.md#feasible-sizes)."""
+BAR_LENGTH = (1.0, 5.0)
+"""Accepted bar lengths (m). The handle (a 0.2 m shaft at 0.375 of the length from the hinge) must
+stand on the bar; longer bars cost generation time about in proportion (each turn sweeps farther
+past the validator's 0.02 m checks): 20 bars 10 m long took 85 s of CPU time."""
+MIN_BAR_WIDTH = 0.2
+"""The handle's shaft (0.2 m across) must stand on the bar."""
+MAX_WIDTH_RATIO = 2 / 3
+"""Widest bar accepted, as a share of its length: a new bar's hinge stands L/2 + W/2 .. L from the
+previous one (:func:`reach_radius`), a band too narrow for wider bars to block (W = 0.75 L and
+0.83 L gave up at the second bar; 2/3 generated on every seed tried)."""
+BAR_HEIGHT = (0.05, 10.0)
 
 
 @dataclass(frozen=True)
 class ContinuousSpaceParams:
     """Parameters of Continuous Space (each field says what it means)."""
 
-    n_objects: int = parameter(4, "how many bars, the target included (Table I: 4)", difficulty=True)
-    bar_length: float = parameter(3.0, "length of every bar, hinged at its centre (m)", difficulty=True)
-    bar_width: float = parameter(1.0, "width of every bar, smaller than its length (m)", difficulty=True)
-    bar_height: float = parameter(1.0, "height of every bar (m)")
+    n_objects: int = parameter(4, f"how many bars, the target included, 1..{MAX_BARS} (Table I: 4)",
+                               difficulty=True)
+    bar_length: float = parameter(3.0, f"length of every bar, hinged at its centre (m, {BAR_LENGTH[0]:g}.."
+                                       f"{BAR_LENGTH[1]:g})", difficulty=True)
+    bar_width: float = parameter(1.0, f"width of every bar, at least {MIN_BAR_WIDTH:g} and at most 2/3 of its "
+                                      f"length (m)", difficulty=True)
+    bar_height: float = parameter(1.0, f"height of every bar (m, {BAR_HEIGHT[0]:g}..{BAR_HEIGHT[1]:g})")
     min_limit_deg: float = parameter(90.0, "smallest magnitude of a bar's one-sided joint limit (degrees, "
                                            ">= 90 so that the target can make the goal's quarter turn)",
                                      difficulty=True)
@@ -44,12 +61,17 @@ class ContinuousSpaceParams:
                                      difficulty=True)
 
     def validate(self, seed: int) -> None:
-        kit.check_object_count(self.n_objects)
-        kit.check_positive(self, "bar_length", "bar_width", "bar_height")
-        if not self.bar_width < self.bar_length:
+        kit.check_object_count(self.n_objects, high=MAX_BARS,
+                               why=f"generation time grows steeply with the count (20: up to about 1 min of CPU "
+                                   f"time, 25: up to 2 min, 40: many minutes; {kit.SIZES_DOC})")
+        kit.check_between(self, "bar_length", *BAR_LENGTH, "the handle must stand on the bar; longer bars "
+                                                          "cost generation time about in proportion")
+        kit.check_between(self, "bar_width", MIN_BAR_WIDTH, BAR_LENGTH[1], "the handle must stand on the bar")
+        kit.check_between(self, "bar_height", *BAR_HEIGHT, "a sane size; the height changes only the look")
+        if not self.bar_width <= MAX_WIDTH_RATIO * self.bar_length:
             raise ParameterError(
-                f"bar_width {self.bar_width} must be smaller than bar_length {self.bar_length} "
-                f"(a bar, not a plate)"
+                f"bar_width {self.bar_width} must be at most 2/3 of bar_length {self.bar_length} (a bar, not a "
+                f"plate: wider bars leave no room to block the previous one)"
             )
         # The paper's goal turns the target by 90 degrees, which its limits must allow.
         if not 90.0 <= self.min_limit_deg <= self.max_limit_deg <= 180.0:

@@ -21,6 +21,11 @@ HANDLE_FRACTION = 0.375
 """A revolute bar's handle sits this fraction of its length from the hinge (prototype)."""
 HINGE_RADIUS = 0.1
 CCW, CW = 1, -1
+MAX_CUBOIDS = 25
+"""The most cuboids accepted: 25 take up to about 40 s of CPU time, 30 about 70 s, and the cost
+climbs steeply from there (50 did not finish in minutes; docs/generators.md#feasible-sizes)."""
+MAX_BRANCHING = 3 * (MAX_CUBOIDS - 1)
+"""Each turning bar opens at most 3 extra start cells, so more branching than this has no effect."""
 
 
 def min_clearance() -> float:
@@ -34,9 +39,10 @@ def min_clearance() -> float:
 class GridWorldParams:
     """Parameters of Grid World (each field says what it means)."""
 
-    n_objects: int = parameter(5, "how many cuboids, the target included (Table I: 5)", difficulty=True)
+    n_objects: int = parameter(5, f"how many cuboids, the target included, 1..{MAX_CUBOIDS} (Table I: 5)",
+                               difficulty=True)
     branching: int = parameter(6, "extra start cells turning bars may open in total (the prototype's "
-                                  "branching_factor_target); 0 gives a single chain of dependencies",
+                                  "branching_factor_target), 0..72; 0 gives a single chain of dependencies",
                                difficulty=True)
     clearance: float = parameter(0.1, "the prototype's e: each box is a whole number of cells minus e per side "
                                       "pair; smaller is tighter (min_clearance() < e < 0.5)", difficulty=True)
@@ -44,9 +50,11 @@ class GridWorldParams:
                                       difficulty=True)
 
     def validate(self, seed: int) -> None:
-        kit.check_object_count(self.n_objects)
-        if self.branching < 0:
-            raise ParameterError(f"branching must be >= 0, got {self.branching}")
+        kit.check_object_count(self.n_objects, high=MAX_CUBOIDS,
+                               why=f"generation time grows steeply with the count (25: up to about 40 s of CPU "
+                                   f"time, 30: about 70 s, 50: many minutes; {kit.SIZES_DOC})")
+        kit.check_count("branching", self.branching, 0, MAX_BRANCHING,
+                        f"each of at most {MAX_CUBOIDS - 1} turning bars opens at most 3 extra start cells")
         low = min_clearance()
         if not low < self.clearance < 0.5:
             raise ParameterError(

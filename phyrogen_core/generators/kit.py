@@ -69,17 +69,38 @@ def role_and_color(index: int) -> tuple[Role, RGBA]:
 
 
 # -- parameter checks ----------------------------------------------------------------
-def check_object_count(n_objects: int, low: int = 1) -> None:
-    """Raise :class:`ParameterError` unless ``low <= n_objects < MAX_OBJECTS``."""
-    if not low <= n_objects < MAX_OBJECTS:
-        raise ParameterError(f"n_objects must lie in {low}..{MAX_OBJECTS - 1}, got {n_objects}")
+SIZES_DOC = "docs/generators.md#feasible-sizes"
+"""Where the bound every accepted size keeps (2 minutes of CPU time per puzzle) and the
+measurements behind each generator's maxima are written down; refusals point there."""
+
+
+def check_object_count(n_objects: int, low: int = 1, high: int = MAX_OBJECTS - 1, why: str = "") -> None:
+    """Raise :class:`ParameterError` unless ``low <= n_objects <= high`` (at most ``MAX_OBJECTS - 1``);
+    ``why`` says what sets ``high`` when it is not the two-digit names."""
+    check_count("n_objects", n_objects, low, high, why)
+
+
+def check_count(name: str, value: int, low: int, high: int, why: str = "") -> None:
+    """Raise :class:`ParameterError` unless ``low <= value <= high``, one line with ``why`` appended."""
+    if not low <= value <= high:
+        raise ParameterError(f"{name} must lie in {low}..{high}, got {value}" + (f": {why}" if why else ""))
 
 
 def check_positive(params: object, *names: str) -> None:
-    """Raise :class:`ParameterError` for the first of ``names`` whose value in ``params`` is not positive."""
+    """Raise :class:`ParameterError` for the first of ``names`` whose value in ``params`` is not a
+    positive finite number (NaN compares false with everything, so ``<= 0`` alone lets it through)."""
     for name in names:
-        if getattr(params, name) <= 0:
-            raise ParameterError(f"{name} must be positive, got {getattr(params, name)}")
+        value = getattr(params, name)
+        if not (math.isfinite(value) and value > 0):
+            raise ParameterError(f"{name} must be positive, got {value}")
+
+
+def check_between(params: object, name: str, low: float, high: float, why: str) -> None:
+    """Raise :class:`ParameterError` unless ``low <= value <= high`` for the field ``name`` of ``params``
+    (false for NaN); ``why`` says what the bounds protect."""
+    value = getattr(params, name)
+    if not low <= value <= high:
+        raise ParameterError(f"{name} must lie in [{low:g}, {high:g}] ({why}), got {value}")
 
 
 # -- geometry: bodies, handles, hinges, scenery -------------------------------------------

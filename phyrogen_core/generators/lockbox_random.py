@@ -27,23 +27,31 @@ HANDLE_RADIUS_FRACTION = 0.75
 """A disc's handle stands this fraction of its radius from the hinge, beside the slot."""
 HINGE_RADIUS_FRACTION = 0.0625
 CUBOID, DISK = "cuboid", "disk"
+MAX_PARTS = 19
+"""The most objects accepted: 19 take up to about 1 min of CPU time with the largest discs
+(max_radius 10), 25 up to 2 min with the default ones (docs/generators.md#feasible-sizes)."""
+MAX_RADIUS = 10.0
 
 
 @dataclass(frozen=True)
 class LockboxRandomParams:
     """Parameters of Lockbox Random (each field says what it means)."""
 
-    n_objects: int = parameter(7, "how many objects, alternating sliders and discs from the target slider on "
-                                  "(Table I: 7, the target and three disc-slider pairs)", difficulty=True)
-    max_radius: float = parameter(3.0, "largest disc radius (m); radii are drawn from 1, 1.5, ... up to it",
-                                  difficulty=True)
+    n_objects: int = parameter(7, f"how many objects, 1..{MAX_PARTS}, alternating sliders and discs from the "
+                                  f"target slider on (Table I: 7, the target and three disc-slider pairs)",
+                               difficulty=True)
+    max_radius: float = parameter(3.0, f"largest disc radius (m), {MIN_RADIUS:g}..{MAX_RADIUS:g}; radii are drawn "
+                                       f"from 1, 1.5, ... up to it", difficulty=True)
 
     def validate(self, seed: int) -> None:
-        kit.check_object_count(self.n_objects)
-        if not MIN_RADIUS <= self.max_radius <= 10.0:
+        kit.check_object_count(self.n_objects, high=MAX_PARTS,
+                               why=f"generation time grows steeply with the count (19: up to about 1 min of CPU "
+                                   f"time, 25: about 2 min; {kit.SIZES_DOC})")
+        # Larger discs also cost time: every turn sweeps a longer rim past the validator's checks.
+        if not MIN_RADIUS <= self.max_radius <= MAX_RADIUS:
             raise ParameterError(
-                f"max_radius must lie in [{MIN_RADIUS}, 10] (a slider sits 0.7 m deep in a slot "
-                f"as long as the radius), got {self.max_radius}"
+                f"max_radius must lie in [{MIN_RADIUS}, {MAX_RADIUS:g}] (a slider sits 0.7 m deep in a slot "
+                f"as long as the radius; larger discs cost generation time), got {self.max_radius}"
             )
 
     @property

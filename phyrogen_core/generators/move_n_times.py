@@ -34,8 +34,11 @@ DOOR_THICKNESS = 0.1
 DOOR_Y = -0.5
 """The door runs along this line, the open top of every corridor."""
 CELL = 1.0
-MAX_N = 20
-"""Walls are named with two digits: the 5n - 4 walls of n moves must stay within 100."""
+MAX_N = 5
+"""The most door moves accepted. Generation cost grows about 4x per move (the validator's budget,
+:func:`search_budget_scale`, grows as 4^n): n = 5 takes 40-45 s of CPU time, n = 6 about 3 min,
+beyond the bound every size must keep (docs/generators.md#feasible-sizes). Two-digit wall names
+alone would allow n = 20 (5n - 4 walls)."""
 
 
 @dataclass(frozen=True)
@@ -77,8 +80,8 @@ class MoveNTimesItems:
 class MoveNTimesParams:
     """Parameters of Move N Times (each field says what it means)."""
 
-    n: int = parameter(0, f"how many times the door must move (1..{MAX_N}); 0: n = Seed, taken from the seed "
-                          f"as the paper does", difficulty=True)
+    n: int = parameter(0, f"how many times the door must move (1..{MAX_N}; each move costs about 4x the "
+                          f"generation time); 0: n = Seed, taken from the seed as the paper does", difficulty=True)
 
     def moves(self, seed: int) -> int:
         return self.n if self.n > 0 else seed
@@ -89,8 +92,9 @@ class MoveNTimesParams:
         moves = self.moves(seed)
         if moves > MAX_N:
             raise ParameterError(
-                f"move_n_times with n = {moves} (seed {seed}) needs {5 * moves - 4} walls, more than "
-                f"two-digit names allow: use n (or a seed) between 1 and {MAX_N}"
+                f"n must lie in 1..{MAX_N}, got n = {moves} (seed {seed}): the search budget grows as 4^n; "
+                f"n = 5 takes about 45 s, n = 6 about 3 min of CPU time ({kit.SIZES_DOC}): "
+                f"set n (or use a seed) between 1 and {MAX_N}"
             )
 
 
@@ -241,8 +245,8 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     Difficulty parameters:
         ``n`` (0: n = Seed, the paper) is the number of door moves and sets
         the number of corridors (n - 1), the door width and the target's range.
-        Validation cost grows about 4x per move; past n = 5 generation is
-        impractical.
+        Validation cost grows about 4x per move, so n is capped at 5 (about
+        45 s of CPU time; n = 6 would take about 3 min).
 
     Departures:
         The Maker runs n + 1 iterations, not Table I's Seed + 2: the pocket

@@ -28,6 +28,19 @@ ROBOT_SIZE: Vec3 = (0.09375, 0.125, 0.125)
 """The prototype's robot (a droid mesh there) as a box, in cell units."""
 HANDLE_FRACTION = 0.75
 """Where along the panel (from the hinge) the door's handle stands."""
+MAX_ROOMS = 6
+"""The most rooms accepted (with any number of doors, at the largest scaling): 6 rooms with 6 doors
+take up to about 1 min of CPU time, 7 with 7 doors over 2 min (docs/generators.md#feasible-sizes).
+Two-digit names of walls and pillars alone would allow 12."""
+SCALING = (1.0, 4.0)
+"""Accepted metres per cell unit, up to the paper's 4. Generation time grows with the scale (the
+validator checks states 0.02 m apart, so longer paths take more checks): 6 rooms with 6 doors at
+scaling 8 took over 2 min of CPU time. Below 1 the robot (0.09 cell units across) would be only a
+few checks wide."""
+MIN_WALL_THICKNESS = 0.01
+"""Cell units (so at least 0.01 m at the smallest scaling): far above the collision model's 1e-6 m
+contact tolerance, below which a wall would count as touched, not hit, and block nothing."""
+WALL_HEIGHT = (0.01, 10.0)
 
 
 @dataclass(frozen=True)
@@ -35,26 +48,32 @@ class RoomsParams:
     """Parameters of Rooms. Lengths are in cell units (a room is 1 x 1) before ``scaling``,
     as in the prototype."""
 
-    n_rooms: int = parameter(4, "how many rooms the robot must cross (Table I: 4)", difficulty=True)
+    n_rooms: int = parameter(4, f"how many rooms the robot must cross, 1..{MAX_ROOMS} (Table I: 4)",
+                             difficulty=True)
     doors: int = parameter(2, "how many of the rooms' doorways have a door to open (0..n_rooms)",
                            difficulty=True)
-    scaling: float = parameter(4.0, "metres per cell unit, applied once to every length and to the goal")
-    wall_height: float = parameter(0.2, "height of walls, pillars and doors (cell units)")
-    wall_thickness: float = parameter(0.075, "thickness of walls and doors, side of the corner pillars "
-                                             "(cell units)", difficulty=True)
+    scaling: float = parameter(4.0, f"metres per cell unit, applied once to every length and to the goal "
+                                    f"({SCALING[0]:g}..{SCALING[1]:g})")
+    wall_height: float = parameter(0.2, f"height of walls, pillars and doors (cell units, {WALL_HEIGHT[0]:g}.."
+                                        f"{WALL_HEIGHT[1]:g})")
+    wall_thickness: float = parameter(0.075, f"thickness of walls and doors, side of the corner pillars "
+                                             f"(cell units, at least {MIN_WALL_THICKNESS:g})", difficulty=True)
     door_width: float = parameter(0.5, "width of a doorway (cell units); a closed door must block the robot "
                                        "and an open one let it pass", difficulty=True)
 
     def validate(self, seed: int) -> None:
-        fixed = 9 + 8 * (self.n_rooms - 1)
-        if self.n_rooms < 1 or fixed > kit.MAX_OBJECTS:
-            raise ParameterError(
-                f"n_rooms must lie in 1..{(kit.MAX_OBJECTS - 9) // 8 + 1} (walls and pillars are named with two "
-                f"digits), got {self.n_rooms}"
-            )
+        kit.check_count("n_rooms", self.n_rooms, 1, MAX_ROOMS,
+                        f"generation time grows steeply with rooms and doors (6 rooms, 6 doors: up to about "
+                        f"1 min of CPU time; 7 and 7: over 2 min; {kit.SIZES_DOC})")
         if not 0 <= self.doors <= self.n_rooms:
             raise ParameterError(f"doors must lie in 0..n_rooms = {self.n_rooms}, got {self.doors}")
         kit.check_positive(self, "scaling", "wall_height", "wall_thickness", "door_width")
+        kit.check_between(self, "scaling", *SCALING, "generation time grows with the scale, 6 rooms at scaling 8 "
+                                                    "take over 2 min; below 1 the robot is only a few validation "
+                                                    "steps across")
+        kit.check_between(self, "wall_height", *WALL_HEIGHT, "a sane size; the height changes only the look")
+        kit.check_between(self, "wall_thickness", MIN_WALL_THICKNESS, 1.0,
+                          "thinner walls would pass for contact, not collision")
         if 2 * self.wall_thickness + self.door_width >= 1.0:
             raise ParameterError(
                 f"doorway {self.door_width} plus two pillars {self.wall_thickness} must be narrower than "

@@ -20,14 +20,17 @@ PITCH = 1.0
 """Distance from a slider's centre to the centre of the slider across its path."""
 BASE_ANGLES = (-90.0, 0.0)
 """The prototype's orientation (degrees) of even and odd sliders, before the transformation."""
+MAX_SLIDERS = 7
+"""The longest chain accepted: 7 sliders generate on every seed tried, in seconds; from 8 on,
+the Maker runs out of tries on some seeds (docs/generators.md#feasible-sizes)."""
 
 
 @dataclass(frozen=True)
 class SimpleSliderParams:
     """Parameters of Simple Slider (each field says what it means)."""
 
-    n_objects: int = parameter(0, "how many sliders; 0: Seed + 1, taken from the seed as the paper does",
-                               difficulty=True)
+    n_objects: int = parameter(0, f"how many sliders, 1..{MAX_SLIDERS}; 0: Seed + 1, taken from the seed as the "
+                                  f"paper does (so seeds 1..{MAX_SLIDERS - 1})", difficulty=True)
     gap: float = parameter(0.1, "free play in front of each slider before it hits the next, 0 < gap < 0.5 "
                                 "(the prototype's 0.1); also sets the slider length 1.8 - 2 * gap",
                            difficulty=True)
@@ -38,10 +41,13 @@ class SimpleSliderParams:
     def validate(self, seed: int) -> None:
         if self.n_objects < 0:
             raise ParameterError(f"n_objects must be >= 0 (0 means Seed + 1), got {self.n_objects}")
-        if self.count(seed) >= kit.MAX_OBJECTS:
+        count = self.count(seed)
+        if count > MAX_SLIDERS:
             raise ParameterError(
-                f"simple_slider would build {self.count(seed)} sliders (seed {seed}); at most "
-                f"{kit.MAX_OBJECTS - 1} are possible: use a seed below {kit.MAX_OBJECTS - 1} or set n_objects"
+                f"n_objects must lie in 1..{MAX_SLIDERS}, got {count} sliders"
+                + (f" (Seed + 1, seed {seed})" if self.n_objects == 0 else "")
+                + f": from {MAX_SLIDERS + 1} sliders on the Maker gives up on some seeds ({kit.SIZES_DOC}); "
+                f"use a seed up to {MAX_SLIDERS - 1} or set n_objects"
             )
         # A slider must travel 1 - gap to clear the path it crosses but is stopped after
         # ``gap`` by the next one: it only blocks when gap < 1 - gap.
