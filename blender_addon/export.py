@@ -1,9 +1,11 @@
 """The puzzle in a Blender scene written to its puzzle folder, with the core's writers.
 
 Only the export stage's entries are replaced (URDF, SRDF, meshes,
-``puzzle.json``); renders, solutions and a user's files stay. When the scene
-was edited after the puzzle was built, ``puzzle.json`` is rewritten to agree
-with the new URDF and its certificate is marked as not verified for it.
+``puzzle.json``); a user's files stay, and so do renders and solutions while
+the puzzle is unchanged. When the scene was edited after the puzzle was built,
+``puzzle.json`` is rewritten to agree with the new URDF and its certificate is
+marked as not verified for it; the renders and solutions of the puzzle before
+the edit move into ``stale/<n>/`` with it.
 """
 
 from __future__ import annotations
@@ -15,14 +17,18 @@ import bpy
 
 from phyrogen_core.export import write_export_files
 from phyrogen_core.export.metadata import metadata_for_chain
-from phyrogen_core.folder import PuzzleFolder, Stage, stage_directory, stage_entries
+from phyrogen_core.folder import PuzzleFolder, Stage, stage_directory
 
 from . import annotations as keys
 from .scene import read_chain, urdf_digest
 
 
-def export_collection(collection: bpy.types.Collection, folder: str | Path) -> Path:
+def export_collection(collection: bpy.types.Collection, folder: str | Path,
+                      notices: list[str] | None = None) -> Path:
     """Write the puzzle in ``collection`` into ``folder`` and return the URDF path.
+
+    An edited puzzle's earlier renders and solutions move into ``stale/<n>/``
+    of the folder, and a line saying so is appended to ``notices``.
 
     Raises ValueError when the collection keeps no ``puzzle.json`` (it was not
     built from a generated puzzle) or the edit removed a joint the goal needs.
@@ -36,6 +42,6 @@ def export_collection(collection: bpy.types.Collection, folder: str | Path) -> P
         edited = metadata_for_chain(json.loads(metadata), chain)
         metadata = json.dumps(edited, sort_keys=True, indent=2, allow_nan=False) + "\n"
     place = PuzzleFolder(Path(folder), chain.name)
-    with stage_directory(place.path, stage_entries(Stage.EXPORT, chain.name)) as temporary:
+    with stage_directory(place.path, Stage.EXPORT, chain.name, notices) as temporary:
         write_export_files(PuzzleFolder(temporary, chain.name), chain, metadata)
     return place.urdf

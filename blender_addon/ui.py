@@ -203,7 +203,9 @@ class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801
 
         def export() -> str:
             collection = current_collection(context)
-            return f"wrote {export_collection(collection, puzzle_folder(context.scene.phyrogen, collection).path)}"
+            notices: list[str] = []  # a changed puzzle's old renders and solutions moved aside
+            urdf = export_collection(collection, puzzle_folder(context.scene.phyrogen, collection).path, notices)
+            return "; ".join([f"wrote {urdf}", *notices])
 
         return run_reported(self, export)
 

@@ -5,22 +5,26 @@ A puzzle lives in one folder, ``<out>/<generator>/<name>/``::
     urdf/<name>.urdf, srdf/<name>.srdf, meshes/, puzzle.json     export (generate, the panel's Export)
     solutions/                                                    benchmark (planner solutions)
     images/, <name>.blend                                         render
+    stale/<n>/                                                    export, when the puzzle changed
 
 Every stage writes only the entries it owns and keeps every other entry,
-another stage's or a user's file, as it was (:func:`stage_directory`). This
+another stage's or a user's file, as it was (:func:`stage_directory`); only
+renders and solutions of a puzzle that was regenerated differently move, into
+``stale/<n>/`` beside it, with the puzzle they were made for. This
 module is the one place that knows the layout: other layers ask a
 :class:`PuzzleFolder` for paths and :func:`find_puzzle_folders` for folders.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
 import shutil
 import stat
 import tempfile
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from enum import StrEnum
@@ -327,27 +331,132 @@ def find_in_paths(paths: Sequence[str | Path]) -> list[PuzzleFolder | Path]:
 
 
 @contextmanager
-def stage_directory(final: str | Path, owned: Sequence[str]) -> Iterator[Path]:
-    """Yield an empty temporary folder for one stage's entries of the folder ``final``.
+def stage_directory(final: str | Path, stage: Stage, name: str,
+                    notices: list[str] | None = None) -> Iterator[Path]:
+    """Yield an empty temporary folder for ``stage``'s entries of puzzle ``name``'s folder ``final``.
 
     When the block succeeds, ``final`` becomes the temporary folder's entries
-    plus every entry of the old ``final`` that is not in ``owned`` (another
+    plus every entry of the old ``final`` that ``stage`` does not own (another
     stage's files or a user's, hard-linked or copied over), swapped in
-    atomically. The stage's own old entries are replaced as a whole. If the
-    block raises or is interrupted, ``final`` is left as it was.
+    atomically (:func:`atomic_directory`). The stage's own old entries are
+    replaced as a whole. If the block raises or is interrupted, ``final`` is
+    left as it was.
+
+    Entries of the stages computed from ``stage``'s (:func:`derived_stages`:
+    an exported puzzle's renders and solutions) are kept only while they still
+    belong to it: when the new entries describe another puzzle
+    (:func:`same_stage_entries` is false), they move into ``stale/<n>/`` of the
+    new folder together with the old entries they were made from, a complete
+    puzzle folder of its own, and a one-line notice saying where is appended
+    to ``notices``. Nothing but the stage's own old entries is ever deleted.
     """
     final = Path(final)
-    owned_set = set(owned)
-    with atomic_directory(final) as temporary:
+    owned = set(stage_entries(stage, name))
+    derived = {entry for other in derived_stages(stage) for entry in stage_entries(other, name)}
+
+    def merge(temporary: Path) -> None:
+        # Runs while this writer holds the swap lock, so ``final`` is the folder the swap replaces.
+        old = sorted(final.iterdir()) if final.is_dir() else []
+        stale = [entry.name for entry in old if entry.name in derived]
+        moving = bool(stale) and not same_stage_entries(final, temporary, owned)
+        for entry in old:
+            if entry.name in owned or (moving and entry.name in derived) or os.path.lexists(temporary / entry.name):
+                continue
+            _link_or_copy(entry, temporary / entry.name)
+        if moving:
+            slot = _stale_slot(temporary)
+            (temporary / slot).mkdir(parents=True)
+            for entry in old:
+                if entry.name in owned or entry.name in derived:
+                    _link_or_copy(entry, temporary / slot / entry.name)
+            if notices is not None:
+                notices.append(f"{final}: puzzle changed; its previous {', '.join(stale)} moved to {final / slot}, "
+                               "with the puzzle they were made for")
+
+    with _atomic_directory(final, merge) as temporary:
         yield temporary
-        if final.is_dir():
-            for entry in sorted(final.iterdir()):
-                if entry.name in owned_set or (temporary / entry.name).exists():
-                    continue
-                _link_or_copy(entry, temporary / entry.name)
+
+
+STALE_FOLDER = "stale"
+"""Where :func:`stage_directory` keeps the renders and solutions of a puzzle that was regenerated differently."""
+BOOKKEEPING_KEYS = frozenset({"versions"})
+"""``puzzle.json`` keys that record how a puzzle was made, not what it is: a puzzle regenerated by
+newer packages into the same files is the same puzzle and keeps its renders and solutions."""
+
+
+def derived_stages(stage: Stage) -> tuple[Stage, ...]:
+    """The stages whose entries are computed from ``stage``'s, and go stale when those change."""
+    return (Stage.BENCHMARK, Stage.RENDER) if stage is Stage.EXPORT else ()
+
+
+def same_stage_entries(old: str | Path, new: str | Path, names: Iterable[str]) -> bool:
+    """Whether the entries ``names`` of the folders ``old`` and ``new`` describe the same puzzle.
+
+    The same files with the same bytes, except that ``puzzle.json`` is compared
+    as JSON without its :data:`BOOKKEEPING_KEYS`. Anything unreadable, oversized
+    or neither a regular file nor a folder counts as different: when in doubt,
+    :func:`stage_directory` moves the old renders aside rather than keep them
+    beside a puzzle they may not show.
+    """
+    old, new = Path(old), Path(new)
+    return all(_same_metadata(old / n, new / n) if n == METADATA_FILE else _same_tree(old / n, new / n)
+               for n in names)
+
+
+def _same_metadata(old: Path, new: Path) -> bool:
+    def facts(path: Path) -> object:
+        try:
+            info = os.lstat(path)
+            if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_FILE_BYTES:
+                return None
+            data = json.loads(path.read_bytes())
+        except (OSError, ValueError, RecursionError):
+            return None
+        return {k: v for k, v in data.items() if k not in BOOKKEEPING_KEYS} if isinstance(data, dict) else data
+
+    before = facts(old)
+    return before is not None and before == facts(new)
+
+
+def _same_tree(old: Path, new: Path) -> bool:
+    try:
+        a, b = os.lstat(old), os.lstat(new)
+    except FileNotFoundError:
+        return not os.path.lexists(old) and not os.path.lexists(new)
+    except OSError:
+        return False
+    try:
+        if stat.S_ISDIR(a.st_mode) and stat.S_ISDIR(b.st_mode):
+            names = sorted(os.listdir(old))
+            return names == sorted(os.listdir(new)) and all(_same_tree(old / n, new / n) for n in names)
+        if not (stat.S_ISREG(a.st_mode) and stat.S_ISREG(b.st_mode)) or a.st_size != b.st_size:
+            return False
+        with open(old, "rb") as first, open(new, "rb") as second:
+            while True:
+                chunk = first.read(1 << 20)
+                if chunk != second.read(1 << 20):
+                    return False
+                if not chunk:
+                    return True
+    except OSError:
+        return False
+
+
+def _stale_slot(folder: Path) -> Path:
+    """A new ``stale/<n>`` inside ``folder``, numbered after the ones already there."""
+    root = folder / STALE_FOLDER
+    if os.path.lexists(root) and (root.is_symlink() or not root.is_dir()):
+        # A user's own file is called "stale": leave it alone and number the snapshots beside it.
+        n = 1
+        while os.path.lexists(folder / f"{STALE_FOLDER}-{n}"):
+            n += 1
+        return Path(f"{STALE_FOLDER}-{n}")
+    taken = [int(p.name) for p in root.iterdir() if p.name.isdigit()] if root.is_dir() else []
+    return Path(STALE_FOLDER) / str(max(taken, default=0) + 1)
 
 
 def _link_or_copy(source: Path, target: Path) -> None:
+    target.parent.mkdir(parents=True, exist_ok=True)
     if source.is_symlink():
         os.symlink(os.readlink(source), target)
     elif source.is_dir():
@@ -373,54 +482,139 @@ def atomic_directory(final: str | Path) -> Iterator[Path]:
     raises (or is interrupted), the temporary folder is removed and ``final``
     is left as it was. Missing parent folders are created and kept, even on
     failure: removing them could race with another writer using the same parent.
+
+    Writers finishing the same ``final`` at once (threads or processes) take
+    turns at the swap, and a writer that finds another's folder in place moves
+    it aside and tries again: the last writer to finish wins, and ``final`` is
+    always one writer's complete folder. Raises :class:`OutputError` when
+    ``final`` or one of its parents is a file.
     """
-    final = Path(final)
-    if final.exists() and not final.is_dir():
-        raise FileExistsError(f"{final} exists and is not a folder; remove it or choose another output path")
-    final.parent.mkdir(parents=True, exist_ok=True)
-    temporary = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent))
+    with _atomic_directory(Path(final)) as temporary:
+        yield temporary
+
+
+SWAP_ATTEMPTS = 1000
+"""How often a writer moves another writer's folder aside before giving up: only writers that bypass
+the swap lock (another file system's semantics, an old version) can make it retry at all."""
+
+
+@contextmanager
+def _atomic_directory(final: Path, prepare: Callable[[Path], None] | None = None) -> Iterator[Path]:
+    """:func:`atomic_directory`; ``prepare(temporary)`` runs just before the swap, under the swap lock."""
+    if os.path.lexists(final) and not final.is_dir():
+        raise OutputError(f"output folder {final} exists and is not a folder; remove it or choose another path")
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        temporary = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent))
+    except OSError as exc:
+        raise OutputError(f"output folder {final} cannot be made: {_reason(exc)}") from None
     try:
         # mkdtemp makes the folder private (0700); the result should be as readable as its parent.
         os.chmod(temporary, final.parent.stat().st_mode & 0o777)
         yield temporary
-        aside = temporary.with_name(temporary.name + ".old")
-        moved_aside = False
-        if final.exists():
-            os.replace(final, aside)
-            moved_aside = True
-        try:
-            os.replace(temporary, final)
-        except BaseException:
-            if moved_aside:
-                os.replace(aside, final)
-            raise
-        if moved_aside:
-            # The new folder is in place: failing to delete the old copy must not undo that.
-            shutil.rmtree(aside, ignore_errors=True)
+        with _swap_lock(final.parent):
+            if prepare is not None:
+                prepare(temporary)
+            _swap_in(temporary, final)
     except BaseException:
         shutil.rmtree(temporary, ignore_errors=True)
         raise
+
+
+@contextmanager
+def _swap_lock(folder: Path) -> Iterator[None]:
+    """Hold an exclusive lock on ``folder`` (the parent of the folders being swapped) for the block.
+
+    A lock on the folder itself, not on a lock file: nothing is left behind.
+    Where locks are not available the block runs unlocked and the retries of
+    :func:`_swap_in` still keep each result whole.
+    """
+    try:
+        import fcntl
+    except ImportError:  # not on POSIX
+        yield
+        return
+    try:
+        descriptor = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError:
+        yield
+        return
+    try:
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX)
+        except OSError:  # a file system without flock
+            pass
+        yield
+    finally:
+        os.close(descriptor)  # releases the lock
+
+
+def _swap_in(temporary: Path, final: Path) -> None:
+    """Rename ``temporary`` to ``final``, moving whatever folder is at ``final`` aside first.
+
+    The rename only succeeds onto a missing (or empty) ``final``, so another
+    writer's folder that appears in between is moved aside in its turn, never
+    merged with this one. The folders moved aside are deleted once this one is
+    in place; if the rename fails for another reason, the latest of them goes back.
+    """
+    asides: list[Path] = []
+    try:
+        for attempt in range(SWAP_ATTEMPTS):
+            try:
+                os.rename(temporary, final)
+                break
+            except OSError as exc:
+                if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST):
+                    raise
+            aside = temporary.with_name(f"{temporary.name}.old{attempt}")
+            try:
+                os.rename(final, aside)
+            except FileNotFoundError:  # another writer moved it aside first
+                continue
+            asides.append(aside)
+        else:
+            raise OSError(errno.EBUSY, f"{final} kept being replaced by other writers; gave up after "
+                                       f"{SWAP_ATTEMPTS} attempts")
+    except BaseException:
+        if asides and not os.path.lexists(final):
+            os.rename(asides.pop(), final)
+        for aside in asides:
+            shutil.rmtree(aside, ignore_errors=True)
+        raise
+    for aside in asides:
+        # The new folder is in place: failing to delete an old copy must not undo that.
+        shutil.rmtree(aside, ignore_errors=True)
 
 
 def require_writable_dir(path: str | Path, label: str = "output folder") -> Path:
     """Check, before any work, that ``path`` is (or can be created as) a folder we may write in.
 
     Raises :class:`OutputError` (one line naming the path) when it is a file, lies under a file,
-    or is not writable. Creates nothing: a refused command leaves no output behind.
+    is a broken symbolic link, or cannot be written. Besides the permission bits, the nearest
+    existing folder is tried with a folder made and removed at once: root passes every
+    permission check, yet cannot write on a read-only mount or in ``/proc`` or ``/sys``.
+    Creates nothing: a refused command leaves no output behind.
     """
     path = Path(path)
     probe = path
-    while not probe.exists():
-        if probe.is_symlink():  # a dangling link: writing through it would create its target elsewhere
+    try:
+        while not os.path.lexists(probe):
+            if probe.parent == probe:
+                break
+            probe = probe.parent
+        if probe.is_symlink() and not probe.exists():
+            # Writing through a dangling link would create its target somewhere else.
             raise OutputError(f"{label} {path}: {probe} is a broken symbolic link")
-        if probe.parent == probe:
-            break
-        probe = probe.parent
-    if not probe.is_dir():
-        what = "is a file" if probe == path else f"lies under {probe}, which is not a folder"
-        raise OutputError(f"{label} {path} {what}; choose another path")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise OutputError(f"{label} {path}: no permission to write in {probe}")
+        if not probe.is_dir():
+            what = "is a file" if probe == path else f"lies under {probe}, which is not a folder"
+            raise OutputError(f"{label} {path} {what}; choose another path")
+        if not os.access(probe, os.W_OK | os.X_OK):
+            raise OutputError(f"{label} {path}: no permission to write in {probe}")
+        os.rmdir(tempfile.mkdtemp(prefix=".phyrogen-probe-", dir=probe))
+    except OutputError:
+        raise
+    except OSError as exc:
+        raise OutputError(f"{label} {path}: cannot write in {probe}: {_reason(exc)}") from None
     return path
 
 

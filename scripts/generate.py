@@ -65,7 +65,10 @@ def main(argv: list[str]) -> int:
     except (ParameterError, GenerationError, ValueError) as exc:
         print(f"generate.py: error: {exc}", file=sys.stderr)
         return 2
-    folder = write_puzzle(puzzle, Path(args.out), versions())
+    notices: list[str] = []
+    folder = write_puzzle(puzzle, Path(args.out), versions(), notices)
+    for notice in notices:
+        print(f"generate.py: note: {notice}", file=sys.stderr)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     built = build_puzzle(puzzle, bpy.context.scene)
     if read_chain(built.collection) != puzzle.chain:

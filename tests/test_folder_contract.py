@@ -94,8 +94,10 @@ def test_panel_export_after_render_and_benchmark_keeps_their_files(tmp_path):
     finally:
         ui.unregister()
     after = tree(folder.path)
-    kept = [k for k in before if k.startswith(("images/", "solutions/")) or k == folder.blend.name]
-    assert kept and all(after[k] == before[k] for k in kept)
+    # The edit made another puzzle: its renders and solution move into stale/1, beside the puzzle they show.
+    moved = [k for k in before if k.startswith(("images/", "solutions/")) or k == folder.blend.name]
+    assert moved and all(k not in after and after[f"stale/1/{k}"] == before[k] for k in moved)
+    assert read_puzzle_dir(folder.path / "stale" / "1").metadata == json.loads(before["puzzle.json"])
     assert after[f"urdf/{folder.name}.urdf"] != before[f"urdf/{folder.name}.urdf"]
     loaded = read_puzzle_dir(folder.path)  # metadata and URDF agree: the strict reader accepts them
     assert loaded.chain == edited

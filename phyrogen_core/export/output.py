@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from ..chain import KinematicChain
-from ..folder import PuzzleFolder, Stage, stage_directory, stage_entries
+from ..folder import PuzzleFolder, Stage, stage_directory
 from ..puzzle import Puzzle
 from .metadata import metadata_json
 from .srdf import chain_to_srdf
@@ -23,16 +23,20 @@ def puzzle_folder(out_root: Path, puzzle: Puzzle) -> Path:
     return PuzzleFolder.at(out_root, puzzle.generator, puzzle.name).path
 
 
-def write_puzzle(puzzle: Puzzle, out_root: Path, versions: Mapping[str, str] | None = None) -> Path:
+def write_puzzle(puzzle: Puzzle, out_root: Path, versions: Mapping[str, str] | None = None,
+                 notices: list[str] | None = None) -> Path:
     """Write the puzzle's export entries into its folder and return the folder's path.
 
     The export stage owns ``urdf/<name>.urdf``, ``srdf/<name>.srdf``,
     ``meshes/*.obj`` (only when the chain has prisms) and ``puzzle.json``;
     they are replaced as a whole, atomically. Every other entry of an
-    existing folder (renders, solutions, a user's files) is kept.
+    existing folder (renders, solutions, a user's files) is kept, except that
+    renders and solutions of a different earlier puzzle move into
+    ``stale/<n>/`` with it, and a line saying so is appended to ``notices``
+    (:func:`~phyrogen_core.folder.stage_directory`).
     """
     place = PuzzleFolder.at(out_root, puzzle.generator, puzzle.name)
-    with stage_directory(place.path, stage_entries(Stage.EXPORT, puzzle.name)) as folder:
+    with stage_directory(place.path, Stage.EXPORT, puzzle.name, notices) as folder:
         write_export_files(PuzzleFolder(folder, puzzle.name), puzzle.chain, metadata_json(puzzle, versions))
     return place.path
 

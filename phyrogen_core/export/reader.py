@@ -94,7 +94,8 @@ def read_puzzle_dir(path: str | Path) -> LoadedPuzzle:
     """
     folder = Path(path)
     if not folder.is_dir():
-        raise PuzzleFormatError(f"{folder}: no such puzzle folder")
+        what = "is a file, not a puzzle folder" if os.path.lexists(folder) else "no such puzzle folder"
+        raise PuzzleFormatError(f"{folder}: {what}")
     json_path = folder / METADATA_FILE
     metadata = _read_metadata(json_path, folder)
     name = _field(metadata, "name", str, json_path)
@@ -457,7 +458,9 @@ class _UrdfReader:
         except PuzzleFormatError:
             raise
         except ValueError as exc:
-            raise self.error(f"{where}: {exc}") from None
+            message = str(exc)
+            # The model names the joint or link itself ("joint 'a': axis ..."); say it once.
+            raise self.error(message if message.startswith(f"{where}:") else f"{where}: {message}") from None
 
 
 # -- puzzle.json -------------------------------------------------------------
