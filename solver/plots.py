@@ -69,15 +69,20 @@ def summary_rows(db_path: Path) -> list[SummaryRow]:
 
 
 def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: float | None = None,
-                     workers: int | None = None) -> str:
-    """The summary table as Markdown, one line per puzzle, a column group per planner."""
+                     workers: int | None = None, reused: int = 0) -> str:
+    """The summary table as Markdown, one line per puzzle, a column group per planner.
+
+    ``reused``: runs of a resumed benchmark that an earlier session did (``wall_seconds`` is
+    then this session's time only)."""
     planners = sorted({r.planner for r in rows}, key=_planner_key)
     experiments = list(dict.fromkeys(r.experiment for r in rows))
     table = {(r.experiment, r.planner): r for r in rows}
     lines = []
     if profile is not None:
+        session = f" in this session; {reused} runs resumed from an earlier one" if reused else ""
         lines.append(f"Profile `{profile.name}`: {profile.runs} runs per planner and puzzle"
-                     + (f", {wall_seconds:.0f} s wall time on {workers} workers" if wall_seconds else "") + ".")
+                     + (f", {wall_seconds:.0f} s wall time on {workers} workers{session}" if wall_seconds else "")
+                     + ".")
         lines.append("")
     lines.append("Cells: success % / median time to first solution [s] / median final action cost "
                  "(medians over solved runs).")

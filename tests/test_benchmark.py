@@ -16,7 +16,9 @@ from solver.benchmark import (
     build_database,
     estimate_seconds,
     get_profile,
+    journal_line,
     make_jobs,
+    parse_journal_line,
     write_log,
 )
 from solver.plots import curves, plot_fig4, summary_markdown, summary_rows
@@ -96,6 +98,23 @@ def test_profiles_and_jobs():
     # 100 runs x 4 planners x (40 + 1) s on two workers for one Simple Slider puzzle
     one = [PuzzleFolder(Path("/nowhere"), "simple_slider_1", "simple_slider")]
     assert estimate_seconds(one, ["la_rrt", "rrt_star", "lbt_rrt", "bit_star"], paper, 2, 1.0) == 8200
+
+
+def test_journal_lines_round_trip_and_refuse_what_does_not_fit():
+    from dataclasses import replace
+
+    record = replace(_record("LA-RRT", 0, True, 0.1, 2), path=((0.0, 1.0), (1.0, 1.0)), joint_order=("a", "b"))
+    key = json.dumps({"planner": "la_rrt", "puzzle": "toy_1", "run": 0, "seed": 100, "time_limit": 1.0},
+                     sort_keys=True)
+    line = journal_line(key, record)
+    assert line.endswith(b"\n") and line.count(b"\n") == 1
+    assert b"Infinity" not in line  # strict JSON: "no solution yet" is null
+    assert parse_journal_line(line) == (key, record)
+    assert parse_journal_line(line[:-20]) is None  # torn mid-write
+    for change in ({"solved": "yes"}, {"status": "Great"}, {"run": 5}, {"seed": 1.5}, {"path": [["x"]]}):
+        data = json.loads(line)
+        data["record"].update(change)
+        assert parse_journal_line(json.dumps(data).encode()) is None, change
 
 
 @pytest.mark.slow
