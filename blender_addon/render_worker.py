@@ -14,6 +14,8 @@ import sys
 import time
 from pathlib import Path
 
+from phyrogen_core.folder import PuzzleFormatError
+
 from .views import DEFAULT_VIEWS, parse_views
 
 
@@ -34,18 +36,29 @@ def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple
     with atomic_directory(place.images) as images:
         paths = render_views(scene, built.collection, images, place.name, views)
     temporary = place.path / f".{place.name}.tmp.blend"
-    bpy.ops.wm.save_as_mainfile(filepath=str(temporary), copy=True, compress=False)
-    os.replace(temporary, place.blend)
+    try:
+        bpy.ops.wm.save_as_mainfile(filepath=str(temporary), copy=True, compress=False)
+        os.replace(temporary, place.blend)
+    except BaseException:  # a stop (SIGINT) while saving: no half-written scene stays behind
+        temporary.unlink(missing_ok=True)
+        raise
     return len(paths)
 
 
+MIN_IMAGE_SIDE = 16
+MAX_IMAGE_SIDE = 8192
+"""Largest image width and height: Workbench renders into an OpenGL framebuffer, which many
+drivers cap at 8192 per side, and an 8192 x 8192 RGBA image is already 256 MiB per view."""
+
+
 def parse_size(text: str) -> tuple[int, int]:
+    """``WIDTHxHEIGHT`` -> (width, height), each side in MIN_IMAGE_SIDE..MAX_IMAGE_SIDE."""
     try:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise ValueError(f"bad image size {text!r}; valid: WIDTHxHEIGHT, e.g. 480x360") from None
-    if width < 16 or height < 16:
-        raise ValueError(f"image size {text!r} is too small; valid: at least 16x16")
+    if not (MIN_IMAGE_SIDE <= width <= MAX_IMAGE_SIDE and MIN_IMAGE_SIDE <= height <= MAX_IMAGE_SIDE):
+        raise ValueError(f"image size {text!r} is out of range; valid: each side {MIN_IMAGE_SIDE}..{MAX_IMAGE_SIDE}")
     return width, height
 
 
@@ -59,7 +72,12 @@ def main(argv: list[str] | None = None) -> int:
     size, views = parse_size(args.size), parse_views(args.views)
     for folder in args.folders:
         started = time.perf_counter()
-        count = render_folder(Path(folder), args.engine, size, views)
+        try:
+            count = render_folder(Path(folder), args.engine, size, views)
+        except (PuzzleFormatError, FileNotFoundError) as exc:
+            # A folder broken after render_puzzles checked it: one line naming it, not a traceback.
+            print(f"render_worker: {exc}", file=sys.stderr)
+            return 2
         print(f"RENDERED {folder} {time.perf_counter() - started:.3f} {count}", flush=True)
     return 0
 

@@ -9,13 +9,17 @@ whatever is left with Cycles on the CPU when a worker dies.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from solver.pool import deferred_signals
 
 from .environment import worker_python
 from .views import DEFAULT_VIEWS
@@ -57,16 +61,14 @@ def render_puzzles(puzzle_dirs: Sequence[str | Path], engine: str = "auto", size
 
     ``engine`` is ``auto`` (Workbench, Cycles where Workbench cannot run),
     ``workbench`` or ``cycles``. Folders are split over ``workers``
-    processes. Raises RenderError naming the folders that could not be rendered.
+    processes. Raises RenderError naming the folders that could not be rendered,
+    and, before any worker starts, :func:`check_render_folders`' errors.
     """
     if engine not in ENGINES:
         raise ValueError(f"render engine {engine!r} is not known; valid: {', '.join(ENGINES)}")
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
-    folders = [Path(p) for p in puzzle_dirs]
-    for folder in folders:
-        if not (folder / "puzzle.json").is_file():
-            raise FileNotFoundError(f"{folder}: not a puzzle folder (no puzzle.json)")
+    folders = check_render_folders(puzzle_dirs)
     engines = ["WORKBENCH", "CYCLES"] if engine == "auto" else [engine.upper()]
     started = time.perf_counter()
     rendered: list[RenderedPuzzle] = []
@@ -84,6 +86,32 @@ def render_puzzles(puzzle_dirs: Sequence[str | Path], engine: str = "auto", size
     return RenderReport(tuple(rendered), time.perf_counter() - started, tuple(failures))
 
 
+def check_render_folders(puzzle_dirs: Sequence[str | Path], writable: bool = True) -> list[Path]:
+    """The puzzle folders as paths, each read in full and (``writable``) found writable for the render stage.
+
+    Runs before any Blender starts, so that a broken folder is reported as what
+    it is, bad input naming the folder, and not as a worker (or engine) that failed.
+    Raises :class:`~phyrogen_core.folder.PuzzleFormatError` or
+    :class:`~phyrogen_core.folder.OutputError` (``images`` a file, ``<name>.blend``
+    a folder, no permission to write), one line each.
+    """
+    from phyrogen_core.export import read_puzzle_dir
+    from phyrogen_core.folder import OutputError, PuzzleFolder, require_writable_dir
+
+    folders = [Path(p) for p in puzzle_dirs]
+    for folder in folders:
+        read_puzzle_dir(folder)
+        if not writable:
+            continue
+        place = PuzzleFolder.open(folder)
+        require_writable_dir(place.path, "puzzle folder")
+        if os.path.lexists(place.images) and not place.images.is_dir():
+            raise OutputError(f"{place.images} is not a folder; the render stage writes its images there")
+        if place.blend.is_dir():
+            raise OutputError(f"{place.blend} is a folder; the render stage writes the Blender scene there")
+    return folders
+
+
 def _run_workers(folders: list[Path], engine: str, size: tuple[int, int], views: Sequence[str], workers: int,
                  on_done: Callable[[RenderedPuzzle], None] | None) -> tuple[list[RenderedPuzzle], list[str]]:
     shares = [folders[i::workers] for i in range(min(workers, len(folders)))]
@@ -95,29 +123,63 @@ def _run_workers(folders: list[Path], engine: str, size: tuple[int, int], views:
         environment["PYTHONPATH"] = os.pathsep.join([str(Path(__file__).resolve().parent.parent),
                                                     environment.get("PYTHONPATH", "")]).rstrip(os.pathsep)
         processes = []
-        for share in shares:
-            command = [worker_python(), "-m", "blender_addon.render_worker", "--engine", engine,
-                       "--size", f"{size[0]}x{size[1]}", "--views", ",".join(views), *map(str, share)]
-            log = tempfile.TemporaryFile(mode="w+", dir=home)
-            processes.append((subprocess.Popen(command, stdout=subprocess.PIPE, stderr=log, text=True,
-                                               env=environment), log))
-        done: list[RenderedPuzzle] = []
-        failures: list[str] = []
-        # Reading one worker to its end at a time cannot block the others: they log to files.
-        for process, log in processes:
-            assert process.stdout is not None
-            for line in process.stdout:
-                if line.startswith("RENDERED "):
-                    folder, seconds, images = line[len("RENDERED "):].rsplit(" ", 2)
-                    result = RenderedPuzzle(Path(folder), engine.lower(), float(seconds), int(images))
-                    done.append(result)
-                    if on_done is not None:
-                        on_done(result)
+        try:
+            for share in shares:
+                command = [worker_python(), "-m", "blender_addon.render_worker", "--engine", engine,
+                           "--size", f"{size[0]}x{size[1]}", "--views", ",".join(views), *map(str, share)]
+                log = tempfile.TemporaryFile(mode="w+", dir=home)
+                with deferred_signals():  # interrupted between fork and return, a worker would go unknown
+                    processes.append((subprocess.Popen(command, stdout=subprocess.PIPE, stderr=log, text=True,
+                                                       env=environment), log))
+            done: list[RenderedPuzzle] = []
+            failures: list[str] = []
+            # Reading one worker to its end at a time cannot block the others: they log to files.
+            for process, log in processes:
+                assert process.stdout is not None
+                for line in process.stdout:
+                    if line.startswith("RENDERED "):
+                        folder, seconds, images = line[len("RENDERED "):].rsplit(" ", 2)
+                        result = RenderedPuzzle(Path(folder), engine.lower(), float(seconds), int(images))
+                        done.append(result)
+                        if on_done is not None:
+                            on_done(result)
+                process.wait()
+                log.seek(0)
+                stderr = log.read()
+                if process.returncode != 0:
+                    tail = stderr.strip().splitlines()[-3:]
+                    failures.append(f"{engine.lower()} worker exited with {process.returncode}: " + " / ".join(tail))
+            return done, failures
+        except BaseException:  # Ctrl-C, SIGTERM, a bug: no worker may outlive the command
+            _stop_workers([process for process, _ in processes])
+            raise
+        finally:
+            for process, log in processes:
+                log.close()
+                if process.stdout is not None:
+                    process.stdout.close()
+
+
+WORKER_GRACE_SECONDS = 5.0
+"""How long a stopped render worker may take to remove its unfinished output before it is killed."""
+
+
+def _stop_workers(processes: list[subprocess.Popen]) -> None:
+    # Ctrl-C in a terminal has reached the workers already (one process group): give them a
+    # moment to end on their own, as a second SIGINT could cut their clean-up short. Then
+    # SIGINT, not SIGTERM: it raises KeyboardInterrupt in the worker, whose unfinished images
+    # and scene are removed on the way out; SIGTERM would end it on the spot.
+    deadline = time.monotonic() + 1.0
+    for process in processes:
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.wait(max(0.0, deadline - time.monotonic()))
+    for process in processes:
+        if process.poll() is None:
+            process.send_signal(signal.SIGINT)
+    deadline = time.monotonic() + WORKER_GRACE_SECONDS
+    for process in processes:
+        try:
+            process.wait(max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            process.kill()
             process.wait()
-            log.seek(0)
-            stderr = log.read()
-            log.close()
-            if process.returncode != 0:
-                tail = stderr.strip().splitlines()[-3:]
-                failures.append(f"{engine.lower()} worker exited with {process.returncode}: " + " / ".join(tail))
-        return done, failures

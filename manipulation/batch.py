@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from phyrogen_core.export import read_puzzle_dir
+from phyrogen_core.folder import OutputError, require_writable_dir
+from solver.pool import deferred_signals
+
 from .execution import ExecutionSettings, ManipulationReport, execute_puzzle
 from .outputs import summary_table, write_outputs
+from .solution import load_solution
 
 OMPL_SEED = 1
 """BIT* draws from OMPL's global generator, seeded once per process."""
@@ -16,11 +22,15 @@ OMPL_SEED = 1
 def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = True, table: Path | None = None,
                        gui: bool = False, quiet: bool = False,
                        settings: ExecutionSettings | None = None) -> list[ManipulationReport]:
-    """Execute each puzzle folder, write its outputs under ``out_root``, print one line per puzzle."""
+    """Execute each puzzle folder, write its outputs under ``out_root``, print one line per puzzle.
+
+    Raises, before any simulation, :func:`check_inputs`' errors.
+    """
     from tqdm import tqdm
 
     from .reaching import seed_reaching
 
+    check_inputs(folders, out_root, table)
     settings = settings or ExecutionSettings()
     seed_reaching(OMPL_SEED)
     reports = []
@@ -34,13 +44,42 @@ def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = Tr
                 bar.refresh()
 
             report, recording, setup = execute_puzzle(Path(folder), settings, gui=gui, progress=progress)
-        bar_output = write_outputs(out_root, report, recording, setup, video=video)
-        reports.append(report)
-        status = "ok" if report.success else "FAILED: " + report.message
-        print(f"{report.puzzle:22s} actions {report.actions:3d} regrasps {report.regrasps:2d} "
-              f"planning {report.planning_seconds:6.1f} s execution {report.execution_seconds:6.1f} s "
-              f"{status}  -> {bar_output}", flush=True)
+        # Ctrl-C or SIGTERM while a simulated puzzle's outputs are written takes effect once they
+        # are, and reported (seconds): an interrupted write would feed ffmpeg a torn frame, which
+        # it reports on stderr, and lose a finished simulation.
+        with deferred_signals():
+            bar_output = write_outputs(out_root, report, recording, setup, video=video)
+            reports.append(report)
+            status = "ok" if report.success else "FAILED: " + report.message
+            print(f"{report.puzzle:22s} actions {report.actions:3d} regrasps {report.regrasps:2d} "
+                  f"planning {report.planning_seconds:6.1f} s execution {report.execution_seconds:6.1f} s "
+                  f"{status}  -> {bar_output}", flush=True)
     if table is not None:
         table.parent.mkdir(parents=True, exist_ok=True)
         table.write_text(summary_table(reports), encoding="utf-8")
     return reports
+
+
+def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = None) -> None:
+    """Everything a run reads and writes, checked before the first simulation: a bad folder or
+    output path found after an hour of simulating others is bad input found too late.
+
+    Every folder must read (puzzle and solution); ``out_root``, the folder of
+    ``table`` and ``<out_root>/<puzzle>`` must be writable as folders
+    (``table`` as a file). Raises :class:`~phyrogen_core.folder.PuzzleFormatError`
+    or :class:`~phyrogen_core.folder.OutputError`, one line naming the path.
+    """
+    out_root = require_writable_dir(out_root, "manipulation output folder")
+    if table is not None:
+        table = Path(table)
+        if table.is_dir():
+            raise OutputError(f"summary table {table} is a folder; name a file")
+        if os.path.lexists(table) and not os.access(table, os.W_OK):
+            raise OutputError(f"summary table {table}: no permission to write it")
+        require_writable_dir(table.parent, f"folder of the summary table {table}:")
+    for folder in folders:
+        loaded = read_puzzle_dir(folder)
+        load_solution(Path(folder), loaded.joint_order, loaded.certificate)
+        target = out_root / str(loaded.metadata.get("name", Path(folder).name))
+        if os.path.lexists(target) and not target.is_dir():
+            raise OutputError(f"{target} is not a folder; the outputs of puzzle {target.name} go there")

@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import functools
+import os
+import signal
 import sys
+import threading
 import time
+import traceback
 from pathlib import Path
 
 from phyrogen_core.folder import PuzzleFolder, find_in_paths, find_puzzle_folders
@@ -17,23 +22,35 @@ class UsageError(ValueError):
     pass
 
 
-def parse_seeds(text: str) -> list[int]:
-    """'3', '1-4' or '1,3,5-7' -> sorted seeds."""
-    seeds: set[int] = set()
+MAX_SEED = 2**63 - 1
+
+
+def parse_seeds(text: str) -> tuple[range, ...]:
+    """'3', '1-4' or '1,3,5-7' -> the seeds as sorted, disjoint ranges.
+
+    Ranges, not numbers: '1-100000000' takes no more memory than '1-4'.
+    """
+    spans = []
     try:
         for part in text.split(","):
-            if "-" in part:
-                low, high = (int(v) for v in part.split("-", 1))
-                if high < low:
-                    raise ValueError
-                seeds.update(range(low, high + 1))
-            else:
-                seeds.add(int(part))
+            low, dash, high = part.partition("-")
+            spans.append((int(low), int(high) if dash else int(low)))
+            if spans[-1][1] < spans[-1][0]:
+                raise ValueError
     except ValueError:
         raise UsageError(f"bad seed list {text!r} (examples: 3, 1-4, 1,3,5-7)") from None
-    if not seeds or min(seeds) < 1:
+    spans.sort()
+    if spans[0][0] < 1:
         raise UsageError(f"seeds must be positive integers, got {text!r}")
-    return sorted(seeds)
+    if max(high for _, high in spans) > MAX_SEED:
+        raise UsageError(f"seeds must be at most {MAX_SEED}, got {text!r}")
+    merged = [list(spans[0])]
+    for low, high in spans[1:]:
+        if low <= merged[-1][1] + 1:
+            merged[-1][1] = max(merged[-1][1], high)
+        else:
+            merged.append([low, high])
+    return tuple(range(low, high + 1) for low, high in merged)
 
 
 def parse_overrides(items: list[str]) -> dict[str, str]:
@@ -62,7 +79,12 @@ def cmd_list(args) -> int:
     return 0
 
 
+CHECK_EVERY_SEED_UP_TO = 10_000
+"""Longer seed lists are checked up front at the ends of each range only (each job again in its worker)."""
+
+
 def cmd_generate(args) -> int:
+    from phyrogen_core.folder import require_writable_dir
     from solver.generation import Job, run_jobs
 
     names = _generators(args.generator)
@@ -71,27 +93,50 @@ def cmd_generate(args) -> int:
     if overrides and len(names) > 1:
         raise UsageError("--set applies to one generator; name it with --generator")
     registry = all_generators()
+    count = sum(len(r) for r in seeds)
     for name in names:  # fail fast on bad parameters, before any work
         spec = registry[name]
         params = spec.parse_params(overrides)
-        for seed in seeds:
-            spec.check(seed, params)
-    jobs = [Job(name, seed, overrides) for name in names for seed in seeds]
-    out = Path(args.out)
+        # Seed-dependent sizes (n = seed, n_objects = seed + 1) only grow with the seed, so
+        # a range's two ends stand for it.
+        for r in seeds:
+            for seed in r if count <= CHECK_EVERY_SEED_UP_TO else (r[0], r[-1]):
+                spec.check(seed, params)
+    out = require_writable_dir(args.out)  # an unusable --out is found before any puzzle is made
+    # Jobs are made as the workers take them and each row is printed as soon as it (and every
+    # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
+    jobs = (Job(name, seed, overrides) for name in names for r in seeds for seed in r)
+    progress = _progress(count * len(names), args.quiet)
+
+    def show_running(running: list) -> None:
+        if progress.disable:
+            return
+        shown = [f"{job.generator}_{job.seed}" for job in running[:3]]
+        text = "running " + ", ".join(shown) + (f" and {len(running) - 3} more" if len(running) > 3 else "")
+        # Once a second at least, so that the elapsed time moves while a long puzzle runs.
+        since = time.time() - progress.last_print_t
+        if since >= 1.0 or (text != progress.postfix and since >= progress.mininterval):
+            progress.set_postfix_str(text)
+
     started = time.perf_counter()
-    reports = []
-    progress = _progress(len(jobs), args.quiet)
-    for report in run_jobs(jobs, out, args.workers):
-        reports.append(report)
-        progress.update(1)
-    progress.close()
+    done = failed = 0
+    try:
+        progress.write(f"{'generator':18s} {'seed':>4s} {'objects':>7s} {'actions':>7s} {'time [s]':>8s}  result",
+                       file=sys.stdout)
+        for r in run_jobs(jobs, out, args.workers, on_running=show_running):
+            result = r.folder if r.error is None else "FAILED: " + r.error.splitlines()[0]
+            progress.write(f"{r.generator:18s} {r.seed:4d} {r.objects:7d} {r.actions:7d} {r.seconds:8.2f}  {result}",
+                           file=sys.stdout)
+            sys.stdout.flush()
+            for notice in r.notices:
+                progress.write(f"phyrogen: note: {notice}", file=sys.stderr)
+            progress.update(1)
+            done += 1
+            failed += r.error is not None
+    finally:
+        progress.close()
     wall = time.perf_counter() - started
-    print(f"{'generator':18s} {'seed':>4s} {'objects':>7s} {'actions':>7s} {'time [s]':>8s}  result")
-    for r in reports:
-        result = r.folder if r.error is None else "FAILED: " + r.error.splitlines()[0]
-        print(f"{r.generator:18s} {r.seed:4d} {r.objects:7d} {r.actions:7d} {r.seconds:8.2f}  {result}")
-    failed = [r for r in reports if r.error]
-    print(f"{len(reports) - len(failed)}/{len(reports)} puzzles in {wall:.1f} s wall time with {args.workers} workers")
+    print(f"{done - failed}/{done} puzzles in {wall:.1f} s wall time with {args.workers} workers")
     return 1 if failed else 0
 
 
@@ -124,13 +169,23 @@ def cmd_manipulate(args) -> int:
 def cmd_render(args) -> int:
     from blender_addon.gallery import write_gallery
     from blender_addon.render_worker import parse_size
-    from blender_addon.rendering import RenderError, render_puzzles
+    from blender_addon.rendering import RenderError, check_render_folders, render_puzzles
     from blender_addon.views import parse_views
+    from phyrogen_core.folder import require_writable_dir
 
     views = parse_views(args.views)
-    if not args.gallery_only:
-        size = parse_size(args.size)
-        folders = [f.path for f in find_puzzle_folders(Path(args.out))]
+    size = None if args.gallery_only else parse_size(args.size)
+    out = require_writable_dir(args.out, "render output folder")  # index.html goes there
+    try:
+        found = [f.path for f in find_puzzle_folders(out)]
+    except FileNotFoundError:
+        if not args.gallery_only:
+            raise
+        found = []  # an empty gallery
+    # Every folder is read and checked before any Blender starts (and before the progress bar):
+    # a broken one is bad input naming the folder, not a failed render worker.
+    folders = check_render_folders(found, writable=size is not None)
+    if size is not None:
         progress = _progress(len(folders), args.quiet)
         try:
             report = render_puzzles(folders, args.engine, size, views, args.workers,
@@ -148,7 +203,7 @@ def cmd_render(args) -> int:
 
 
 def cmd_benchmark(args) -> int:
-    from solver.benchmark import estimate_seconds, get_profile, run_benchmark
+    from solver.benchmark import get_profile, plan_benchmark, run_plan
     from solver.planners import PLANNERS
 
     generators = None if args.generator == "all" else _generators(args.generator)
@@ -158,27 +213,111 @@ def cmd_benchmark(args) -> int:
             raise UsageError(f"unknown planner {name!r} (known: {', '.join(PLANNERS)})")
     profile = get_profile(args.profile, args.runs, args.time_limit)
     puzzles = find_puzzle_folders(Path(args.puzzles), generators)
-    estimate = estimate_seconds(puzzles, planners, profile, args.workers, overhead=1.0)
+    # Every puzzle is read and every output path checked here, before the first run.
+    plan = plan_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
+                          save_solutions=not args.no_solutions)
+    estimate = plan.estimate_seconds(overhead=1.0)
     print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
           f"about {estimate / 3600:.1f} h on {args.workers} workers", file=sys.stderr)
+    if plan.done:
+        print(f"resuming: {len(plan.done)} of {len(plan.jobs)} runs already done (journal {plan.journal}; "
+              "delete it to run them again)", file=sys.stderr)
     if args.dry_run:
         return 0
-    result = run_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
-                           save_solutions=not args.no_solutions, progress=not args.quiet)
+    result = run_plan(plan, progress=not args.quiet)
     print((Path(args.out) / "summary.md").read_text(encoding="utf-8"))
     print(f"database: {result.database}  figure: {Path(args.out) / 'fig4.png'}")
+    for line in result.unsaved_solutions:
+        print(f"phyrogen: warning: {line}", file=sys.stderr)
     crashed = sum(1 for r in result.records if r.error)
-    return 1 if crashed else 0
+    return 1 if crashed or result.unsaved_solutions else 0
 
 
 def _progress(total: int, quiet: bool):
+    """A progress bar on stderr (none when ``quiet``), also for a single puzzle: it may take long."""
     from tqdm import tqdm
 
-    return tqdm(total=total, unit="puzzle", disable=quiet or total < 2, file=sys.stderr)
+    return tqdm(total=total, unit="puzzle", disable=quiet, file=sys.stderr)
+
+
+# -- numeric options: refused while the command line is read, before any work --------------
+WORKERS_PER_CORE = 4
+"""``--workers`` may ask for at most this many processes per usable core: more only contend for
+cores and memory (each worker holds OMPL, numpy and the compiled collision kernels), and in a
+benchmark they would distort the timed runs."""
+MAX_RUNS = 10_000
+"""``benchmark --runs``: the paper's protocol takes 100 runs per planner and puzzle."""
+MAX_TIME_LIMIT = 24 * 3600.0
+"""``benchmark --time-limit`` in seconds: a day per run; the paper's longest limit is 600 s."""
+MAX_BENCHMARK_SEED = 2**31 - 2
+"""``benchmark --seed``: OMPL's seed range (see ``solver.pool.stable_seed``), from 0 (the default)."""
+
+
+def max_workers() -> int:
+    """The largest ``--workers``: :data:`WORKERS_PER_CORE` times the cores this process may use."""
+    import os
+
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        cores = os.cpu_count() or 1
+    return WORKERS_PER_CORE * max(1, cores)
+
+
+def _whole_number(text: str, low: int, high: int, why: str = "") -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = None
+    if value is None or not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be a whole number in {low}..{high}{why}, got {text!r}")
+    return value
+
+
+def workers_option(text: str) -> int:
+    return _whole_number(text, 1, max_workers(), f" ({WORKERS_PER_CORE} per usable core)")
+
+
+def runs_option(text: str) -> int:
+    return _whole_number(text, 1, MAX_RUNS)
+
+
+def benchmark_seed_option(text: str) -> int:
+    return _whole_number(text, 0, MAX_BENCHMARK_SEED, " (OMPL's seed range)")
+
+
+def time_limit_option(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = None
+    # NaN fails both comparisons, and inf the upper one: neither is a time limit.
+    if value is None or not 0 < value <= MAX_TIME_LIMIT:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds above 0 and at most {MAX_TIME_LIMIT:g} "
+                                         f"(24 h), got {text!r}")
+    return value
+
+
+def image_size_option(text: str) -> str:
+    """The text itself, once :func:`blender_addon.render_worker.parse_size` accepts it."""
+    from blender_addon.render_worker import parse_size
+
+    try:
+        parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a bad argument is one line (the contract), not the usage and then the message."""
+
+    def error(self, message: str):
+        raise UsageError(f"{message} (see {self.prog} --help)")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="phyrogen", description=__doc__)
+    parser = _Parser(prog="phyrogen", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the registered generators and their parameters").set_defaults(func=cmd_list)
     gen = sub.add_parser("generate", help="generate certified puzzles")
@@ -186,7 +325,8 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--seed", "--seeds", dest="seeds", default="1-4", help="seed, range or list (default 1-4)")
     gen.add_argument("--set", action="append", metavar="KEY=VALUE", help="generator parameter override")
     gen.add_argument("--out", default="output", help="output folder (default: output)")
-    gen.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    gen.add_argument("--workers", type=workers_option, default=2,
+                     help="worker processes (default 2; at most 4 per usable core)")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.set_defaults(func=cmd_generate)
     check = sub.add_parser("check", help="re-validate an exported puzzle folder")
@@ -197,11 +337,14 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--generator", default="all", help="generators to include (default: all found)")
     bench.add_argument("--planners", default="all", help="comma-separated: la_rrt,rrt_star,lbt_rrt,bit_star")
     bench.add_argument("--profile", default="quick", help="paper (100 runs, the paper's limits) or quick")
-    bench.add_argument("--runs", type=int, help="runs per planner and puzzle (overrides the profile)")
-    bench.add_argument("--time-limit", type=float, help="seconds per run for every puzzle (overrides the profile)")
-    bench.add_argument("--seed", type=int, default=0, help="base seed of every run's seed (default 0)")
+    bench.add_argument("--runs", type=runs_option, help="runs per planner and puzzle, 1..10000 (overrides the profile)")
+    bench.add_argument("--time-limit", type=time_limit_option,
+                       help="seconds per run for every puzzle, above 0 and at most 86400 (overrides the profile)")
+    bench.add_argument("--seed", type=benchmark_seed_option, default=0,
+                       help="base seed of every run's seed, 0..2147483646 (default 0)")
     bench.add_argument("--out", default="output/benchmark", help="output folder (default: output/benchmark)")
-    bench.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    bench.add_argument("--workers", type=workers_option, default=2,
+                       help="worker processes (default 2; at most 4 per usable core)")
     bench.add_argument("--no-solutions", action="store_true", help="do not save LA-RRT's best path per puzzle")
     bench.add_argument("--dry-run", action="store_true", help="print the job count and time estimate only")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -219,26 +362,104 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--out", default="output", help="output folder holding the puzzles (default: output)")
     render.add_argument("--engine", default="auto", choices=("auto", "workbench", "cycles"),
                         help="auto: Workbench, Cycles (CPU) where Workbench cannot run (default)")
-    render.add_argument("--size", default="480x360", help="image size WIDTHxHEIGHT (default 480x360)")
+    render.add_argument("--size", type=image_size_option, default="480x360",
+                        help="image size WIDTHxHEIGHT, each side 16..8192 (default 480x360)")
     render.add_argument("--views", default="top,oblique,oblique_back",
                         help="comma-separated views: top, oblique, oblique_back, side")
-    render.add_argument("--workers", type=int, default=1, help="render processes (default 1)")
+    render.add_argument("--workers", type=workers_option, default=1,
+                        help="render processes (default 1; at most 4 per usable core)")
     render.add_argument("--gallery-only", action="store_true", help="only (re)write index.html")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.set_defaults(func=cmd_render)
+    # Before or after the command: 'phyrogen --debug generate ...' and 'phyrogen generate ... --debug'.
+    debug_help = "print the traceback of an unexpected error"
+    parser.add_argument("--debug", action="store_true", help=debug_help)
+    for command in sub.choices.values():
+        command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=debug_help)
     return parser
 
 
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM: raised where the command is, so that every ``with`` and ``finally`` on
+    the way out cleans up (workers stopped, temporary folders removed)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+_interrupted: int | None = None  # the signal that stopped the command
+
+
+def _interrupt(signum, frame) -> None:
+    global _interrupted
+    # Only the first signal counts: a second one would cut the clean-up short.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    _interrupted = signum
+    raise Interrupted(signum)
+
+
+def _redeliver(fallback, unraisable) -> None:
+    # Raised inside a finalizer (a __del__, a weakref callback), Interrupted cannot propagate:
+    # Python would print "Exception ignored" and the command would go on. Send the signal again,
+    # to arrive a moment later, outside the finalizer.
+    if isinstance(unraisable.exc_value, Interrupted) and threading.current_thread() is threading.main_thread():
+        signum = unraisable.exc_value.signum
+        signal.signal(signum, _interrupt)
+        threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
+    else:
+        fallback(unraisable)
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    """Run a command. Bad input: one line on stderr, exit 2. Interrupted (SIGINT, SIGTERM): one
+    line, exit 130 or 143, nothing left running. Anything else: one line (the traceback with
+    ``--debug``), exit 1."""
+    global _interrupted
+    from phyrogen_core.folder import OutputError
+
+    _interrupted = None
+    previous = {}
+    previous_hook = sys.unraisablehook
+    if threading.current_thread() is threading.main_thread():
+        previous = {signum: signal.signal(signum, _interrupt) for signum in (signal.SIGINT, signal.SIGTERM)}
+        sys.unraisablehook = functools.partial(_redeliver, previous_hook)
+    debug = False
     try:
-        return args.func(args)
-    except (UsageError, ParameterError, ValueError, FileNotFoundError) as exc:
+        args = build_parser().parse_args(argv)
+        debug = args.debug
+        code = args.func(args)
+        if _interrupted is not None:  # dropped in a finalizer, and the command ended before it came again
+            raise Interrupted(_interrupted)
+        return code
+    except (UsageError, ParameterError, OutputError, ValueError, FileNotFoundError) as exc:
+        if debug:
+            traceback.print_exc()
         print(f"phyrogen: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
+        for signum in previous:  # also a signal that _redeliver sent again
+            signal.signal(signum, signal.SIG_IGN)
         print("phyrogen: interrupted", file=sys.stderr)
-        return 130
+        return 128 + getattr(exc, "signum", signal.SIGINT)
+    except Exception as exc:
+        if debug:
+            traceback.print_exc()
+        else:
+            message = (str(exc).splitlines() or [""])[0]
+            print(f"phyrogen: error: {type(exc).__name__}: {message} (run with --debug for the traceback)",
+                  file=sys.stderr)
+        return 1
+    finally:
+        # A caller in the same process gets its handlers back. Run as the program (no argv), the
+        # command keeps them until the process ends: a second Ctrl-C arriving as it exits must
+        # still count as ignored, not end it by the signal.
+        if argv is not None and previous:
+            sys.unraisablehook = previous_hook
+            for signum, handler in previous.items():
+                if handler is not None:
+                    signal.signal(signum, handler)
 
 
 if __name__ == "__main__":

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import time
 import traceback
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sized
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.registry import ParameterError, get_generator
 
 from .actions import count_actions
-from .pool import fresh_process_pool, stable_seed
+from .pool import deferred_signals, fresh_process_pool, stable_seed
 from .problem import dependency_graph
 from .validation import OmplValidator, seed_ompl
 
@@ -88,6 +89,7 @@ class Report:
     folder: str | None = None
     error: str | None = None
     puzzle: Puzzle | None = None
+    notices: tuple[str, ...] = ()  # e.g. a changed puzzle's old renders moved to stale/<n>/
 
 
 def _run_job(job: Job, out_root: str | None) -> Report:
@@ -97,14 +99,16 @@ def _run_job(job: Job, out_root: str | None) -> Report:
         params = job.params if job.params is not None else spec.parse_params(job.overrides)
         puzzle = generate_here(job.generator, job.seed, params)
         folder = None
+        notices: list[str] = []
         if out_root is not None:
             from phyrogen_core.export import write_puzzle
 
-            folder = str(write_puzzle(puzzle, Path(out_root), versions()))
+            with deferred_signals():  # stopped while writing, a worker finishes the folder first
+                folder = str(write_puzzle(puzzle, Path(out_root), versions(), notices))
         chain = puzzle.planning_chain
         return Report(job.generator, job.seed, sum(o.is_movable for o in puzzle.objects),
                       count_actions(puzzle.certificate, chain.factors), time.perf_counter() - started,
-                      folder, None, puzzle)
+                      folder, None, puzzle, tuple(notices))
     except (ParameterError, GenerationError) as exc:
         return Report(job.generator, job.seed, seconds=time.perf_counter() - started, error=str(exc))
     except Exception as exc:  # a bug: keep the traceback for the report
@@ -119,24 +123,36 @@ def _cost_hint(job: Job) -> float:
         spec = get_generator(job.generator)
         params = job.params if job.params is not None else spec.parse_params(job.overrides)
         return float(spec.build(job.seed, params).budget_scale)
-    except (ParameterError, GenerationError, ValueError):
+    except Exception:  # the worker runs the job and reports what is wrong with it
         return 1.0
 
 
+def _lost(job: Job, how: str) -> Report:
+    return Report(job.generator, job.seed, error=f"the worker process ended ({how}) before it reported")
+
+
+LOOKAHEAD = 64
+"""Jobs read ahead of the oldest unreported one: the memory a run holds does not grow with its length."""
+
+
 def run_jobs(jobs: Iterable[Job], out_root: Path | None = None, workers: int = 2,
-             on_done: Callable[[Report], None] | None = None) -> Iterator[Report]:
-    """Run jobs in fresh worker processes (one process per job), yielding reports as they finish."""
-    jobs = list(jobs)
+             on_done: Callable[[Report], None] | None = None,
+             on_running: Callable[[list[Job]], None] | None = None) -> Iterator[Report]:
+    """Run jobs in fresh worker processes (one process per job), yielding their reports in the
+    order of ``jobs``, which is read as the work goes on (it may be a long generator).
+
+    ``on_running`` gets the jobs running, at least once a second and whenever they change.
+    Leaving the loop early (an exception, Ctrl-C) stops the running jobs; the folders written
+    so far stay, and none is left half-written.
+    """
+    tasks = len(jobs) if isinstance(jobs, Sized) else workers
     root = None if out_root is None else str(out_root)
-    with fresh_process_pool(workers, len(jobs), _PRELOAD) as pool:
-        # Start the jobs with the largest search budgets first, so that no long job is left
-        # running alone at the end; reports still come back in the order of ``jobs``.
-        started = {}
-        for index in sorted(range(len(jobs)), key=lambda i: -_cost_hint(jobs[i])):
-            started[index] = pool.apply_async(_run_job, (jobs[index], root))
-        results = [started[i] for i in range(len(jobs))]
-        for result in results:
-            report = result.get()
+    with fresh_process_pool(workers, tasks, _PRELOAD) as pool:
+        # Among the jobs read ahead, those with the largest search budgets start first, so that
+        # no long job is left running alone at the end. Each puzzle depends only on its job,
+        # never on the order or the process it runs in.
+        for report in pool.imap(partial(_run_job, out_root=root), jobs, lookahead=LOOKAHEAD,
+                                priority=_cost_hint, on_lost=_lost, heartbeat=on_running):
             if on_done is not None:
                 on_done(report)
             yield report

@@ -1,0 +1,313 @@
+"""Interrupted commands stop cleanly: SIGINT (Ctrl-C reaches the whole process group) and SIGTERM
+(to the command, or to its group as ``timeout`` sends it) give exit 130 / 143 and one line,
+``phyrogen: interrupted``, on stderr; no process is left behind (worker, fork server, resource
+tracker, render worker), no temporary folder stays, and the puzzles finished before stay valid.
+A parent killed outright takes its workers with it. Huge seed ranges stream; a long puzzle shows
+progress; only ``--debug`` shows a traceback.
+
+Every case runs the real command in a session of its own, so that every process it starts,
+even one orphaned, can be found by its session id in /proc.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+import phyrogen
+from phyrogen.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+QUICK = ["--generator", "simple_slider", "--set", "n_objects=2"]  # about 0.1 s a puzzle
+SLOW = ["--generator", "move_n_times", "--set", "n=5"]  # most of a minute a puzzle, or more
+INTERRUPTED = "phyrogen: interrupted\n"
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+
+
+def run_phyrogen(*args: str, stderr=subprocess.PIPE) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "phyrogen", *args], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=stderr, text=True, start_new_session=True)
+
+
+def session_processes(session: int) -> dict[int, tuple[int, str]]:
+    """Live (not zombie) processes of ``session``: pid -> (parent pid, command line)."""
+    found = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            stat = Path(f"/proc/{entry}/stat").read_text()
+            command = Path(f"/proc/{entry}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:  # ended meanwhile
+            continue
+        state, parent, _, sid = stat[stat.rindex(")") + 2:].split()[:4]
+        if int(sid) == session and state != "Z":
+            found[int(entry)] = (int(parent), command)
+    return found
+
+
+def workers(process: subprocess.Popen) -> list[int]:
+    """The pool's workers: processes forked by the fork server, a child of the command."""
+    live = session_processes(process.pid)
+    return [pid for pid, (parent, _) in live.items() if live.get(parent, (0,))[0] == process.pid]
+
+
+def wait_for(condition: Callable[[], object], seconds: float, what: str) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.05)
+
+
+def finish(process: subprocess.Popen, seconds: float = 60) -> tuple[str, str]:
+    """stdout and stderr until every process holding them (workers, servers) is gone."""
+    try:
+        out, err = process.communicate(timeout=seconds)
+    except subprocess.TimeoutExpired:
+        left = session_processes(process.pid)
+        for pid in left:
+            os.kill(pid, signal.SIGKILL)
+        process.communicate()
+        pytest.fail(f"processes still running {seconds} s after the command was stopped: {left}")
+    return out, err
+
+
+def assert_nothing_left(process: subprocess.Popen) -> None:
+    # Orphans are reaped by PID 1, which may take a moment; a live process would stay.
+    wait_for(lambda: not session_processes(process.pid), 10, f"no process left: {session_processes(process.pid)}")
+
+
+def puzzle_folders(out: Path) -> list[Path]:
+    return sorted(p.parent for p in out.rglob("puzzle.json"))
+
+
+def temporary_entries(out: Path) -> list[Path]:
+    return list(out.rglob(".*"))
+
+
+@pytest.mark.parametrize(("signum", "group"), [(signal.SIGINT, True), (signal.SIGTERM, False), (signal.SIGTERM, True)],
+                         ids=["ctrl-c", "kill", "timeout"])
+def test_interrupted_generate_keeps_finished_puzzles_and_leaves_nothing(signum, group, tmp_path):
+    out = tmp_path / "out"
+    process = run_phyrogen("generate", *QUICK, "--seeds", "1-500", "--out", str(out), "--quiet")
+    wait_for(lambda: len(puzzle_folders(out)) >= 3, 60, "three finished puzzles")
+    if group:
+        os.killpg(process.pid, signum)
+    else:
+        process.send_signal(signum)
+    stdout, stderr = finish(process)
+    assert (process.returncode, stderr) == (128 + signum, INTERRUPTED)
+    assert_nothing_left(process)
+    assert temporary_entries(out) == []
+    folders = puzzle_folders(out)
+    assert 3 <= len(folders) < 500
+    assert {f.name: phyrogen.check(f) for f in folders} == {f.name: [] for f in folders}
+    reported = [line.split()[-1] for line in stdout.splitlines()[1:]]
+    assert set(reported) <= {str(f) for f in folders}  # a row is printed only for a finished puzzle
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "timeout"])
+def test_a_long_puzzle_is_stopped_at_once(signum, tmp_path):
+    out = tmp_path / "out"
+    process = run_phyrogen("generate", *SLOW, "--seeds", "1-4", "--workers", "2", "--out", str(out), "--quiet")
+    wait_for(lambda: len(workers(process)) == 2, 60, "two workers")
+    os.killpg(process.pid, signum)
+    _, stderr = finish(process, 30)
+    assert (process.returncode, stderr) == (128 + signum, INTERRUPTED)
+    assert_nothing_left(process)
+    assert puzzle_folders(out) == [] and temporary_entries(out) == []
+
+
+def test_ctrl_c_twice_still_cleans_up(tmp_path):
+    out = tmp_path / "out"
+    process = run_phyrogen("generate", *SLOW, "--seeds", "1-4", "--workers", "2", "--out", str(out), "--quiet")
+    wait_for(lambda: len(workers(process)) == 2, 60, "two workers")
+    os.killpg(process.pid, signal.SIGINT)
+    time.sleep(0.02)
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = finish(process, 30)
+    assert (process.returncode, stderr) == (130, INTERRUPTED)
+    assert_nothing_left(process)
+
+
+def test_sigterm_while_the_fork_server_starts(tmp_path):
+    out = tmp_path / "out"
+    process = run_phyrogen("generate", *QUICK, "--seeds", "1-50", "--out", str(out), "--quiet")
+    server = lambda: [pid for pid, (_, cmd) in session_processes(process.pid).items() if "forkserver" in cmd]  # noqa: E731
+    wait_for(server, 60, "the fork server")
+    assert workers(process) == []  # still importing its preload: the case under test
+    os.killpg(process.pid, signal.SIGTERM)
+    _, stderr = finish(process)
+    assert (process.returncode, stderr) == (143, INTERRUPTED)
+    assert_nothing_left(process)
+    assert temporary_entries(out) == []
+
+
+def test_workers_end_with_a_killed_parent(tmp_path):
+    process = run_phyrogen("generate", *SLOW, "--seeds", "1-4", "--workers", "2", "--out", str(tmp_path), "--quiet")
+    wait_for(lambda: len(workers(process)) == 2, 60, "two workers")
+    process.kill()  # SIGKILL: no handler, no clean-up in the parent
+    finish(process, 30)
+    assert_nothing_left(process)
+
+
+def peak_rss_until(process: subprocess.Popen, condition: Callable[[], object], seconds: float) -> int:
+    """The command's largest resident memory (kB) until ``condition`` holds."""
+    peak = 0
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert process.poll() is None and time.monotonic() < deadline, "the command did not start working"
+        status = Path(f"/proc/{process.pid}/status").read_text()
+        peak = max(peak, int(status.split("VmRSS:")[1].split()[0]))
+        time.sleep(0.05)
+    return peak
+
+
+def test_a_hundred_million_seeds_stream_in_little_memory(tmp_path):
+    out = tmp_path / "out"
+    process = run_phyrogen("generate", *QUICK, "--seeds", "1-100000000", "--out", str(out), "--quiet")
+    peak = peak_rss_until(process, lambda: len(puzzle_folders(out)) >= 2, 60)
+    os.killpg(process.pid, signal.SIGINT)
+    stdout, stderr = finish(process)
+    assert (process.returncode, stderr) == (130, INTERRUPTED)
+    assert peak < 400 * 1024, f"{peak / 1024:.0f} MiB"  # a list of the seeds alone would be gigabytes
+    # Work starts at the first seeds, and each row is printed once it and all rows before it are done.
+    assert {f.name for f in puzzle_folders(out)} <= {f"simple_slider_{seed}" for seed in range(1, 20)}
+    seeds = [int(line.split()[1]) for line in stdout.splitlines()[1:]]
+    assert seeds == list(range(1, len(seeds) + 1))
+    assert_nothing_left(process)
+
+
+def test_a_hundred_million_seeds_with_a_bad_size_are_refused_before_any_work(tmp_path):
+    # Without n_objects, simple_slider builds seed + 1 sliders: seed 100000000 is far too many.
+    process = run_phyrogen("generate", "--generator", "simple_slider", "--seeds", "1-100000000",
+                           "--out", str(tmp_path / "out"))
+    _, stderr = finish(process, 30)
+    assert process.returncode == 2
+    assert len(stderr.splitlines()) == 1 and "n_objects" in stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_single_long_puzzle_shows_running_progress(tmp_path):
+    log = tmp_path / "stderr"
+    with log.open("w") as sink:
+        process = run_phyrogen("generate", *SLOW, "--seeds", "1", "--out", str(tmp_path / "out"), stderr=sink)
+        try:
+            # Refreshed every second although nothing finishes: the elapsed time moves on.
+            wait_for(lambda: "00:02" in log.read_text(), 60, "a progress bar at two seconds")
+        finally:
+            os.killpg(process.pid, signal.SIGINT)
+            finish(process)
+    text = log.read_text()
+    assert "running move_n_times_1" in text and "00:01" in text
+    assert text.endswith(INTERRUPTED) and "Traceback" not in text
+
+
+def test_ctrl_c_of_benchmark_prints_no_worker_traceback(tmp_path):
+    puzzles = tmp_path / "puzzles"
+    generated = run_phyrogen("generate", *QUICK, "--seeds", "1", "--out", str(puzzles), "--quiet")
+    finish(generated)
+    assert generated.returncode == 0
+    # Short runs: workers end and start all the time, so Ctrl-C also finds some starting.
+    process = run_phyrogen("benchmark", "--puzzles", str(puzzles), "--planners", "la_rrt", "--runs", "5000",
+                           "--time-limit", "0.2", "--workers", "2", "--out", str(tmp_path / "bench"), "--quiet")
+    wait_for(lambda: len(workers(process)) == 2, 60, "two benchmark workers")
+    time.sleep(1)
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = finish(process)
+    assert process.returncode == 130
+    assert stderr.endswith(INTERRUPTED) and "Traceback" not in stderr and "KeyboardInterrupt" not in stderr
+    assert_nothing_left(process)
+
+
+def test_sigterm_of_render_stops_its_blender_workers(tmp_path):
+    pytest.importorskip("bpy")
+    out = tmp_path / "out"
+    generated = run_phyrogen("generate", *QUICK, "--seeds", "1-8", "--out", str(out), "--quiet")
+    finish(generated)
+    process = run_phyrogen("render", "--out", str(out), "--workers", "2", "--quiet")
+    render_workers = lambda: [pid for pid, (_, cmd) in session_processes(process.pid).items()  # noqa: E731
+                              if "render_worker" in cmd]
+    wait_for(lambda: len(render_workers()) == 2, 60, "two render workers")
+    process.terminate()  # the command only: its workers get no signal but from it
+    _, stderr = finish(process)
+    assert (process.returncode, stderr) == (143, INTERRUPTED)
+    assert_nothing_left(process)
+    assert temporary_entries(out) == []
+
+
+def fail_with(exc: Exception):
+    def command(args) -> int:
+        raise exc
+
+    return command
+
+
+@pytest.mark.parametrize("argv", [["list"], ["--debug", "list"], ["list", "--debug"]])
+def test_a_traceback_only_with_debug(argv, monkeypatch, capsys):
+    monkeypatch.setattr("phyrogen.cli.cmd_list", fail_with(RuntimeError("boom\nsecond line")))
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    if "--debug" in argv:
+        assert "Traceback" in err and "RuntimeError: boom" in err
+    else:
+        assert err == "phyrogen: error: RuntimeError: boom (run with --debug for the traceback)\n"
+
+
+def test_an_unusable_output_path_is_bad_input(monkeypatch, capsys):
+    from phyrogen_core.folder import OutputError
+
+    monkeypatch.setattr("phyrogen.cli.cmd_list", fail_with(OutputError("output folder out is a file")))
+    assert main(["list"]) == 2
+    assert capsys.readouterr().err == "phyrogen: error: output folder out is a file\n"
+
+
+def test_a_worker_killed_from_outside_is_reported_not_waited_for(tmp_path):
+    # What the kernel's out-of-memory killer does to a big puzzle.
+    process = run_phyrogen("generate", *SLOW, "--seeds", "1", "--out", str(tmp_path), "--quiet")
+    wait_for(lambda: workers(process), 60, "the worker")
+    os.kill(workers(process)[0], signal.SIGKILL)
+    stdout, stderr = finish(process)
+    assert process.returncode == 1 and stderr == ""
+    assert "move_n_times" in stdout and "FAILED: the worker process ended (killed by signal 9)" in stdout
+    assert_nothing_left(process)
+
+
+FINALIZER_COMMAND = """
+import os, signal, sys, threading, time
+import phyrogen.cli as cli
+
+class Finalized:
+    def __del__(self):
+        time.sleep(1)  # the signal arrives in here, where Python drops what a handler raises
+
+def command(args):
+    threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGTERM)).start()
+    Finalized()
+    time.sleep(3)  # the rest of the work
+    print("finished")
+    return 0
+
+cli.cmd_list = command
+sys.exit(cli.main())
+"""
+
+
+def test_a_signal_arriving_in_a_finalizer_still_stops_the_command():
+    process = subprocess.run([sys.executable, "-c", FINALIZER_COMMAND, "list"], cwd=ROOT, capture_output=True,
+                             text=True, timeout=60)
+    assert (process.returncode, process.stderr, process.stdout) == (143, INTERRUPTED, "")
+
+
+def test_overlapping_seed_ranges_give_each_seed_once_in_order(tmp_path, capsys):
+    assert main(["generate", *QUICK, "--seeds", "5,1-2,2,3-4,1", "--out", str(tmp_path), "--quiet"]) == 0
+    rows = capsys.readouterr().out.splitlines()[1:-1]
+    assert [int(row.split()[1]) for row in rows] == [1, 2, 3, 4, 5]
