@@ -103,6 +103,8 @@ def cmd_generate(args) -> int:
             for seed in r if count <= CHECK_EVERY_SEED_UP_TO else (r[0], r[-1]):
                 spec.check(seed, params)
     out = require_writable_dir(args.out)  # an unusable --out is found before any puzzle is made
+    for name in names:
+        require_writable_dir(out / name)
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
     jobs = (Job(name, seed, overrides) for name in names for r in seeds for seed in r)

@@ -152,6 +152,15 @@ def test_a_file_where_a_puzzles_manipulation_output_goes_is_refused(tmp_path, pu
             str(runs / "hostile_1"), "not a folder")
 
 
+def test_a_file_where_a_generators_folder_goes_is_refused_before_any_puzzle(tmp_path, capsys, no_work):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "grid_world").write_text("a user's notes")
+    refused(["generate", "--generator", "simple_slider,grid_world", "--seeds", "2", "--out", str(out), "--quiet"],
+            capsys, tmp_path, str(out / "grid_world"), "is a file")
+    assert (out / "grid_world").read_text() == "a user's notes"
+
+
 # -- broken puzzle folders ---------------------------------------------------------------
 def broken_json(folder: Path) -> str:
     (folder / "puzzle.json").write_text("{ not json")
