@@ -202,9 +202,18 @@ def _run_job(job: RunJob) -> RunRecord:
             tuple((p.time, p.best_cost, p.iterations) for p in result.progress), path, loaded.joint_order,
             time.perf_counter() - started, None, result.best_solution_time)
     except Exception as exc:  # a crashed run is data, not the end of the benchmark
-        return RunRecord(spec.title, job.puzzle.name, job.run, job.seed, job.time_limit, False, "Crash",
-                         time.perf_counter() - started, None, None, None, 0, 0, (), (), (),
-                         time.perf_counter() - started, f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}")
+        return _crashed(job, time.perf_counter() - started,
+                        f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}")
+
+
+def _crashed(job: RunJob, seconds: float, error: str) -> RunRecord:
+    return RunRecord(get_planner(job.planner).title, job.puzzle.name, job.run, job.seed, job.time_limit, False,
+                     "Crash", seconds, None, None, None, 0, 0, (), (), (), seconds, error)
+
+
+def _lost(job: RunJob, how: str) -> RunRecord:
+    """A run whose worker died without a record (a planner's segfault, the out-of-memory killer)."""
+    return _crashed(job, 0.0, f"the worker process ended ({how}) before it reported")
 
 
 _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.export", "solver._kernels",
@@ -225,7 +234,7 @@ def run_all(jobs: Sequence[RunJob], workers: int = 2,
     """Run every job in a fresh process (one per job), yielding records as they finish."""
     check_workers(workers)
     with fresh_process_pool(workers, len(jobs), _PRELOAD) as pool:
-        for record in pool.imap_unordered(_run_job, jobs):
+        for record in pool.imap_unordered(_run_job, jobs, on_lost=_lost):
             if on_done is not None:
                 on_done(record)
             yield record

@@ -80,9 +80,11 @@ class FreshProcessPool:
     def __exit__(self, *exc_info) -> None:
         self.terminate()
 
-    def imap_unordered(self, func: Callable[[Any], Any], items: Iterable[Any]) -> Iterator[Any]:
-        """``func(item)`` for each item, in the order they finish; ``items`` is read as workers free up."""
-        return self._results(func, items, ordered=False)
+    def imap_unordered(self, func: Callable[[Any], Any], items: Iterable[Any], *,
+                       on_lost: Callable[[Any, str], Any] | None = None) -> Iterator[Any]:
+        """``func(item)`` for each item, in the order they finish; ``items`` is read as workers free up.
+        ``on_lost`` as in :meth:`imap`."""
+        return self._results(func, items, ordered=False, on_lost=on_lost)
 
     def imap(self, func: Callable[[Any], Any], items: Iterable[Any], *, lookahead: int = 0,
              priority: Callable[[Any], float] | None = None,

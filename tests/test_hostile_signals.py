@@ -311,3 +311,17 @@ def test_overlapping_seed_ranges_give_each_seed_once_in_order(tmp_path, capsys):
     assert main(["generate", *QUICK, "--seeds", "5,1-2,2,3-4,1", "--out", str(tmp_path), "--quiet"]) == 0
     rows = capsys.readouterr().out.splitlines()[1:-1]
     assert [int(row.split()[1]) for row in rows] == [1, 2, 3, 4, 5]
+
+
+def test_a_worker_that_dies_without_a_result_is_reported_not_awaited():
+    """A run killed from outside (the out-of-memory killer, a planner's segfault) is one lost item,
+    in either order of results; the benchmark records it as a crashed run."""
+    from solver.pool import fresh_process_pool
+
+    lost = lambda item, how: (item, how)  # noqa: E731
+    with fresh_process_pool(2, 3, []) as pool:
+        unordered = sorted(pool.imap_unordered(os._exit, [3, 4, 5], on_lost=lost))
+    with fresh_process_pool(2, 2, []) as pool:
+        ordered = list(pool.imap(os._exit, [7, 6], on_lost=lost))
+    assert unordered == [(3, "exit code 3"), (4, "exit code 4"), (5, "exit code 5")]
+    assert ordered == [(7, "exit code 7"), (6, "exit code 6")]
