@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import os
 import signal
@@ -440,6 +441,13 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         print(f"phyrogen: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        # The reader of stdout went away (``phyrogen generate | head``): the workers were stopped on
+        # the way here; end quietly as a program killed by SIGPIPE would, and let the interpreter's
+        # final flush of stdout go nowhere.
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
     except KeyboardInterrupt as exc:
         for signum in previous:  # also a signal that _redeliver sent again
             signal.signal(signum, signal.SIG_IGN)

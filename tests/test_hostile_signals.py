@@ -325,3 +325,18 @@ def test_a_worker_that_dies_without_a_result_is_reported_not_awaited():
         ordered = list(pool.imap(os._exit, [7, 6], on_lost=lost))
     assert unordered == [(3, "exit code 3"), (4, "exit code 4"), (5, "exit code 5")]
     assert ordered == [(7, "exit code 7"), (6, "exit code 6")]
+
+
+def test_a_reader_that_stops_reading_ends_generate_quietly(tmp_path):
+    """``phyrogen generate | head -2``: the command ends as SIGPIPE would, without a traceback,
+    and stops its workers; the puzzles it finished stay whole."""
+    out = tmp_path / "out"
+    process = run_phyrogen("generate", *QUICK, "--seeds", "1-300", "--out", str(out), "--quiet")
+    assert process.stdout.readline().startswith("generator")
+    assert process.stdout.readline().startswith("simple_slider")
+    process.stdout.close()  # the reader goes away; the next row the command prints breaks the pipe
+    _, stderr = process.communicate(timeout=60)
+    assert (process.returncode, stderr) == (128 + signal.SIGPIPE, "")
+    assert_nothing_left(process)
+    assert temporary_entries(out) == []
+    assert 1 <= len(puzzle_folders(out)) < 300
