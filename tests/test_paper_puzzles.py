@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import multiprocessing
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +10,7 @@ from pybullet_scene import PENETRATION, PyBulletScene
 
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.registry import get_generator
+from solver.pool import fresh_process_pool
 from solver.problem import densify, problem_for_objects, verify_certificate
 from solver.validation import DEFAULT_BUDGET, rrt_connect
 
@@ -68,8 +68,7 @@ def test_fixing_any_movable_object_makes_the_puzzle_unsolvable(paper_reports):
         for obj in report.puzzle.objects:
             if obj.is_movable:
                 jobs.append((report.generator, report.seed, report.puzzle, obj.name, budget))
-    context = multiprocessing.get_context("forkserver")
-    with context.Pool(2, maxtasksperchild=4) as pool:
-        results = pool.map(_solvable_with_object_fixed, jobs)
+    with fresh_process_pool(2, len(jobs), []) as pool:
+        results = list(pool.imap(_solvable_with_object_fixed, jobs))
     superfluous = [f"{g} {s}: {name}" for g, s, name, solved in results if solved]
     assert not superfluous, "solvable with these objects fixed: " + ", ".join(superfluous)
