@@ -340,11 +340,13 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--generator", default="all", help="generators to include (default: all found)")
     bench.add_argument("--planners", default="all", help="comma-separated: la_rrt,rrt_star,lbt_rrt,bit_star")
     bench.add_argument("--profile", default="quick", help="paper (100 runs, the paper's limits) or quick")
-    bench.add_argument("--runs", type=runs_option, help="runs per planner and puzzle, 1..10000 (overrides the profile)")
+    bench.add_argument("--runs", type=runs_option,
+                       help=f"runs per planner and puzzle, 1..{MAX_RUNS} (overrides the profile)")
     bench.add_argument("--time-limit", type=time_limit_option,
-                       help="seconds per run for every puzzle, above 0 and at most 86400 (overrides the profile)")
+                       help=f"seconds per run for every puzzle, above 0 and at most {MAX_TIME_LIMIT:g} "
+                            "(overrides the profile)")
     bench.add_argument("--seed", type=benchmark_seed_option, default=0,
-                       help="base seed of every run's seed, 0..2147483646 (default 0)")
+                       help=f"base seed of every run's seed, 0..{MAX_BENCHMARK_SEED} (default 0)")
     bench.add_argument("--out", default="output/benchmark", help="output folder (default: output/benchmark)")
     bench.add_argument("--workers", type=workers_option, default=2,
                        help="worker processes (default 2; at most 4 per usable core)")
