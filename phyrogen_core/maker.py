@@ -6,12 +6,15 @@ source (a finite set: the seeded rng picks one; a sequence: its n-th item),
 lets the generator attach the new object to the puzzle built so far, and keeps
 the candidate only if
 
-1. the puzzle is NOT solvable with the new object fixed at its creation pose
-   (otherwise the object would be superfluous), and
+1. the puzzle is NOT solvable with the new object fixed at its creation pose,
+   even with every collision shape shrunk by ``interlock_margin`` (otherwise
+   the object would be superfluous, or blocks by a sliver of slack only), and
 2. the puzzle IS solvable with the object free.
 
-Solvability is asked of a :class:`Validator` (the solver package provides the
-OMPL one), so the core stays free of planner imports. Objects with a fixed
+Both questions are asked of a :class:`Validator` (the solver package provides
+the OMPL and LA-RRT one), so the core stays free of planner imports. The
+validator also measures how much shrink each new object withstands; the
+result keeps it per object (``margins``). Objects with a fixed
 joint (walls, corridors, rooms) have nothing to fix: for them only check 2
 applies, otherwise Algorithm 1 would loop forever on them.
 """
@@ -88,6 +91,13 @@ class Validator(Protocol):
 
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult: ...
 
+    def necessity(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], margin: float, *,
+                  budget_scale: float = 1.0) -> float | None:
+        """The objects ``fixed`` held at their creation pose: None when the puzzle is then solvable
+        with every shape shrunk by ``margin`` (they are superfluous), else the largest shrink
+        measured at which it is not (at least ``margin``)."""
+        ...
+
 
 # -- the algorithm -----------------------------------------------------------
 @dataclass(frozen=True)
@@ -116,8 +126,9 @@ class MakerInput:
     initial: Draft = field(default_factory=Draft)
     max_tries: int = 50  # candidates per iteration
     max_restarts: int = 10  # whole-puzzle restarts when an iteration runs out of tries
-    fixed_budget_scale: float = 1.5  # the prototype gave FixJoint 1.5x the UnfixJoint time
-    budget_scale: float = 1.0  # harder families may give the validator a larger search budget
+    fixed_budget_scale: float = 1.0  # scales the FixJoint judge's own budget (see the validator)
+    interlock_margin: float = 0.01  # metres every shape is shrunk by when FixJoint asks if an object is needed
+    budget_scale: float = 1.0  # harder families may give the validator's solve a larger search budget
 
 
 @dataclass(frozen=True)
@@ -126,6 +137,7 @@ class MakerResult:
     goal: Goal
     certificate: tuple[tuple[float, ...], ...]
     context: Any = None
+    margins: dict[str, float] = field(default_factory=dict)  # object -> measured margin (metres)
 
 
 def rng_for(generator: str, seed: int, stream: str = "maker") -> np.random.Generator:
@@ -157,6 +169,7 @@ def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator,
                seed: int, progress: Callable[[int, int], None] | None) -> MakerResult:
     draft = spec.initial
     path: tuple[tuple[float, ...], ...] = ()
+    margins: dict[str, float] = {}
     for n in range(1, spec.n_objects + 1):
         for _ in range(spec.max_tries):
             obj_item = spec.objects.get(n, rng)
@@ -167,18 +180,21 @@ def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator,
                 continue
             new_objects = candidate.objects[len(draft.objects):]
             goal = spec.goal(candidate)
-            movable = [o for o in new_objects if o.is_movable]
+            movable = [o.name for o in new_objects if o.is_movable]
+            margin = None
             if movable:
-                fixed = tuple(o.fixed() if o in movable else o for o in candidate.objects)
-                if validator.solve(fixed, goal, budget_scale=spec.fixed_budget_scale).solved:
+                margin = validator.necessity(candidate.objects, goal, movable, spec.interlock_margin,
+                                             budget_scale=spec.fixed_budget_scale)
+                if margin is None:
                     continue  # superfluous: solvable without moving it
             result = validator.solve(candidate.objects, goal)
             if not result.solved:
                 continue
             draft, path = candidate, result.path
+            margins.update({name: margin for name in movable})
             break
         else:
             raise _IterationExhaustedError(f"iteration {n}: no valid candidate in {spec.max_tries} tries")
         if progress:
             progress(n, spec.n_objects)
-    return MakerResult(draft.objects, spec.goal(draft), path, draft.context)
+    return MakerResult(draft.objects, spec.goal(draft), path, draft.context, margins)

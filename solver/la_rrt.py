@@ -30,7 +30,7 @@ All random draws come from one numpy Generator seeded per run.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
@@ -283,7 +283,9 @@ class LaRrt:
         return np.array(a + b[::-1][1:])
 
     # -- main loop ---------------------------------------------------------
-    def solve(self, recorder: AnytimeRecorder) -> PlanResult:
+    def solve(self, recorder: AnytimeRecorder, until_first: bool = False) -> PlanResult:
+        """Grow the trees until ``recorder`` expires, or until the first solution when ``until_first``
+        (returned as found, not defragmented)."""
         problem = self.problem
         if not self.model.is_valid(problem.start):
             return recorder.result(0, "Invalid start")
@@ -308,18 +310,31 @@ class LaRrt:
                 if status == _REACHED:
                     self.connections += 1
                     raw = self._path(growing, new, other, reached)
-                    recorder.offer(raw)  # a solution already; defragmenting improves it
-                    if not recorder.has_solution or \
-                            self.defragment_seconds < self.settings.defragment_share * recorder.elapsed():
-                        began = recorder.elapsed()
-                        better = self.defragmenter.run(raw, recorder.expired)
-                        # Checked at fine resolution now, so that the final check cannot reject it.
-                        if recorder.improves(better) and path_is_valid(self.model, better, self.fine_steps):
-                            recorder.offer(better)
-                        self.defragment_seconds += recorder.elapsed() - began
+                    if until_first:
+                        # Kept only if it holds at fine resolution, as the result's final check asks
+                        # (segment by segment: a failing segment is found after a few states).
+                        segments = zip(raw[:-1], raw[1:], strict=True)
+                        if all(self.model.check_motion(a, b, self.fine_steps) for a, b in segments) \
+                                and recorder.offer(raw):
+                            break
+                    else:
+                        self._offer_defragmented(recorder, raw)
             if self.goal_tree.size > 0:
                 growing, other = other, growing
         return recorder.result(self.iterations)
+
+    def _offer_defragmented(self, recorder: AnytimeRecorder, raw: np.ndarray) -> None:
+        """Offer a connection's path, then (within the defragmenting share of the run) its
+        defragmented form."""
+        recorder.offer(raw)  # a solution already; defragmenting improves it
+        if not recorder.has_solution or \
+                self.defragment_seconds < self.settings.defragment_share * recorder.elapsed():
+            began = recorder.elapsed()
+            better = self.defragmenter.run(raw, recorder.expired)
+            # Checked at fine resolution now, so that the final check cannot reject it.
+            if recorder.improves(better) and path_is_valid(self.model, better, self.fine_steps):
+                recorder.offer(better)
+            self.defragment_seconds += recorder.elapsed() - began
 
 
 def plan_la_rrt(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
@@ -327,3 +342,55 @@ def plan_la_rrt(problem: Problem, time_limit: float, seed: int, progress_interva
     """Run LA-RRT for ``time_limit`` seconds; all randomness from ``seed``."""
     planner = LaRrt(problem, np.random.default_rng(seed), settings)
     return planner.solve(AnytimeRecorder("LA-RRT", problem, time_limit, progress_interval))
+
+
+class _CountingModel:
+    """A collision model that counts its queries: one per motion, one per batch of states
+    (a batch is checked in one compiled call, like a motion)."""
+
+    def __init__(self, model):
+        self._model = model
+        self.queries = 0
+
+    def __getattr__(self, name):
+        return getattr(self._model, name)
+
+    def check_prepared(self, states):
+        self.queries += 1
+        return self._model.check_prepared(states)
+
+    def motion_collision(self, start, end, steps):
+        self.queries += 1
+        return self._model.motion_collision(start, end, steps)
+
+    def check_motion(self, start, end, steps):
+        self.queries += 1
+        return self._model.check_motion(start, end, steps)
+
+    def colliding_objects(self, states):
+        self.queries += 1
+        return self._model.colliding_objects(states)
+
+
+class _BudgetRecorder(AnytimeRecorder):
+    """Expires after ``budget`` collision queries instead of seconds, so that the answer is
+    the same on every machine."""
+
+    def __init__(self, problem: Problem, model: _CountingModel, budget: int):
+        super().__init__("LA-RRT", problem, math.inf, math.inf)
+        self.model = model
+        self.budget = budget
+
+    def expired(self) -> bool:
+        return self.model.queries >= self.budget
+
+
+def la_rrt_within(problem: Problem, budget: int, rng: np.random.Generator,
+                  settings: LaRrtSettings | None = None) -> tuple[PlanResult, int]:
+    """LA-RRT until its first solution or until ``budget`` collision queries are spent
+    (deterministic: no clock decides anything). Returns the result and the queries spent."""
+    model = _CountingModel(problem.model)
+    counted = replace(problem, model=model)
+    planner = LaRrt(counted, rng, settings)
+    result = planner.solve(_BudgetRecorder(counted, model, budget), until_first=True)
+    return result, model.queries

@@ -13,6 +13,7 @@ order of certificates and puzzle files.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -22,7 +23,7 @@ from phyrogen_core.chain import KinematicChain
 from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 
-from .collision import CollisionModel
+from .collision import DEFAULT_TOLERANCE, CollisionModel
 
 DEFAULT_RESOLUTION = 0.02
 """Metres any collision point may move between two checked states while validating."""
@@ -52,14 +53,26 @@ class Problem:
     tolerance: float
 
 
-def problem_for_chain(chain: KinematicChain, goal: Goal) -> Problem:
+def problem_for_chain(chain: KinematicChain, goal: Goal, *, fixed: Sequence[str] = (), shrink: float = 0.0) -> Problem:
     """The planning problem of a puzzle chain (built by a generator or read from a folder) with its goal.
 
     Joints whose limits have zero width are locked at their start value (0
-    clipped into the limits). Raises :class:`UnreachableGoalError` when a goal
-    joint is not an active joint of the chain, or is locked away from its goal value.
+    clipped into the limits), and so are the joints of the objects named in
+    ``fixed`` (the Maker's FixJoint). ``shrink`` (metres) shrinks every
+    collision shape: two shapes then collide only where they overlap by more
+    than ``2 * shrink`` (see :func:`shrunk_tolerance`). Raises
+    :class:`UnreachableGoalError` when a goal joint is not an active joint of
+    the chain, or is locked away from its goal value.
     """
-    locked = [j for j in chain.active_joints if j.upper - j.lower < LOCKED_WIDTH]
+    movable = chain.object_names
+    unknown = set(fixed) - set(movable)
+    if unknown:
+        raise ValueError(f"cannot fix {sorted(unknown)}: not movable objects of chain {chain.name!r}; "
+                         f"valid: {list(movable)}")
+    if not (math.isfinite(shrink) and shrink >= 0):
+        raise ValueError(f"shrink must be a finite number of metres >= 0, got {shrink!r}")
+    fixed_joints = {j for j in chain.joint_order if chain.object_of_joint(j) in set(fixed)}
+    locked = [j for j in chain.active_joints if j.upper - j.lower < LOCKED_WIDTH or j.name in fixed_joints]
     locked_names = {j.name for j in locked}
     for name, value in goal.values.items():
         if name not in chain.joint_order:
@@ -69,13 +82,23 @@ def problem_for_chain(chain: KinematicChain, goal: Goal) -> Problem:
         if name in locked_names and abs(locked_at - value) > goal.tolerance:
             raise UnreachableGoalError(f"goal joint {name!r} of chain {chain.name!r} is locked at {locked_at} "
                                        f"(limits of zero width), away from its goal value {value}")
-    model = CollisionModel(chain, {j.name: max(min(0.0, j.upper), j.lower) for j in locked})
+    model = CollisionModel(chain, {j.name: max(min(0.0, j.upper), j.lower) for j in locked},
+                           shrunk_tolerance(shrink))
     order = model.joint_order
     lower = np.array([chain.joint(n).lower for n in order])
     upper = np.array([chain.joint(n).upper for n in order])
     start = np.clip(np.zeros(len(order)), lower, upper)
     columns = {order.index(n): float(v) for n, v in goal.values.items() if n in order}
     return Problem(model, start, columns, lower, upper, goal.tolerance)
+
+
+def shrunk_tolerance(shrink: float) -> float:
+    """The collision model's penetration tolerance that stands for shrinking every shape by
+    ``shrink`` metres: two shapes shrunk by ``s`` each overlap only where the originals
+    overlap by more than ``2 s`` along every separating axis. (At a corner the true
+    shrunk outline is rounded, so this is slightly more permissive than shrinking: a
+    superfluous-object test only gets stricter by it.)"""
+    return max(DEFAULT_TOLERANCE, 2.0 * shrink)
 
 
 def problem_for_objects(objects: Sequence[PuzzleObject], goal: Goal) -> Problem | None:

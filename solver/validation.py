@@ -27,12 +27,14 @@ from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 
 from .collision import CollisionModel
+from .judge import JUDGE_BUDGET, judge
 from .problem import (
     DEFAULT_RESOLUTION,
     FINE_RESOLUTION,
     Problem,
     chain_path,
     goal_distance,
+    path_is_valid,
     problem_for_objects,
     verify_certificate,
 )
@@ -198,6 +200,16 @@ class OmplValidator:
         self._solved[objects] = path
         return SolveResult(True, path, 0)
 
+    def necessity(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], margin: float, *,
+                  budget_scale: float = 1.0) -> float | None:
+        """The Maker's FixJoint: :func:`solver.judge.judge` with ``budget_scale`` times
+        :data:`~solver.judge.JUDGE_BUDGET`; None when the objects ``fixed`` are superfluous, else
+        their measured margin. (The judge's budget does not grow with :attr:`budget`: LA-RRT's
+        pushes need no larger search where RRT-Connect does, as in Move N Times.)"""
+        verdict = judge(build_chain(tuple(objects)), goal, fixed, margin, int(JUDGE_BUDGET * budget_scale), self.rng)
+        self.checks += verdict.queries
+        return verdict.margin if verdict.necessary else None
+
     def _extend_previous(self, objects: tuple[PuzzleObject, ...], goal: Goal):
         """A certificate for ``objects`` built from one for a prefix of them, or None."""
         prefix = next((k for k in range(len(objects) - 1, 0, -1) if objects[:k] in self._solved), None)
@@ -209,7 +221,9 @@ class OmplValidator:
         if len(new_joints) > 1:
             return None  # a grid over several new joints is not worth it; RRT-Connect decides
         model = CollisionModel(chain)
-        steps = model.motion_steps(FINE_RESOLUTION)
+        # Candidates are screened at the validator's resolution (most parkings fail, and fail
+        # fast there); the one kept must hold at fine resolution, as certificates do.
+        coarse, fine = model.motion_steps(self.resolution), model.motion_steps(FINE_RESOLUTION)
         old_path = [dict(zip(old_chain.joint_order, state, strict=True)) for state in self._solved[objects[:prefix]]]
         for value in _parking_values(chain, new_joints):
             rows = [{**old_path[0], **{j: 0.0 for j in new_joints}}]
@@ -218,7 +232,8 @@ class OmplValidator:
             if not goal.is_reached(chain.state_dict(path[-1])):
                 return None
             self.checks += len(path)
-            if all(model.check_motion(a, b, steps) for a, b in zip(path[:-1], path[1:], strict=True)):
+            if all(model.check_motion(a, b, coarse) for a, b in zip(path[:-1], path[1:], strict=True)) and \
+                    path_is_valid(model, path, fine):
                 return tuple(tuple(float(v) for v in row) for row in path)
         return None
 

@@ -10,9 +10,10 @@ class AcceptAll:
     """A validator that calls every candidate necessary and solvable."""
 
     def solve(self, objects, goal, *, budget_scale=1.0):
-        # FixJoint turns a movable object ("obj_..") fixed: report that as unsolvable.
-        fixed_mover = any(o.name.startswith("obj_") and not o.is_movable for o in objects)
-        return SolveResult(not fixed_mover, ((0.0,),))
+        return SolveResult(True, ((0.0,),))
+
+    def necessity(self, objects, goal, fixed, margin, *, budget_scale=1.0):
+        return margin
 
 
 def run(name: str, seed: int, **overrides) -> MakerResult:

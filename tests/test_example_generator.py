@@ -62,21 +62,20 @@ def _generate_and_fix_each_blocker(seed: int) -> tuple[list[str], list[tuple[str
     import numpy as np
 
     from solver.generation import generate_here
-    from solver.problem import problem_for_objects, verify_certificate
-    from solver.validation import DEFAULT_BUDGET, rrt_connect
+    from solver.judge import JUDGE_BUDGET, attempt_fixed
+    from solver.problem import verify_certificate
 
     with registry_copy():
         load_example()
         puzzle = generate_here(NAME, seed)
         maker_input = get_generator(NAME).build(seed, puzzle.parameters)
     problems = verify_certificate(puzzle.planning_chain, puzzle.certificate, puzzle.goal)
-    budget = int(10 * DEFAULT_BUDGET * maker_input.budget_scale * maker_input.fixed_budget_scale)
+    budget = int(10 * JUDGE_BUDGET * maker_input.fixed_budget_scale)
     solved_with_fixed = {}
     for blocker in puzzle.objects[1:]:
-        objects = [o.fixed() if o.name == blocker.name else o for o in puzzle.objects]
-        problem = problem_for_objects(objects, puzzle.goal)
-        solved = problem is not None and rrt_connect(problem, budget, np.random.default_rng(seed)).solved
-        solved_with_fixed[blocker.name] = solved
+        attempt = attempt_fixed(puzzle.planning_chain, puzzle.goal, [blocker.name], maker_input.interlock_margin,
+                                budget, np.random.default_rng(seed))
+        solved_with_fixed[blocker.name] = attempt.solved
     return problems, list(puzzle.dependencies), solved_with_fixed
 
 

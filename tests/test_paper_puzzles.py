@@ -10,9 +10,9 @@ from pybullet_scene import PENETRATION, PyBulletScene
 
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.registry import get_generator
+from solver.judge import JUDGE_BUDGET, attempt_fixed
 from solver.pool import fresh_process_pool
-from solver.problem import densify, problem_for_objects, verify_certificate
-from solver.validation import DEFAULT_BUDGET, rrt_connect
+from solver.problem import densify, verify_certificate
 
 pytestmark = pytest.mark.slow
 
@@ -46,27 +46,20 @@ def test_certificates_hold_in_our_checker_and_in_pybullet(paper_reports):
 
 def _solvable_with_object_fixed(args) -> tuple[str, int, str, bool]:
     generator, seed, puzzle, name, budget = args
-    from ompl import util as ou
-
-    ou.RNG.setSeed(seed)
-    objects = [o.fixed() if o.name == name else o for o in puzzle.objects]
-    problem = problem_for_objects(objects, puzzle.goal)
-    if problem is None:
-        return generator, seed, name, False
-    result = rrt_connect(problem, budget, np.random.default_rng(seed))
-    return generator, seed, name, result.solved
+    margin = puzzle.parameters.interlock_margin
+    attempt = attempt_fixed(puzzle.planning_chain, puzzle.goal, [name], margin, budget,
+                            np.random.default_rng(seed))
+    return generator, seed, name, attempt.solved
 
 
 def test_fixing_any_movable_object_makes_the_puzzle_unsolvable(paper_reports):
-    """Interdependence, at 10x the generation budget."""
+    """Interdependence at the puzzle's interlock margin, with 10x the judge budget the Maker had."""
     jobs = []
     for report in paper_reports:
-        spec = get_generator(report.generator)
-        maker_input = spec.build(report.seed, report.puzzle.parameters)
-        # The generation's necessity check (FixJoint) ran with this budget; we give 10x.
-        budget = int(10 * DEFAULT_BUDGET * maker_input.budget_scale * maker_input.fixed_budget_scale)
+        maker_input = get_generator(report.generator).build(report.seed, report.puzzle.parameters)
+        budget = int(10 * JUDGE_BUDGET * maker_input.fixed_budget_scale)
         for obj in report.puzzle.objects:
-            if obj.is_movable:
+            if obj.is_movable and obj.name != report.puzzle.goal.target:
                 jobs.append((report.generator, report.seed, report.puzzle, obj.name, budget))
     with fresh_process_pool(2, len(jobs), []) as pool:
         results = list(pool.imap(_solvable_with_object_fixed, jobs))

@@ -25,8 +25,10 @@ LENGTH, WIDTH, HEIGHT, STROKE = 1.0, 0.2, 0.2, 1.0
 class TwoSlidersParams:
     gap: float = parameter(0.3, "free play in front of the target before it hits the blocker (0 < gap < 0.5)",
                            difficulty=True)
+    interlock_margin: float = kit.interlock_margin_parameter()
 
     def validate(self, seed: int) -> None:
+        kit.check_interlock_margin(self)
         if not 0 < self.gap < 0.5:
             raise ParameterError(f"gap must lie in (0, 0.5) so that the blocker blocks, got {self.gap}")
 
@@ -80,4 +82,4 @@ def build(seed: int, params: TwoSlidersParams) -> MakerInput:
     params.validate(seed)
     return MakerInput(objects=Choice(("slider",)), joints=Choice((Motion.PRISMATIC,)),
                       transforms=Choice(kit.HALF_TURNS), n_objects=2, attach=_attach_for(params),
-                      goal=kit.target_paper_goal)
+                      goal=kit.target_paper_goal, interlock_margin=params.interlock_margin)

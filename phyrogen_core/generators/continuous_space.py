@@ -59,8 +59,10 @@ class ContinuousSpaceParams:
                                      difficulty=True)
     max_limit_deg: float = parameter(180.0, "largest magnitude of a bar's joint limit (degrees, <= 180)",
                                      difficulty=True)
+    interlock_margin: float = kit.interlock_margin_parameter()
 
     def validate(self, seed: int) -> None:
+        kit.check_interlock_margin(self)
         kit.check_object_count(self.n_objects, high=MAX_BARS,
                                why=f"generation time grows steeply with the count (20: up to about 1 min of CPU "
                                    f"time, 25: up to 2 min, 40: many minutes; {kit.SIZES_DOC})")
@@ -184,6 +186,7 @@ def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
     """
     params.validate(seed)
     return MakerInput(
+        interlock_margin=params.interlock_margin,
         objects=Choice(("cuboid",)),
         joints=Choice((Motion.REVOLUTE,)),
         transforms=Uniform((ARC_DEGREES[0], REACH[0]), (ARC_DEGREES[1], REACH[1])),
@@ -191,7 +194,4 @@ def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
         attach=_attach_for(params),
         # The target's limits allow only one direction, so the paper's rule needs no draw.
         goal=kit.target_paper_goal,
-        # Random placements can block only barely; a stronger FixJoint search keeps such
-        # near-superfluous bars out (docs/generators.md#continuous-space).
-        fixed_budget_scale=5.0,
     )

@@ -48,8 +48,10 @@ class GridWorldParams:
                                       "pair; smaller is tighter (min_clearance() < e < 0.5)", difficulty=True)
     allow_clockwise: bool = parameter(True, "whether bars may turn clockwise too (else counter-clockwise only)",
                                       difficulty=True)
+    interlock_margin: float = kit.interlock_margin_parameter()
 
     def validate(self, seed: int) -> None:
+        kit.check_interlock_margin(self)
         kit.check_object_count(self.n_objects, high=MAX_CUBOIDS,
                                why=f"generation time grows steeply with the count (25: up to about 40 s of CPU "
                                    f"time, 30: about 70 s, 50: many minutes; {kit.SIZES_DOC})")
@@ -226,6 +228,7 @@ def build(seed: int, params: GridWorldParams) -> MakerInput:
     """
     params.validate(seed)
     return MakerInput(
+        interlock_margin=params.interlock_margin,
         objects=Choice(("cuboid",)),
         joints=Choice((Motion.REVOLUTE, Motion.PRISMATIC)),
         transforms=Choice(kit.QUARTER_TURNS),

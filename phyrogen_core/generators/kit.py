@@ -24,10 +24,10 @@ from dataclasses import dataclass
 
 from ..chain import BLACK, GRAY, GREEN, RED, RGBA, YELLOW, Geometry, Role
 from ..geometry import Box, Cylinder, Pose, Vec3
-from ..maker import Draft
+from ..maker import Draft, MakerInput
 from ..objects import Motion, PuzzleObject
 from ..puzzle import Goal, paper_goal
-from ..registry import ParameterError
+from ..registry import ParameterError, parameter
 
 # -- names, roles, colours ---------------------------------------------------------
 MAX_OBJECTS = 100
@@ -101,6 +101,29 @@ def check_between(params: object, name: str, low: float, high: float, why: str) 
     value = getattr(params, name)
     if not low <= value <= high:
         raise ParameterError(f"{name} must lie in [{low:g}, {high:g}] ({why}), got {value}")
+
+
+# -- robust interdependence ------------------------------------------------------------
+INTERLOCK_MARGIN = MakerInput.interlock_margin
+"""Default shrink (metres) of every collision shape when the Maker asks whether an object is
+needed: 1 % of the unit every generator builds on (grid cells, pocket and slider pitch of 1 m,
+bars of 1-5 m), a tenth of the smallest clearance any generator leaves (0.1 m), and about
+the play of a real gripper on a handle (docs/generators.md#interlock-margin)."""
+MAX_INTERLOCK_MARGIN = 0.025
+"""The measured margin tries up to 4x the required one (:mod:`solver.judge`); past this the
+top rung would shrink the generators' 0.1 m walls and doors to nothing."""
+
+
+def interlock_margin_parameter() -> float:
+    """The ``interlock_margin`` field every generator's parameters share."""
+    return parameter(INTERLOCK_MARGIN, f"metres every collision shape is shrunk by when the Maker asks whether "
+                                       f"an object is needed, 0..{MAX_INTERLOCK_MARGIN} (an object that leaves "
+                                       f"less slack than this counts as superfluous)")
+
+
+def check_interlock_margin(params: object) -> None:
+    check_between(params, "interlock_margin", 0.0, MAX_INTERLOCK_MARGIN,
+                  "4x it must leave the 0.1 m walls standing")
 
 
 # -- geometry: bodies, handles, hinges, scenery -------------------------------------------

@@ -42,8 +42,10 @@ class LockboxRandomParams:
                                difficulty=True)
     max_radius: float = parameter(3.0, f"largest disc radius (m), {MIN_RADIUS:g}..{MAX_RADIUS:g}; radii are drawn "
                                        f"from 1, 1.5, ... up to it", difficulty=True)
+    interlock_margin: float = kit.interlock_margin_parameter()
 
     def validate(self, seed: int) -> None:
+        kit.check_interlock_margin(self)
         kit.check_object_count(self.n_objects, high=MAX_PARTS,
                                why=f"generation time grows steeply with the count (19: up to about 1 min of CPU "
                                    f"time, 25: about 2 min; {kit.SIZES_DOC})")
@@ -200,6 +202,7 @@ def build(seed: int, params: LockboxRandomParams) -> MakerInput:
     """
     params.validate(seed)
     return MakerInput(
+        interlock_margin=params.interlock_margin,
         objects=InfiniteSequence((CUBOID, DISK)),
         joints=InfiniteSequence((Motion.PRISMATIC, Motion.REVOLUTE)),
         transforms=Choice(kit.QUARTER_TURNS),

@@ -82,11 +82,13 @@ class MoveNTimesParams:
 
     n: int = parameter(0, f"how many times the door must move (1..{MAX_N}; each move costs about 4x the "
                           f"generation time); 0: n = Seed, taken from the seed as the paper does", difficulty=True)
+    interlock_margin: float = kit.interlock_margin_parameter()
 
     def moves(self, seed: int) -> int:
         return self.n if self.n > 0 else seed
 
     def validate(self, seed: int) -> None:
+        kit.check_interlock_margin(self)
         if self.n < 0:
             raise ParameterError(f"n must be >= 0 (0 means n = Seed), got {self.n}")
         moves = self.moves(seed)
@@ -261,6 +263,7 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     moves = params.moves(seed)
     budget_scale = search_budget_scale(moves)
     return MakerInput(
+        interlock_margin=params.interlock_margin,
         objects=MoveNTimesItems(moves),
         joints=InfiniteSequence((Motion.SE2, Motion.PRISMATIC, Motion.FIXED), repeat_from=2),
         transforms=InfiniteSequence(kit.HALF_TURNS, repeat_from=0),
@@ -269,8 +272,4 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
         goal=_goal,
         initial=Draft((), _State(moves, (0.0, 0.0, 0.0))),
         budget_scale=budget_scale,
-        # The only FixJoint check is the door's: fixed, it seals the target in its 1 x 1
-        # pocket, which the default budget (1.5 x) settles; the large budget would only
-        # be spent searching the pocket.
-        fixed_budget_scale=1.5 / budget_scale,
     )

@@ -60,8 +60,10 @@ class RoomsParams:
                                              f"(cell units, at least {MIN_WALL_THICKNESS:g})", difficulty=True)
     door_width: float = parameter(0.5, "width of a doorway (cell units); a closed door must block the robot "
                                        "and an open one let it pass", difficulty=True)
+    interlock_margin: float = kit.interlock_margin_parameter()
 
     def validate(self, seed: int) -> None:
+        kit.check_interlock_margin(self)
         kit.check_count("n_rooms", self.n_rooms, 1, MAX_ROOMS,
                         f"generation time grows steeply with rooms and doors (6 rooms, 6 doors: up to about "
                         f"1 min of CPU time; 7 and 7: over 2 min; {kit.SIZES_DOC})")
@@ -268,6 +270,7 @@ def build(seed: int, params: RoomsParams) -> MakerInput:
     params.validate(seed)
     start = _Walk((), (0, 0), (), 0)
     return MakerInput(
+        interlock_margin=params.interlock_margin,
         objects=Choice((ROOM, DOOR_ROOM)),
         joints=Choice((Motion.FIXED,)),
         # The transformation is the room's exit side: 0 east, 90 north, 180 west, 270 south.

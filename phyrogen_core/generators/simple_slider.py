@@ -34,11 +34,13 @@ class SimpleSliderParams:
     gap: float = parameter(0.1, "free play in front of each slider before it hits the next, 0 < gap < 0.5 "
                                 "(the prototype's 0.1); also sets the slider length 1.8 - 2 * gap",
                            difficulty=True)
+    interlock_margin: float = kit.interlock_margin_parameter()
 
     def count(self, seed: int) -> int:
         return self.n_objects if self.n_objects > 0 else seed + 1
 
     def validate(self, seed: int) -> None:
+        kit.check_interlock_margin(self)
         if self.n_objects < 0:
             raise ParameterError(f"n_objects must be >= 0 (0 means Seed + 1), got {self.n_objects}")
         count = self.count(seed)
@@ -149,6 +151,7 @@ def build(seed: int, params: SimpleSliderParams) -> MakerInput:
     """
     params.validate(seed)
     return MakerInput(
+        interlock_margin=params.interlock_margin,
         objects=Choice(("t_slider",)),
         joints=Choice((Motion.PRISMATIC,)),
         transforms=Choice(kit.HALF_TURNS),
