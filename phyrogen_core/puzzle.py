@@ -65,6 +65,8 @@ class Puzzle:
     that collision models and exports can name objects). ``dependencies``
     lists (blocker, blocked) object-name pairs found while building.
     ``certificate`` is a joint-space path (joint order) from start to goal.
+    ``margins`` maps each movable object but the target to its measured
+    interlock margin (metres; see :mod:`phyrogen_core.maker`).
     """
 
     objects: tuple[PuzzleObject, ...]
@@ -74,6 +76,7 @@ class Puzzle:
     parameters: Mapping[str, Any] = field(default_factory=dict)
     dependencies: tuple[tuple[str, str], ...] = ()
     certificate: tuple[tuple[float, ...], ...] = ()
+    margins: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def name(self) -> str:

@@ -21,12 +21,25 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from phyrogen_core.chain import KinematicChain
+from phyrogen_core.puzzle import Goal
+
 from .actions import factor_membership, moved_factors
 from .collision import CollisionModel
-from .problem import Problem, in_goal
+from .problem import (
+    DEFAULT_RESOLUTION,
+    Problem,
+    chain_path,
+    in_goal,
+    problem_factors,
+    problem_for_chain,
+    verify_certificate,
+)
 
 Action = tuple[int, tuple[np.ndarray, ...]]  # (factor index, waypoints of that factor's columns)
 
+ISOLATE_SPLITS = 6
+"""How often a multi-factor segment may be halved to find single-factor moves (at most 64 pieces)."""
 MOVE_TOLERANCE = 1e-9
 """Stricter than :data:`solver.actions.MOVE_TOLERANCE`: any change of a factor's joints makes it a move here."""
 
@@ -48,23 +61,41 @@ class Defragmenter:
     # -- representation ----------------------------------------------------
     def isolate(self, path: np.ndarray) -> list[Action] | None:
         """Actions of ``path``; a segment moving several factors becomes one move per factor
-        (in factor order) when those moves are valid. None when that is impossible."""
+        (:meth:`_staircase`). None when a segment cannot be made so."""
         states = [path[0]]
         moved_matrix = self.moved_factors(path)
         for k, (a, b) in enumerate(zip(path[:-1], path[1:], strict=True)):
             moved = np.flatnonzero(moved_matrix[k]).tolist()
             if len(moved) > 1:
-                stair = [a]
-                for f in moved:
-                    nxt = stair[-1].copy()
-                    nxt[self.columns[f]] = b[self.columns[f]]
-                    stair.append(nxt)
-                if not self._segments_valid(np.array(stair)):
+                stair = self._staircase(a, b, moved, ISOLATE_SPLITS)
+                if stair is None:
                     return None
-                states += stair[1:]
+                states += stair
             else:
                 states.append(b)
         return self.actions_of(np.array(states))
+
+    def _staircase(self, a: np.ndarray, b: np.ndarray, moved: list[int], splits: int) -> list[np.ndarray] | None:
+        """Valid states after ``a`` that reach ``b`` moving one factor at a time: the factors in
+        order, else in reverse order, else each half of the segment on its own (up to ``splits``
+        halvings). A planner's diagonal segment through a narrow passage often has no valid
+        staircase as a whole, but its short pieces do. None when there is none."""
+        for order in (moved, moved[::-1]):
+            stair = [a]
+            for f in order:
+                nxt = stair[-1].copy()
+                nxt[self.columns[f]] = b[self.columns[f]]
+                stair.append(nxt)
+            if self._segments_valid(np.array(stair)):
+                return stair[1:]
+        if splits == 0:
+            return None
+        middle = (a + b) / 2
+        if not self.model.is_valid(middle):
+            return None
+        first = self._staircase(a, middle, moved, splits - 1)
+        second = None if first is None else self._staircase(middle, b, moved, splits - 1)
+        return None if second is None else first + second
 
     def moved_factors(self, states: np.ndarray) -> np.ndarray:
         """(segments, factors) booleans: which factors each segment of ``states`` moves."""
@@ -173,3 +204,17 @@ class Defragmenter:
             if not improved:
                 break
         return self.replay(actions)
+
+
+def defragment_certificate(chain: KinematicChain, goal: Goal, certificate: Sequence[Sequence[float]],
+                           resolution: float = DEFAULT_RESOLUTION) -> tuple[tuple[float, ...], ...]:
+    """A certificate (chain joint order) with fewer actions: defragmented with motions checked at
+    ``resolution``, kept only when it passes the certificate check (at fine resolution), else
+    the input. Deterministic: no clock, only the defragmenter's bounded rounds."""
+    problem = problem_for_chain(chain, goal)
+    order = problem.model.joint_order
+    columns = [chain.joint_order.index(name) for name in order]
+    path = np.asarray(certificate, dtype=float)[:, columns]
+    defragmenter = Defragmenter(problem, problem_factors(problem), problem.model.motion_steps(resolution))
+    clean = chain_path(problem, defragmenter.run(path))
+    return tuple(map(tuple, certificate)) if verify_certificate(chain, clean, goal) else clean

@@ -19,10 +19,12 @@ from typing import Any
 
 from phyrogen_core import __version__
 from phyrogen_core.maker import GenerationError, make, rng_for
+from phyrogen_core.objects import build_chain
 from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.registry import ParameterError, get_generator
 
 from .actions import count_actions
+from .defragment import defragment_certificate
 from .pool import deferred_signals, fresh_process_pool, stable_seed
 from .problem import dependency_graph
 from .validation import OmplValidator, seed_ompl
@@ -65,8 +67,12 @@ def generate_here(generator: str, seed: int, params: Any = None) -> Puzzle:
     certificate = validator.certify(result.objects, result.goal, result.certificate)
     if certificate is None:
         raise GenerationError(f"generator {generator!r}, seed {seed}: no certificate holds at fine resolution")
-    dependencies = dependency_graph(result.objects, certificate)
-    return Puzzle(result.objects, result.goal, generator, seed, params, dependencies, certificate)
+    # Stored clean: a planner's path moves several objects per segment and counts many
+    # more actions than the puzzle needs (Move N Times: 138 for 8).
+    certificate = defragment_certificate(build_chain(result.objects), result.goal, certificate)
+    dependencies = dependency_graph(result.objects, certificate, shrink=maker_input.interlock_margin)
+    margins = {name: m for name, m in result.margins.items() if name != result.goal.target}
+    return Puzzle(result.objects, result.goal, generator, seed, params, dependencies, certificate, margins)
 
 
 @dataclass(frozen=True)

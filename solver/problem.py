@@ -256,15 +256,17 @@ def _collision_problems(model: CollisionModel, states: np.ndarray, resolution: f
     return []
 
 
-def dependency_graph(objects: Sequence[PuzzleObject], certificate, resolution: float = DEFAULT_RESOLUTION
-                     ) -> tuple[tuple[str, str], ...]:
+def dependency_graph(objects: Sequence[PuzzleObject], certificate, resolution: float = DEFAULT_RESOLUTION,
+                     shrink: float = 0.0) -> tuple[tuple[str, str], ...]:
     """(blocker, blocked) pairs read off a certificate.
 
     Object B blocks object A when A's motion along the certificate would run
-    into B had B stayed at its start pose: B had to get out of A's way.
+    into B had B stayed at its start pose: B had to get out of A's way. With
+    ``shrink`` every shape is shrunk first (:func:`shrunk_tolerance`), so a
+    pair that only grazes by less than the interlock margin is no edge.
     """
     chain = build_chain(objects)
-    model = CollisionModel(chain)
+    model = CollisionModel(chain, tolerance=shrunk_tolerance(shrink))
     states = densify(certificate, model.motion_steps(resolution))
     edges: set[tuple[str, str]] = set()
     for blocker, columns in chain.factors.items():

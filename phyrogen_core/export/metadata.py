@@ -15,7 +15,9 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from ..actions import count_actions
 from ..chain import KinematicChain
+from ..dependencies import dependency_shape
 from ..puzzle import Puzzle
 
 FORMAT_VERSION = 1
@@ -38,6 +40,7 @@ def puzzle_metadata(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -
         if len(state) != len(joint_order):
             raise ValueError(f"certificate state {index} has {len(state)} values, "
                              f"expected {len(joint_order)} (one per joint in {joint_order})")
+    shape = dependency_shape(puzzle.dependencies, puzzle.goal.target)
     return {
         "format_version": FORMAT_VERSION,
         "generator": puzzle.generator,
@@ -56,17 +59,24 @@ def puzzle_metadata(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -
             "values": {name: _float(v) for name, v in puzzle.goal.values.items()},
             "tolerance": _float(puzzle.goal.tolerance),
         },
-        "objects": [
-            {"name": o.name, "motion": o.motion.value, "role": o.role.value, "joints": list(o.joint_names)}
-            for o in puzzle.objects
-        ],
+        "objects": [_object_entry(o, puzzle.margins) for o in puzzle.objects],
         "dependency_graph": {
             "nodes": [o.name for o in puzzle.objects if o.is_movable],  # scenery blocks nothing
             "edges": [[str(blocker), str(blocked)] for blocker, blocked in puzzle.dependencies],
+            "depth": shape.depth,
+            "branching": shape.branching,
         },
         "certificate": [[_float(v) for v in state] for state in puzzle.certificate],
+        "certificate_actions": count_actions(puzzle.certificate, chain.factors),
         "versions": dict(versions) if versions is not None else {"phyrogen": _phyrogen_version()},
     }
+
+
+def _object_entry(obj, margins: Mapping[str, float]) -> dict[str, Any]:
+    entry = {"name": obj.name, "motion": obj.motion.value, "role": obj.role.value, "joints": list(obj.joint_names)}
+    if obj.name in margins:
+        entry["interlock_margin"] = _float(margins[obj.name])
+    return entry
 
 
 def metadata_json(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> str:
