@@ -130,8 +130,18 @@ def check_states(states, kin_int, kin_float, n_links, shape_link, shape_nv, shap
 
 @njit(cache=True, nogil=True)
 def motion_collision(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
-                     shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol):
-    """Fraction along a -> b of a colliding sample (not necessarily the first), or -1 if none."""
+                     shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
+    """Fraction along a -> b of a colliding sample (not necessarily the first), or -1 if none.
+
+    ``a`` is assumed valid, so only pairs that a changing joint moves (``pair_columns``) can
+    start to collide: a one-object move checks that object's pairs only."""
+    moving = np.zeros(all_pairs.shape[0], dtype=np.bool_)
+    for p in range(all_pairs.shape[0]):
+        for j in range(a.shape[0]):
+            if pair_columns[p, j] and a[j] != b[j]:
+                moving[p] = True
+                break
+    pairs = all_pairs[moving]
     count = 1
     for j in range(a.shape[0]):
         need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))

@@ -197,6 +197,15 @@ class CollisionModel:
                     continue
                 pairs.append((j, i) if a.is_circle and not b.is_circle else (i, j))  # circles second
         self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+        # Which state columns move each pair's shapes (a joint moves its child link and all below).
+        link_columns = np.zeros((len(self._links), len(self.joint_order)), dtype=np.bool_)
+        for link, parent, *_rest, column, _ax, _ay, _rate in self._joint_steps:
+            link_columns[link] = link_columns[parent]
+            if column >= 0:
+                link_columns[link, column] = True
+        shape_link = [o.link for o in outlines]
+        self._pair_columns = np.array([link_columns[shape_link[a]] | link_columns[shape_link[b]] for a, b in pairs],
+                                      dtype=np.bool_).reshape(len(pairs), len(self.joint_order))
         self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in pairs]
         self._arguments = self._args()
 
@@ -237,7 +246,7 @@ class CollisionModel:
         colliding sample (not necessarily the first one), or -1 when the segment is free."""
         a = np.asarray(start, dtype=np.float64)
         b = np.asarray(end, dtype=np.float64)
-        return float(_kernels.motion_collision(a, b, steps, *self._arguments))
+        return float(_kernels.motion_collision(a, b, steps, *self._arguments, self._pair_columns))
 
     def colliding_objects(self, states) -> set[tuple[str, str]]:
         """Pairs of object names that collide at any of ``states``."""
