@@ -160,6 +160,54 @@ def cmd_check(args) -> int:
     return 0
 
 
+def cmd_audit(args) -> int:
+    from tqdm import tqdm
+
+    from manipulation.replay import PyBulletReferee
+    from solver.audit import (
+        DEFAULT_BUDGET,
+        TABLE_HEADER,
+        AuditSettings,
+        check_report_folder,
+        plan_audit,
+        run_audit,
+        table_row,
+        task_count,
+        write_reports,
+    )
+
+    budget = DEFAULT_BUDGET if args.budget is None else args.budget
+    # Every puzzle is read and the report folder checked before the first attempt starts.
+    puzzles = plan_audit(find_puzzle_folders(Path(args.dir)))
+    out = check_report_folder(args.out)
+    referee = PyBulletReferee()
+    settings = AuditSettings(budget, referee.name, referee.resolution, referee.tolerance)
+    if not args.quiet:
+        print(f"auditing {len(puzzles)} puzzles: {budget} collision queries per attempt; certificates replayed in "
+              f"{referee.name} every {referee.resolution * 1000:g} mm, penetration threshold "
+              f"{referee.tolerance * 1000:g} mm", file=sys.stderr)
+    progress = tqdm(total=task_count(puzzles), unit="check", disable=args.quiet, file=sys.stderr)
+    audits = []
+    started = time.perf_counter()
+    try:
+        progress.write(TABLE_HEADER, file=sys.stdout)
+        for audit in run_audit(puzzles, referee, budget, args.workers, on_task_done=lambda: progress.update(1)):
+            progress.write(table_row(audit), file=sys.stdout)
+            sys.stdout.flush()
+            audits.append(audit)
+    finally:
+        progress.close()
+        if audits:  # interrupted, the report still holds the puzzles finished, marked incomplete
+            reports = write_reports(out, audits, settings, total=len(puzzles))
+    for audit in audits:
+        for line in audit.failures():
+            print("  " + line.splitlines()[0])
+    failed = sum(not a.ok for a in audits)
+    print(f"{len(audits) - failed}/{len(audits)} puzzles pass the audit in {time.perf_counter() - started:.1f} s "
+          f"wall time with {args.workers} workers; report: {reports[0]}, {reports[1]}")
+    return 1 if failed else 0
+
+
 def cmd_manipulate(args) -> int:
     from manipulation.batch import manipulate_folders
 
@@ -301,6 +349,12 @@ def time_limit_option(text: str) -> float:
     return value
 
 
+def audit_budget_option(text: str) -> int:
+    from solver.audit import MAX_BUDGET  # here, not at the top: the parser stays quick to build
+
+    return _whole_number(text, 1, MAX_BUDGET, " collision queries")
+
+
 def image_size_option(text: str) -> str:
     """The text itself, once :func:`blender_addon.render_worker.parse_size` accepts it."""
     from blender_addon.render_worker import parse_size
@@ -363,6 +417,19 @@ def build_parser() -> argparse.ArgumentParser:
     manipulate.add_argument("--gui", action="store_true", help="show the simulation in a PyBullet window")
     manipulate.add_argument("--quiet", action="store_true", help="no progress bar")
     manipulate.set_defaults(func=cmd_manipulate)
+    audit = sub.add_parser("audit", help="re-check exported puzzles: certificate replayed in PyBullet, every "
+                                         "object tried as superfluous with a large budget")
+    audit.add_argument("dir", metavar="DIR", help="a puzzle folder, or a folder of generated puzzles (all of them)")
+    audit.add_argument("--budget", type=audit_budget_option,
+                       help="collision queries per attempt with an object fixed (default 100000, 25 x the Maker's "
+                            "judge budget; at most 10000000)")
+    audit.add_argument("--out", default="output/audit",
+                       help="folder for audit.json (found paths included) and audit.md; replaces only files an "
+                            "earlier audit wrote (default: output/audit)")
+    audit.add_argument("--workers", type=workers_option, default=2,
+                       help="worker processes (default 2; at most 4 per usable core)")
+    audit.add_argument("--quiet", action="store_true", help="no progress bar")
+    audit.set_defaults(func=cmd_audit)
     render = sub.add_parser("render", help="render every puzzle folder under --out and write <out>/index.html")
     render.add_argument("--out", default="output", help="output folder holding the puzzles (default: output)")
     render.add_argument("--engine", default="auto", choices=("auto", "workbench", "cycles"),
