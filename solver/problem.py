@@ -78,10 +78,11 @@ def problem_for_chain(chain: KinematicChain, goal: Goal, *, fixed: Sequence[str]
         if name not in chain.joint_order:
             raise UnreachableGoalError(f"goal joint {name!r} is not an active joint of chain {chain.name!r}; "
                                        f"valid: {list(chain.joint_order)}")
-        locked_at = chain.joint(name).lower
+        joint = chain.joint(name)
+        locked_at = max(min(0.0, joint.upper), joint.lower)
         if name in locked_names and abs(locked_at - value) > goal.tolerance:
             raise UnreachableGoalError(f"goal joint {name!r} of chain {chain.name!r} is locked at {locked_at} "
-                                       f"(limits of zero width), away from its goal value {value}")
+                                       f"(fixed, or limits of zero width), away from its goal value {value}")
     model = CollisionModel(chain, {j.name: max(min(0.0, j.upper), j.lower) for j in locked},
                            shrunk_tolerance(shrink))
     order = model.joint_order
