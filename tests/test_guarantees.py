@@ -79,3 +79,19 @@ def test_a_slider_staircase_is_a_chain_of_depth_n_minus_one(fresh_puzzles):
     (puzzle,) = [p for p in fresh_puzzles if p.generator == "simple_slider"]
     graph = puzzle_metadata(puzzle)["dependency_graph"]
     assert (graph["depth"], graph["branching"]) == (3, 1), graph
+
+
+def test_a_fixed_target_never_reaches_a_goal_at_its_lower_limit():
+    """Fixing holds an object at its start value (0), not at a limit: a target whose goal is
+    its lower limit is not "already there" when fixed."""
+    from phyrogen_core.chain import Geometry
+    from phyrogen_core.geometry import Box, Pose
+    from phyrogen_core.objects import Motion, PuzzleObject, build_chain
+    from phyrogen_core.puzzle import Goal
+
+    box = (Geometry(Box((1.0, 0.2, 0.2))),)
+    target = PuzzleObject("obj_00", Motion.PRISMATIC, Pose.planar(0.0, 0.0, 0.1), box, box, limits=((-1.0, 0.0),))
+    goal = Goal("obj_00", {"obj_00": -1.0})
+    chain = build_chain([target])
+    assert attempt_fixed(chain, goal, [], 0.0, 100, np.random.default_rng(0)).solved
+    assert not attempt_fixed(chain, goal, ["obj_00"], 0.0, 100, np.random.default_rng(0)).solved
