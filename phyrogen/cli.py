@@ -265,11 +265,13 @@ def cmd_benchmark(args) -> int:
     profile = get_profile(args.profile, args.runs, args.time_limit)
     puzzles = find_puzzle_folders(Path(args.puzzles), generators)
     # Every puzzle is read and every output path checked here, before the first run.
+    until_first = args.until == "first"
     plan = plan_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
-                          save_solutions=not args.no_solutions)
+                          save_solutions=not args.no_solutions, until_first=until_first)
     estimate = plan.estimate_seconds(overhead=1.0)
     print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
-          f"about {estimate / 3600:.1f} h on {args.workers} workers", file=sys.stderr)
+          f"{'at most ' if until_first else ''}about {estimate / 3600:.1f} h on {args.workers} workers",
+          file=sys.stderr)
     if plan.done:
         print(f"resuming: {len(plan.done)} of {len(plan.jobs)} runs already done (journal {plan.journal}; "
               "delete it to run them again)", file=sys.stderr)
@@ -392,7 +394,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("benchmark", help="benchmark planners on puzzle folders (OMPL logs, database, plots)")
     bench.add_argument("--puzzles", default="output", help="folder of puzzle folders (default: output)")
     bench.add_argument("--generator", default="all", help="generators to include (default: all found)")
-    bench.add_argument("--planners", default="all", help="comma-separated: la_rrt,rrt_star,lbt_rrt,bit_star")
+    bench.add_argument("--planners", default="all",
+                       help="all (default) or comma-separated: la_rrt,la_rrt_push,rrt_star,lbt_rrt,bit_star")
     bench.add_argument("--profile", default="quick", help="paper (100 runs, the paper's limits) or quick")
     bench.add_argument("--runs", type=runs_option,
                        help=f"runs per planner and puzzle, 1..{MAX_RUNS} (overrides the profile)")
@@ -404,6 +407,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--out", default="output/benchmark", help="output folder (default: output/benchmark)")
     bench.add_argument("--workers", type=workers_option, default=2,
                        help="worker processes (default 2; at most 4 per usable core)")
+    bench.add_argument("--until", choices=("limit", "first"), default="limit",
+                       help="limit (default): every run lasts its time limit; first: a run stops at its first "
+                            "solution (success within the limit and time to it, affordably)")
     bench.add_argument("--no-solutions", action="store_true", help="do not save LA-RRT's best path per puzzle")
     bench.add_argument("--dry-run", action="store_true", help="print the job count and time estimate only")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")

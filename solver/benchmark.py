@@ -3,10 +3,18 @@
 Each run (planner, puzzle, run index) is planned in its own fresh worker
 process (OMPL's global RNG can be seeded only once per process) with a seed
 derived from (base seed, planner, puzzle, run): the same runs give the same
-random draws in any order, on any number of workers. Results are written in
+random draws in any order, on any number of workers. Goal states come from
+the shared goal sampler (:mod:`solver.goal_sampling`) with a goal seed
+derived from (base seed, puzzle, run) only: run ``r`` of every planner sees
+the same goal states. A run lasts its time limit, or, with ``until_first``
+(``phyrogen benchmark --until first``), ends at its first solution that
+holds at fine resolution: success within the time limit and the time to
+the first solution are then measured without paying for the rest of the
+limit, and the action cost is the first solution's. Results are written in
 OMPL's benchmark log format, one log per puzzle (an *experiment*), then
 turned into one SQLite database with ``ompl.tools.readBenchmarkLog`` and
-``computeViews`` (Planner Arena opens it). LA-RRT's best solution per puzzle
+``computeViews`` (Planner Arena opens it). The best solution per puzzle of
+the LA-RRT entries (the paper's and ours, :data:`~solver.planners.LA_RRT_PLANNERS`)
 is saved into the puzzle's folder for the manipulation stage
 (:attr:`~phyrogen_core.folder.PuzzleFolder.best_solution`).
 
@@ -17,8 +25,10 @@ writable; bad input raises ValueError (one line) and nothing is written.
 
 A benchmark resumes. Every finished run is appended to ``<out>/runs.jsonl``
 (one JSON line, fsynced) under a key of everything that decides its result:
-planner, puzzle name and a digest of the puzzle's files, run index, seed,
-time limit, progress interval and OMPL version. Running the same benchmark
+planner and its version (:attr:`~solver.planners.PlannerSpec.version`: it
+changes with the planner's code or settings), puzzle name and a digest of
+the puzzle's files, run index, seed, goal seed, time limit, progress
+interval, until-first mode and OMPL version. Running the same benchmark
 again reuses the runs whose key matches and runs only the rest; an edited or
 regenerated puzzle has another digest, so its old runs are not reused. A
 torn last line (the process killed mid-write) is ignored and cut off. The
@@ -61,7 +71,8 @@ from phyrogen_core.folder import (
 )
 from phyrogen_core.registry import benchmark_time_limits
 
-from .planners import PLANNERS, get_planner, run_seed
+from .goal_sampling import goal_seed
+from .planners import LA_RRT_PLANNERS, PLANNERS, get_planner, run_seed
 from .pool import fresh_process_pool
 
 PAPER_TIME_LIMITS: Mapping[str, float] = benchmark_time_limits("paper")
@@ -152,6 +163,8 @@ class RunJob:
     seed: int
     time_limit: float
     progress_interval: float
+    until_first: bool = False  # stop at the first solution that holds at fine resolution
+    goal_seed: int = 0  # the shared goal sampler's seed: the same for every planner of a run
 
 
 @dataclass(frozen=True)
@@ -193,7 +206,7 @@ def _run_job(job: RunJob) -> RunRecord:
 
         loaded = read_puzzle_dir(job.puzzle.path)
         problem = problem_for_chain(loaded.chain, loaded.goal)
-        result = spec.plan(problem, job.time_limit, job.seed, job.progress_interval)
+        result = spec.plan(problem, job.time_limit, job.seed, job.progress_interval, job.until_first, job.goal_seed)
         path = chain_path(problem, result.path) if result.solved else ()
         return RunRecord(
             spec.title, job.puzzle.name, job.run, job.seed, job.time_limit, result.solved, result.status,
@@ -217,15 +230,16 @@ def _lost(job: RunJob, how: str) -> RunRecord:
 
 
 _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.export", "solver._kernels",
-            "solver.planning", "solver.la_rrt", "solver.lbt_rrt", "solver.ompl_planners"]
+            "solver.planning", "solver.goal_sampling", "solver.la_rrt", "solver.lbt_rrt", "solver.ompl_planners"]
 
 
 def make_jobs(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile,
-              base_seed: int = 0) -> list[RunJob]:
+              base_seed: int = 0, until_first: bool = False) -> list[RunJob]:
     for name in planners:
         get_planner(name)
     return [RunJob(planner, puzzle, run, run_seed(planner, puzzle.name, run, base_seed),
-                   profile.time_limit(puzzle.generator), profile.progress_interval)
+                   profile.time_limit(puzzle.generator), profile.progress_interval, bool(until_first),
+                   goal_seed(puzzle.name, run, base_seed))
             for puzzle in puzzles for run in range(profile.runs) for planner in planners]
 
 
@@ -252,8 +266,11 @@ def _value(v) -> str:
 
 
 def write_log(path: Path, experiment: str, records: Sequence[RunRecord], planner_titles: Sequence[str],
-              time_limit: float, runs: int, base_seed: int, total_seconds: float, setup: str) -> None:
-    """Write OMPL's benchmark log for one experiment (one puzzle, several planners)."""
+              time_limit: float, runs: int, base_seed: int, total_seconds: float, setup: str,
+              until_first: bool = False, versions: Mapping[str, str] | None = None) -> None:
+    """Write OMPL's benchmark log for one experiment (one puzzle, several planners). Each planner's
+    common properties hold the time limit, whether runs stopped at their first solution
+    (``until_first``) and, when given, its version (``versions``: title -> version)."""
     if any(c.isspace() for c in experiment):
         raise ValueError(f"experiment name {experiment!r} must not contain white space (OMPL logs split on it)")
     from importlib.metadata import version
@@ -276,8 +293,10 @@ def write_log(path: Path, experiment: str, records: Sequence[RunRecord], planner
     ]
     for title in planner_titles:
         mine = sorted((r for r in records if r.planner == title), key=lambda r: r.run)
-        lines += [title, "1 common properties", f"time_limit REAL = {time_limit:g}",
-                  f"{len(RUN_PROPERTIES)} properties for each run"]
+        common = [f"time_limit REAL = {time_limit:g}", f"until_first BOOLEAN = {int(bool(until_first))}"]
+        if versions and title in versions:
+            common.append(f"version STRING = {versions[title]}")
+        lines += [title, f"{len(common)} common properties", *common, f"{len(RUN_PROPERTIES)} properties for each run"]
         lines += [f"{name} {kind}" for name, kind in RUN_PROPERTIES]
         lines.append(f"{len(mine)} runs")
         for r in mine:
@@ -324,11 +343,16 @@ def solution_json(record: RunRecord, factors: Mapping[str, Sequence[int]]) -> di
 
 
 def save_best_solution(puzzle: PuzzleFolder, records: Sequence[RunRecord],
-                       planner_title: str = "LA-RRT") -> Path | None:
-    """Write the lowest-cost path of ``planner_title`` on ``puzzle`` to its folder (atomically)."""
+                       planner_titles: Sequence[str] | str | None = None) -> Path | None:
+    """Write the lowest-cost path on ``puzzle`` of the planners titled ``planner_titles`` (default:
+    the LA-RRT entries, :data:`~solver.planners.LA_RRT_PLANNERS`) to its folder (atomically)."""
     from phyrogen_core.export import read_puzzle_dir
 
-    solved = [r for r in records if r.planner == planner_title and r.puzzle == puzzle.name and r.solved]
+    if planner_titles is None:
+        planner_titles = [PLANNERS[name].title for name in LA_RRT_PLANNERS]
+    elif isinstance(planner_titles, str):
+        planner_titles = [planner_titles]
+    solved = [r for r in records if r.planner in planner_titles and r.puzzle == puzzle.name and r.solved]
     if not solved:
         return None
     best = min(solved, key=lambda r: (r.action_cost, r.length, r.run))
@@ -339,7 +363,8 @@ def save_best_solution(puzzle: PuzzleFolder, records: Sequence[RunRecord],
 # -- the journal of finished runs ------------------------------------------------
 JOURNAL = "runs.jsonl"
 """The journal of finished runs in the output folder: one JSON object a line, ``{"key": ..., "record": ...}``."""
-JOURNAL_FORMAT = 1
+JOURNAL_FORMAT = 2
+"""2: keys name the planner's version, the goal seed and the until-first mode (format 1 keys match none)."""
 OUTPUT_ENTRIES = ("logs", "benchmark.db", "errors.txt", "summary.md", "fig4.png")
 """The entries of the output folder that a finished benchmark writes, replacing the old ones (an entry
 it does not produce this time, say ``errors.txt``, is removed); every other entry is left alone."""
@@ -367,11 +392,15 @@ def puzzle_digest(puzzle: PuzzleFolder) -> str:
 
 
 def run_key(job: RunJob, digest: str, ompl_version: str) -> str:
-    """Everything a run's result depends on, as canonical JSON: equal keys, interchangeable runs."""
-    return json.dumps({"planner": job.planner, "puzzle": job.puzzle.name, "puzzle_sha256": digest,
-                       "run": job.run, "seed": job.seed, "time_limit": job.time_limit,
-                       "progress_interval": job.progress_interval, "ompl": ompl_version,
-                       "format": JOURNAL_FORMAT}, sort_keys=True)
+    """Everything a run's result depends on, as canonical JSON: equal keys, interchangeable runs.
+
+    The planner's version changes with its code or settings (and the goal sampler's), so a run
+    recorded before such a change is not reused under the same planner name."""
+    return json.dumps({"planner": job.planner, "planner_version": get_planner(job.planner).version,
+                       "puzzle": job.puzzle.name, "puzzle_sha256": digest,
+                       "run": job.run, "seed": job.seed, "goal_seed": job.goal_seed, "time_limit": job.time_limit,
+                       "progress_interval": job.progress_interval, "until": "first" if job.until_first else "limit",
+                       "ompl": ompl_version, "format": JOURNAL_FORMAT}, sort_keys=True)
 
 
 def _finite_or_none(value):
@@ -538,6 +567,7 @@ class BenchmarkPlan:
     base_seed: int
     save_solutions: bool
     jobs: tuple[RunJob, ...]
+    until_first: bool = field(default=False, kw_only=True)
     keys: tuple[str, ...] = field(repr=False)  # the journal key of each job
     done: Mapping[str, RunRecord] = field(repr=False)  # journaled runs of this benchmark, by key
     digests: Mapping[str, str] = field(repr=False)  # puzzle name -> puzzle_digest
@@ -562,7 +592,8 @@ def _ompl_version() -> str:
 
 
 def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
-                   workers: int = 2, base_seed: int = 0, save_solutions: bool = True) -> BenchmarkPlan:
+                   workers: int = 2, base_seed: int = 0, save_solutions: bool = True,
+                   until_first: bool = False) -> BenchmarkPlan:
     """Check everything a benchmark needs, before any run and without writing anything.
 
     Raises ValueError (:class:`~phyrogen_core.folder.PuzzleFormatError`,
@@ -571,7 +602,8 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
     two puzzles share a name, a planner is unknown, ``workers`` is not a whole
     number of at least 1, the output folder cannot be written, or (saving
     solutions) a puzzle's ``solutions/`` cannot be written. Reads the journal
-    of ``out`` to find the runs already done.
+    of ``out`` to find the runs already done. ``until_first``: every run stops at its first
+    solution (see the module docstring).
     """
     from phyrogen_core.export import read_puzzle_dir
 
@@ -610,28 +642,29 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
         except ValueError as exc:
             raise PuzzleFormatError(f"{where}: {exc}") from None
         digests[puzzle.name] = puzzle_digest(puzzle)
-        if save_solutions and "la_rrt" in planners:
+        if save_solutions and any(name in planners for name in LA_RRT_PLANNERS):
             try:
                 require_writable_dir(puzzle.solutions, "solutions folder")
             except OutputError as exc:
                 raise OutputError(f"{exc} (or do not save solutions: --no-solutions)") from None
-    jobs = tuple(make_jobs(puzzles, planners, profile, base_seed))
+    jobs = tuple(make_jobs(puzzles, planners, profile, base_seed, until_first))
     ompl = _ompl_version()
     keys = tuple(run_key(job, digests[job.puzzle.name], ompl) for job in jobs)
     journaled = read_journal(out / JOURNAL) if out.is_dir() else {}
     # A crashed run is kept in the journal as a record, but run again: its cause may be fixed by now.
     done = {key: journaled[key] for key in keys if key in journaled and journaled[key].error is None}
     return BenchmarkPlan(puzzles, planners, profile, out, workers, base_seed, save_solutions, jobs, keys,
-                         done, digests)
+                         done, digests, until_first=bool(until_first))
 
 
 def run_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
                   workers: int = 2, base_seed: int = 0, save_solutions: bool = True, plots: bool = True,
-                  progress: bool = True, on_done: Callable[[RunRecord], None] | None = None) -> BenchmarkOutput:
+                  progress: bool = True, on_done: Callable[[RunRecord], None] | None = None,
+                  until_first: bool = False) -> BenchmarkOutput:
     """Check the input (:func:`plan_benchmark`), then run what the journal does not hold and write
     ``out``: ``logs/<puzzle>.log``, ``benchmark.db``, ``summary.md``, ``fig4.png``, ``errors.txt``
     (when runs crashed), next to the journal ``runs.jsonl``."""
-    plan = plan_benchmark(puzzles, planners, profile, out, workers, base_seed, save_solutions)
+    plan = plan_benchmark(puzzles, planners, profile, out, workers, base_seed, save_solutions, until_first)
     return run_plan(plan, plots=plots, progress=progress, on_done=on_done)
 
 
@@ -695,7 +728,10 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
     """Write the outputs into a temporary folder inside ``out``, then rename each into place."""
     profile = plan.profile
     titles = [PLANNERS[p].title for p in plan.planners]
-    setup = (f"PhyRoGen benchmark, profile {profile.name}: {profile.runs} runs per planner and puzzle; "
+    versions = {PLANNERS[p].title: PLANNERS[p].version for p in plan.planners}
+    mode = "each run stops at its first solution (--until first)" if plan.until_first else \
+        "each run lasts its time limit (--until limit)"
+    setup = (f"PhyRoGen benchmark, profile {profile.name}: {profile.runs} runs per planner and puzzle, {mode}; "
              f"planners {', '.join(titles)}")
     staging = Path(tempfile.mkdtemp(prefix=_STAGING_PREFIX, dir=plan.out))
     try:
@@ -705,7 +741,7 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
             mine = [r for r in records if r.puzzle == puzzle.name]
             log = staging / "logs" / f"{puzzle.name}.log"
             write_log(log, puzzle.name, mine, titles, profile.time_limit(puzzle.generator), profile.runs,
-                      plan.base_seed, sum(r.wall for r in mine), setup)
+                      plan.base_seed, sum(r.wall for r in mine), setup, plan.until_first, versions)
             logs.append(log)
         build_database(staging / "benchmark.db", logs)
         crashed = [r for r in records if r.error]
@@ -718,8 +754,9 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
 
             rows = summary_rows(staging / "benchmark.db")
             (staging / "summary.md").write_text(
-                summary_markdown(rows, profile, wall, plan.workers, reused=len(plan.done)), encoding="utf-8")
-            plot_fig4(staging / "benchmark.db", staging / "fig4.png")
+                summary_markdown(rows, profile, wall, plan.workers, reused=len(plan.done),
+                                 until_first=plan.until_first), encoding="utf-8")
+            plot_fig4(staging / "benchmark.db", staging / "fig4.png", until_first=plan.until_first)
         for name in OUTPUT_ENTRIES:
             new, final = staging / name, plan.out / name
             # A folder cannot be renamed over an existing one: move the old entry out of the way first.
@@ -735,7 +772,8 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
 def estimate_seconds(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile,
                      workers: int, overhead: float) -> float:
     """Wall-clock seconds a benchmark takes: every run lasts its time limit plus ``overhead``
-    (process start, loading, final checks; measure it on a sample)."""
+    (process start, loading, final checks; measure it on a sample). Runs that stop at their first
+    solution (``until_first``) take at most this."""
     check_workers(workers)
     total = sum(profile.time_limit(p.generator) + overhead for p in puzzles) * profile.runs * len(planners)
     return total / workers

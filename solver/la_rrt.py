@@ -9,20 +9,33 @@ another. Each time the trees connect, the path is defragmented
 (:mod:`solver.defragment`) and kept if it needs fewer actions; the loop runs
 until the time limit (anytime, no rewiring).
 
-Fixes over the original implementation:
+Changes over the original implementation, in the default settings (bug
+fixes of the original first, then additions of ours):
 
 - the staircase visits the factors in a fresh random order at every
   extension (a fixed order stalls whenever the first factor is blocked at
   the start);
-- a trapped staircase keeps its valid prefix (every corner is a tree node);
 - defragmentation collapses an action to a straight segment only when that
   segment is valid;
+- a trapped staircase keeps its valid prefix (every corner is a tree node);
+- an extension moves one random factor only with probability 0.5, and a
+  sampled joint sits at one of its limits with probability 0.1;
+- distances are metres of motion, not joint units;
 - goal roots also come from start-tree nodes with the target moved to its
   goal, and the start tree grows while there is none (uniform goal states of
   a lockbox are almost never valid);
 - a move blocked only by other movable objects first pushes one of them
   aside (to a limit or a random value), the dependency every puzzle is built
   on; the original waits for sampling to move the blocker by chance.
+
+These settings (:data:`PUSH_SETTINGS`, the defaults) are the benchmark's
+"LA-RRT+push (ours)" and the Maker's necessity judge. The benchmark's
+"LA-RRT" is :data:`PAPER_SETTINGS`: the algorithm as the paper and the
+authors' code define it, with the bug fixes listed there. In the benchmark
+both take their goal roots from the run's shared goal sampler
+(:mod:`solver.goal_sampling`, the ``goals`` argument of :class:`LaRrt`), as
+every other planner does; without one (the judge) goal roots are drawn as
+described above.
 
 All random draws come from one numpy Generator seeded per run.
 """
@@ -31,6 +44,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 from numba import njit
@@ -40,6 +54,15 @@ from .planning import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning
 from .problem import FINE_RESOLUTION, Problem, in_goal, path_is_valid, problem_factors
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2
+EXTENSIONS = ("staircase", "isolate")
+GOAL_ROOT_RULES = ("probability", "half_tree")
+
+
+class GoalSource(Protocol):
+    """Where goal roots come from in the benchmark (:class:`solver.goal_sampling.GoalSampler`)."""
+
+    def next(self) -> np.ndarray | None:
+        """A new valid goal state, or None when there are no more."""
 
 
 @njit(cache=True, nogil=True)
@@ -82,6 +105,21 @@ class LaRrtSettings:
     defragment_share: float = 0.5
     """Largest share of the run time spent defragmenting; connections found while
     over it are dropped undefragmented (the first one is always defragmented)."""
+    extension: str = "staircase"
+    """How a tree grows toward a state. "staircase": the factors move one after another in a
+    random order, whole moves first, within the range (``single_factor_probability``: one factor
+    only), the valid prefix of a blocked staircase kept, a connection in one staircase.
+    "isolate", the original's: the whole state steps toward the target by at most the range, then
+    the factors that changed move one after another in a random order, all or nothing; a
+    connection repeats such steps until it reaches the target or is blocked (RRT-Connect)."""
+    weighted_metric: bool = True
+    """Distances (nearest neighbours, the range) in metres of motion, each joint weighted by how
+    far a unit of it moves any collision point; False: plain L1 over joint values (a radian
+    counts as a metre), the original's."""
+    goal_root_rule: str = "probability"
+    """When a goal root is added (always while the goal tree is empty). "probability":
+    ``goal_root_probability`` per iteration; "half_tree", the original's (OMPL RRT-Connect's):
+    whenever fewer goal states were drawn than half the goal tree's nodes."""
 
     def __post_init__(self) -> None:
         if not 0 < self.range_fraction <= 1:
@@ -102,6 +140,45 @@ class LaRrtSettings:
             raise ValueError(f"push_attempts must be at least 1, got {self.push_attempts!r}")
         if not 0 < self.defragment_share <= 1:
             raise ValueError(f"defragment_share must be in (0, 1], got {self.defragment_share!r}")
+        if self.extension not in EXTENSIONS:
+            raise ValueError(f"extension must be one of {EXTENSIONS}, got {self.extension!r}")
+        if self.goal_root_rule not in GOAL_ROOT_RULES:
+            raise ValueError(f"goal_root_rule must be one of {GOAL_ROOT_RULES}, got {self.goal_root_rule!r}")
+
+
+PUSH_SETTINGS = LaRrtSettings()
+"""LA-RRT+push (ours): the defaults, chosen on the paper's 24 puzzles (see the module docstring)."""
+
+PAPER_SETTINGS = LaRrtSettings(
+    range_fraction=0.2,  # OMPL's SelfConfig default range, 0.2 of the space's (L1) extent
+    single_factor_probability=0.0,
+    limit_probability=0.0,  # uniform samples
+    max_pushes=0,
+    defragment_share=1.0,  # every connection is defragmented
+    extension="isolate",
+    weighted_metric=False,
+    goal_root_rule="half_tree",
+)
+"""LA-RRT as the paper (Bayraktar et al., RA-L 2023) and the authors' code (``serboba/robowflex``,
+``LARRT.cpp``) define it: RRT-Connect in the factored space, every extension isolated into one
+move per factor, the path defragmented at every connection, anytime. Kept from our
+implementation because they fix bugs of the original, not because they help it:
+
+- the factors of an isolated step move in a fresh random order (the original's fixed order
+  stalls whenever the first factor is blocked; the authors' 2025 port shuffles it too);
+- a step is at most the range long and ends at the sample when that is within the range: the
+  original passed the range where OMPL's ``interpolate`` expects the fraction of the way, so a
+  step went that multiple of the way (past the sample, out of the joint limits, when the range
+  exceeds 1) or that fraction of it, and a step reported as reaching the sample could end short
+  of it (a connection then joined two different states, unchecked);
+- the straight multi-factor segment an isolated step replaces is not checked (the original
+  checked it and its staircase, and the segment is never added to the tree);
+- a factor that changes by less than 1e-4 still moves (the original left it behind, so a
+  connection could join two states that differ, unchecked);
+- defragmentation collapses an action to one segment only when that segment is valid.
+
+Goal roots come from the shared goal sampler, in the original's rule; the original drew uniform
+goal states from OMPL's goal region instead (almost never valid on a lockbox)."""
 
 
 class _Tree:
@@ -137,17 +214,20 @@ class _Tree:
 class LaRrt:
     """One LA-RRT run on ``problem``."""
 
-    def __init__(self, problem: Problem, rng: np.random.Generator, settings: LaRrtSettings | None = None):
+    def __init__(self, problem: Problem, rng: np.random.Generator, settings: LaRrtSettings | None = None,
+                 goals: GoalSource | None = None):
         self.problem = problem
         self.settings = settings or LaRrtSettings()
         self.rng = rng
+        self.goals = goals
+        self.goal_draws = 0  # goal states asked of ``goals`` (the "half_tree" rule counts them)
         self.model = problem.model
         self.factors = problem_factors(problem)
         self.columns = [np.asarray(c, dtype=np.int64) for c in self.factors.values()]
         self.factor_index = {name: i for i, name in enumerate(self.factors)}
         self.steps = planning_steps(problem, self.settings.resolution)
         # Distances in metres of motion: a radian of a long bar counts as far as its tip travels.
-        self.weights = self.model.joint_reach()
+        self.weights = self.model.joint_reach() if self.settings.weighted_metric else np.ones(len(problem.start))
         self.range = self.settings.range_fraction * float(self.weights @ (problem.upper - problem.lower))
         self.fine_steps = self.model.motion_steps(FINE_RESOLUTION)
         self.defragmenter = Defragmenter(problem, self.factors, self.steps)
@@ -175,11 +255,19 @@ class LaRrt:
     def _add_goal_root(self) -> bool:
         """Add one valid goal state as a new goal-tree root, if a batch of candidates holds one.
 
-        Uniform samples first; if none is valid, start-tree nodes with the
-        target moved to its goal. In a lockbox a uniform goal state is valid
+        With a goal source (the benchmark), its next state. Without one (the
+        judge), uniform samples first; if none is valid, start-tree nodes with
+        the target moved to its goal. In a lockbox a uniform goal state is valid
         only when every lock happens to be open (about 1 in 1e5), while a
         start-tree node that has opened them projects straight into the goal.
         """
+        if self.goals is not None:
+            self.goal_draws += 1
+            state = self.goals.next()
+            if state is None:
+                return False
+            self.goal_tree.add(state, -1)
+            return True
         count = self.settings.goal_sample_attempts
         lower, upper = self.problem.lower, self.problem.upper
         uniform = lower + (upper - lower) * self.rng.random((count, len(lower)))
@@ -270,10 +358,53 @@ class LaRrt:
             freed = aside.copy()
             freed[columns] = values
             # The blocked move first: the push itself can be long (a bar slid end to end).
-            if self.model.check_motion(aside, freed, self.steps) and \
+            # A motion check assumes its start valid, so ``aside`` is checked on its own first.
+            if self.model.is_valid(aside) and self.model.check_motion(aside, freed, self.steps) and \
                     self.model.check_motion(current, aside, self.steps):
                 return tree.add(aside, node), aside, g
         return None
+
+    def _isolate(self, tree: _Tree, node: int, target: np.ndarray) -> tuple[int, int]:
+        """The original's extension: step from ``node`` toward ``target`` by at most the range, then
+        move each factor that changed, one after another in a random order, to its value at the step's
+        end; the moves are added only when all of them are valid. Returns (status, last node added or
+        ``node``): reached when the step ends at ``target``."""
+        current = tree.states[node]
+        delta = target - current
+        distance = float(np.abs(delta) @ self.weights)
+        if distance <= 1e-12:
+            return _REACHED, node
+        reach = distance <= self.range
+        end = target if reach else current + delta * (self.range / distance)
+        changed = [f for f, columns in enumerate(self.columns) if np.any(end[columns] != current[columns])]
+        corners = []
+        state = current
+        for k in self.rng.permutation(len(changed)):
+            columns = self.columns[changed[int(k)]]
+            following = state.copy()
+            following[columns] = end[columns]
+            if not self.model.check_motion(state, following, self.steps):
+                return _TRAPPED, node
+            corners.append(following)
+            state = following
+        for corner in corners:
+            node = tree.add(corner, node)
+        return (_REACHED if reach else _ADVANCED), node
+
+    def _connect_isolated(self, tree: _Tree, target: np.ndarray) -> tuple[int, int]:
+        """RRT-Connect's connect with isolated steps: step from the nearest node toward ``target``
+        until it is reached or a step is blocked."""
+        status, node = _ADVANCED, -1
+        while status == _ADVANCED:
+            status, node = self._isolate(tree, tree.nearest(target), target)
+        return status, node
+
+    def _wants_goal_root(self) -> bool:
+        if self.goal_tree.size == 0:
+            return True
+        if self.settings.goal_root_rule == "half_tree":
+            return self.goal_draws < self.goal_tree.size // 2
+        return self.rng.random() < self.settings.goal_root_probability
 
     def _path(self, tree: _Tree, node: int, other: _Tree, other_node: int) -> np.ndarray:
         a = tree.branch(node)
@@ -293,20 +424,27 @@ class LaRrt:
         if in_goal(problem, problem.start):
             recorder.offer([problem.start])
         growing, other = self.start_tree, self.goal_tree
+        isolate = self.settings.extension == "isolate"
         while not recorder.expired():
             self.iterations += 1
-            if self.goal_tree.size == 0 or self.rng.random() < self.settings.goal_root_probability:
+            if self._wants_goal_root():
                 self._add_goal_root()
             recorder.sample(self.iterations)
             if self.goal_tree.size == 0:
                 growing = self.start_tree  # grow it until a goal state is found
             sample = self._sample()
             near = growing.nearest(sample)
-            single = self.rng.random() < self.settings.single_factor_probability
-            _, new = self._staircase(growing, near, sample, self.range, single)
+            if isolate:
+                _, new = self._isolate(growing, near, sample)
+            else:
+                single = self.rng.random() < self.settings.single_factor_probability
+                _, new = self._staircase(growing, near, sample, self.range, single)
             if new != near and other.size > 0:
                 target = growing.states[new]
-                status, reached = self._staircase(other, other.nearest(target), target, math.inf)
+                if isolate:
+                    status, reached = self._connect_isolated(other, target)
+                else:
+                    status, reached = self._staircase(other, other.nearest(target), target, math.inf)
                 if status == _REACHED:
                     self.connections += 1
                     raw = self._path(growing, new, other, reached)
@@ -338,10 +476,15 @@ class LaRrt:
 
 
 def plan_la_rrt(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
-                settings: LaRrtSettings | None = None) -> PlanResult:
-    """Run LA-RRT for ``time_limit`` seconds; all randomness from ``seed``."""
-    planner = LaRrt(problem, np.random.default_rng(seed), settings)
-    return planner.solve(AnytimeRecorder("LA-RRT", problem, time_limit, progress_interval))
+                settings: LaRrtSettings | None = None, *, until_first: bool = False, goal_seed: int | None = None,
+                title: str = "LA-RRT") -> PlanResult:
+    """Run LA-RRT for ``time_limit`` seconds (or until its first solution); its own draws from ``seed``,
+    goal roots from the shared goal sampler seeded with ``goal_seed`` (default: from ``seed``)."""
+    from .goal_sampling import GoalSampler, default_goal_seed
+
+    goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
+    planner = LaRrt(problem, np.random.default_rng(seed), settings, goals)
+    return planner.solve(AnytimeRecorder(title, problem, time_limit, progress_interval), until_first)
 
 
 class _CountingModel:

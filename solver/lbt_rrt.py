@@ -18,7 +18,9 @@ near-optimal: epsilon 0 behaves like RRT*, a large epsilon like RRT.
 Edge cost is the same additive bound on the action cost as for RRT* and BIT*
 (:class:`solver.ompl_planners.ObjectsMovedObjective`): the number of objects
 an edge moves. Distances (nearest neighbours, steering) are Euclidean in
-joint space, as in OMPL.
+joint space, as in OMPL. The goal bias steers toward the run's shared valid
+goal states (:mod:`solver.goal_sampling`), as RRT*'s does; a run may stop at
+its first solution that holds at fine resolution (``until_first``).
 """
 
 from __future__ import annotations
@@ -30,8 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .actions import factor_membership
+from .goal_sampling import GoalSampler, default_goal_seed
 from .planning import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning_steps
-from .problem import Problem, in_goal, problem_factors
+from .problem import FINE_RESOLUTION, Problem, in_goal, path_is_valid, problem_factors
 
 
 @dataclass(frozen=True)
@@ -56,10 +59,13 @@ class LbtRrtSettings:
 class LbtRrt:
     """One LBT-RRT run on ``problem``."""
 
-    def __init__(self, problem: Problem, rng: np.random.Generator, settings: LbtRrtSettings | None = None):
+    def __init__(self, problem: Problem, rng: np.random.Generator, settings: LbtRrtSettings | None = None,
+                 goals: GoalSampler | None = None):
         self.problem = problem
         self.settings = settings or LbtRrtSettings()
         self.rng = rng
+        # The benchmark passes the run's shared sampler; on its own, one seeded from ``rng``.
+        self.goals = goals if goals is not None else GoalSampler(problem, int(rng.integers(1, 2**31 - 1)))
         self.model = problem.model
         self.steps = planning_steps(problem, self.settings.resolution)
         dimension = len(problem.start)
@@ -98,12 +104,13 @@ class LbtRrt:
         return self.size - 1
 
     def _sample(self) -> np.ndarray:
+        """A shared valid goal state with probability ``goal_bias``, else a uniform state."""
         p = self.problem
-        state = p.lower + (p.upper - p.lower) * self.rng.random(len(p.start))
         if self.rng.random() < self.settings.goal_bias:
-            for column, value in p.goal_columns.items():
-                state[column] = value
-        return state
+            goal = self.goals.sample(self.rng)
+            if goal is not None:
+                return goal
+        return p.lower + (p.upper - p.lower) * self.rng.random(len(p.start))
 
     def _set_apx_parent(self, node: int, parent: int, cost: float) -> None:
         old = self.parent_apx[node]
@@ -217,8 +224,11 @@ class LbtRrt:
             node = self.parent_apx[node]
         return out[::-1]
 
-    def solve(self, recorder: AnytimeRecorder) -> PlanResult:
+    def solve(self, recorder: AnytimeRecorder, until_first: bool = False) -> PlanResult:
+        """Grow until ``recorder`` expires, or until the first solution that holds at fine
+        resolution when ``until_first``."""
         problem = self.problem
+        fine_steps = self.model.motion_steps(FINE_RESOLUTION)
         if not self.model.is_valid(problem.start):
             return recorder.result(0, "Invalid start")
         root = self._add(problem.start)
@@ -258,12 +268,21 @@ class LbtRrt:
             best = self._best_goal()
             if best >= 0 and self.cost_apx[best] < offered:
                 offered = self.cost_apx[best]
-                recorder.offer(self._branch(best))
+                branch = self._branch(best)
+                if not until_first:
+                    recorder.offer(branch)
+                # Checked before it is offered: a path the result would drop must not block an
+                # equally cheap one that holds.
+                elif path_is_valid(self.model, np.asarray(branch), fine_steps) and recorder.offer(branch):
+                    break
         return recorder.result(self.iterations)
 
 
 def plan_lbt_rrt(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
-                 settings: LbtRrtSettings | None = None) -> PlanResult:
-    """Run LBT-RRT for ``time_limit`` seconds; all randomness from ``seed``."""
-    planner = LbtRrt(problem, np.random.default_rng(seed), settings)
-    return planner.solve(AnytimeRecorder("LBT-RRT", problem, time_limit, progress_interval))
+                 settings: LbtRrtSettings | None = None, *, until_first: bool = False,
+                 goal_seed: int | None = None) -> PlanResult:
+    """Run LBT-RRT for ``time_limit`` seconds (or until its first solution); its own draws from
+    ``seed``, goal states from the shared sampler seeded with ``goal_seed`` (default: from ``seed``)."""
+    goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
+    planner = LbtRrt(problem, np.random.default_rng(seed), settings, goals)
+    return planner.solve(AnytimeRecorder("LBT-RRT", problem, time_limit, progress_interval), until_first)

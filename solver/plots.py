@@ -4,6 +4,10 @@ Everything here reads the SQLite database that OMPL's tools built from our
 logs, so the figure shows exactly what Planner Arena would show.
 Per puzzle: success rate over time (share of runs with a solution by time t)
 and action cost over time (median best cost over the runs solved by t).
+Planners appear in the registry's order (:data:`solver.planners.PLANNERS`),
+each in its own colour. For a benchmark whose runs stopped at their first
+solution (``until_first``) the cost is that of the first solution, and the
+table and figure say so.
 """
 
 from __future__ import annotations
@@ -17,8 +21,21 @@ from pathlib import Path
 
 import numpy as np
 
-PLANNER_ORDER = ("LA-RRT", "RRT*", "LBT-RRT", "BIT*")
-COLORS = {"LA-RRT": "tab:green", "RRT*": "tab:blue", "LBT-RRT": "tab:orange", "BIT*": "tab:red"}
+from .planners import PLANNERS
+
+PLANNER_ORDER = tuple(spec.title for spec in PLANNERS.values())
+"""Planner titles in the registry's order: the paper's LA-RRT, ours, RRT*, LBT-RRT, BIT*."""
+COLORS = {"LA-RRT": "tab:green", "LA-RRT+push (ours)": "tab:purple", "RRT*": "tab:blue", "LBT-RRT": "tab:orange",
+          "BIT*": "tab:red"}
+"""The paper's colours for its four planners; any other planner gets one of :data:`SPARE_COLORS`."""
+SPARE_COLORS = ("tab:brown", "tab:pink", "tab:gray", "tab:olive", "tab:cyan")
+
+
+def planner_color(title: str) -> str:
+    """The colour of a planner in every plot: its own, else a spare one picked by its name (stable)."""
+    if title in COLORS:
+        return COLORS[title]
+    return SPARE_COLORS[sum(map(ord, title)) % len(SPARE_COLORS)]
 
 
 @dataclass(frozen=True)
@@ -69,11 +86,12 @@ def summary_rows(db_path: Path) -> list[SummaryRow]:
 
 
 def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: float | None = None,
-                     workers: int | None = None, reused: int = 0) -> str:
+                     workers: int | None = None, reused: int = 0, until_first: bool = False) -> str:
     """The summary table as Markdown, one line per puzzle, a column group per planner.
 
     ``reused``: runs of a resumed benchmark that an earlier session did (``wall_seconds`` is
-    then this session's time only)."""
+    then this session's time only). ``until_first``: the runs stopped at their first solution,
+    so the cost is the first solution's."""
     planners = sorted({r.planner for r in rows}, key=_planner_key)
     experiments = list(dict.fromkeys(r.experiment for r in rows))
     table = {(r.experiment, r.planner): r for r in rows}
@@ -84,8 +102,13 @@ def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: flo
                      + (f", {wall_seconds:.0f} s wall time on {workers} workers{session}" if wall_seconds else "")
                      + ".")
         lines.append("")
-    lines.append("Cells: success % / median time to first solution [s] / median final action cost "
-                 "(medians over solved runs).")
+    if until_first:
+        lines.append("Runs stopped at their first solution (`--until first`). Cells: success % within the "
+                     "limit / median time to first solution [s] / median action cost of the first solution "
+                     "(medians over solved runs).")
+    else:
+        lines.append("Cells: success % / median time to first solution [s] / median final action cost "
+                     "(medians over solved runs).")
     lines.append("")
     lines.append("| puzzle | limit [s] | " + " | ".join(planners) + " |")
     lines.append("|---|---:|" + "---:|" * len(planners))
@@ -137,8 +160,9 @@ def curves(db_path: Path, experiment: str, planner: str, points: int = 100
     return times, success, median
 
 
-def plot_fig4(db_path: Path, out_path: Path, columns: int = 4) -> Path:
-    """Fig. 4: per puzzle, success rate (upper panel) and action cost (lower panel) over time."""
+def plot_fig4(db_path: Path, out_path: Path, columns: int = 4, until_first: bool = False) -> Path:
+    """Fig. 4: per puzzle, success rate (upper panel) and action cost (lower panel) over time;
+    ``until_first``: the runs stopped at their first solution (the cost is the first solution's)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -154,13 +178,13 @@ def plot_fig4(db_path: Path, out_path: Path, columns: int = 4) -> Path:
         bottom = axes[2 * (index // columns) + 1][index % columns]
         for planner in planners:
             times, success, cost = curves(db_path, experiment, planner)
-            color = COLORS.get(planner)
+            color = planner_color(planner)
             top.plot(times, 100 * success, color=color, label=planner)
             bottom.plot(times, cost, color=color, label=planner)
         top.set_title(experiment, fontsize=10)
         top.set_ylim(-5, 105)
         top.set_ylabel("success [%]", fontsize=8)
-        bottom.set_ylabel("action cost", fontsize=8)
+        bottom.set_ylabel("first solution's action cost" if until_first else "action cost", fontsize=8)
         bottom.set_xlabel("time [s]", fontsize=8)
         bottom.set_yscale("log")
         for axis in (top, bottom):
@@ -169,9 +193,19 @@ def plot_fig4(db_path: Path, out_path: Path, columns: int = 4) -> Path:
     for index in range(len(experiments), rows * columns):
         axes[2 * (index // columns)][index % columns].axis("off")
         axes[2 * (index // columns) + 1][index % columns].axis("off")
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    figure.legend(handles, labels, loc="lower center", ncol=len(planners), fontsize=10)
-    figure.tight_layout(rect=(0, 0.02, 1, 1))
+    # One legend entry per planner, from whichever panel drew it (a planner may lack some puzzles).
+    legend: dict[str, object] = {}
+    for axis in axes.flat:
+        for handle, label in zip(*axis.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    ordered = sorted(legend, key=_planner_key)
+    figure.legend([legend[label] for label in ordered], ordered, loc="lower center", ncol=max(1, len(ordered)),
+                  fontsize=10)
+    height = figure.get_figheight()
+    if until_first:
+        figure.suptitle("Runs stopped at their first solution (--until first)", fontsize=11)
+    # Room for the legend (about half an inch) and the title, whatever the number of rows.
+    figure.tight_layout(rect=(0, min(0.5 / height, 0.2), 1, 1 - (0.35 / height if until_first else 0)))
     out_path = Path(out_path)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(out_path, dpi=70)

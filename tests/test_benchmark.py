@@ -19,9 +19,11 @@ from solver.benchmark import (
     journal_line,
     make_jobs,
     parse_journal_line,
+    run_key,
     write_log,
 )
-from solver.plots import curves, plot_fig4, summary_markdown, summary_rows
+from solver.planners import PLANNERS
+from solver.plots import COLORS, PLANNER_ORDER, curves, planner_color, plot_fig4, summary_markdown, summary_rows
 
 
 def _record(planner: str, run: int, solved: bool, first: float | None, cost: int | None) -> RunRecord:
@@ -77,6 +79,33 @@ def test_summary_and_curves_from_the_database(database, tmp_path):
     assert figure.stat().st_size > 1000
 
 
+def test_until_first_and_planner_versions_reach_the_database_and_the_summary(tmp_path):
+    records = [_record("LA-RRT", 0, True, 0.1, 2), _record("LA-RRT+push (ours)", 0, True, 0.05, 2)]
+    log = tmp_path / "toy_1.log"
+    titles = ["LA-RRT", "LA-RRT+push (ours)"]
+    versions = {title: PLANNERS[name].version for title, name in zip(titles, ["la_rrt", "la_rrt_push"], strict=True)}
+    write_log(log, "toy_1", records, titles, 1.0, 1, 7, 1.0, "toy setup", until_first=True, versions=versions)
+    db = tmp_path / "bench.db"
+    build_database(db, [log])
+    with sqlite3.connect(db) as connection:
+        settings = dict(connection.execute("SELECT name, settings FROM plannerConfigs"))
+    assert set(settings) == set(titles)
+    for title in titles:
+        assert "until_first BOOLEAN = 1" in settings[title] and versions[title] in settings[title]
+    rows = summary_rows(db)
+    text = summary_markdown(rows, until_first=True)
+    assert "--until first" in text and "action cost of the first solution" in text
+    assert "| toy_1 | 1 | 100 / 0.10 / 2 | 100 / 0.05 / 2 |" in text
+    assert plot_fig4(db, tmp_path / "fig.png", until_first=True).stat().st_size > 1000
+
+
+def test_every_registered_planner_has_its_own_colour_in_the_registry_order():
+    assert PLANNER_ORDER == tuple(spec.title for spec in PLANNERS.values())
+    assert set(PLANNER_ORDER) <= set(COLORS)
+    assert len({planner_color(title) for title in PLANNER_ORDER}) == len(PLANNER_ORDER)
+    assert planner_color("Someone's planner") == planner_color("Someone's planner")
+
+
 def test_log_rejects_experiment_names_with_spaces(tmp_path):
     with pytest.raises(ValueError, match="white space"):
         write_log(tmp_path / "x.log", "two words", [], ["LA-RRT"], 1.0, 1, 0, 0.0, "")
@@ -98,6 +127,37 @@ def test_profiles_and_jobs():
     # 100 runs x 4 planners x (40 + 1) s on two workers for one Simple Slider puzzle
     one = [PuzzleFolder(Path("/nowhere"), "simple_slider_1", "simple_slider")]
     assert estimate_seconds(one, ["la_rrt", "rrt_star", "lbt_rrt", "bit_star"], paper, 2, 1.0) == 8200
+
+
+def test_every_planner_of_a_run_gets_the_same_goal_seed_and_the_mode_is_in_the_key():
+    quick = get_profile("quick", runs=3, time_limit=0.5)
+    puzzles = [PuzzleFolder(Path("/nowhere"), "rooms_1", "rooms")]
+    jobs = make_jobs(puzzles, list(PLANNERS), quick, base_seed=3)
+    by_run = {}
+    for job in jobs:
+        by_run.setdefault(job.run, set()).add(job.goal_seed)
+    assert all(len(seeds) == 1 for seeds in by_run.values())  # one goal seed per run, whatever the planner
+    assert len({next(iter(seeds)) for seeds in by_run.values()}) == 3  # and another one per run
+    assert not any(job.until_first for job in jobs)
+    first = make_jobs(puzzles, list(PLANNERS), quick, base_seed=3, until_first=True)
+    assert all(job.until_first for job in first)
+    keys = {run_key(job, "digest", "2.0.1") for job in jobs}
+    first_keys = {run_key(job, "digest", "2.0.1") for job in first}
+    assert len(keys) == len(jobs) and not keys & first_keys  # a mode's runs are never the other's
+    key = json.loads(run_key(first[0], "digest", "2.0.1"))
+    assert key["until"] == "first" and key["planner_version"] == PLANNERS[first[0].planner].version
+    assert key["goal_seed"] == first[0].goal_seed
+
+
+def test_a_changed_planner_version_changes_the_journal_key(monkeypatch):
+    from dataclasses import replace
+
+    import solver.planners as planners
+
+    job = make_jobs([PuzzleFolder(Path("/nowhere"), "rooms_1", "rooms")], ["la_rrt"], get_profile("quick"))[0]
+    before = run_key(job, "digest", "2.0.1")
+    monkeypatch.setitem(planners.PLANNERS, "la_rrt", replace(planners.PLANNERS["la_rrt"], version="paper-2"))
+    assert run_key(job, "digest", "2.0.1") != before
 
 
 def test_journal_lines_round_trip_and_refuse_what_does_not_fit():
@@ -129,14 +189,45 @@ def test_benchmark_end_to_end(tmp_path):
     folder = write_puzzle(puzzle, tmp_path / "puzzles", versions())
     puzzles = find_puzzle_folders(tmp_path / "puzzles")
     assert [p.name for p in puzzles] == ["simple_slider_1"]
-    out = run_benchmark(puzzles, ["la_rrt", "rrt_star"], get_profile("quick", runs=2, time_limit=1.0),
+    out = run_benchmark(puzzles, ["la_rrt", "la_rrt_push", "rrt_star"], get_profile("quick", runs=2, time_limit=1.0),
                         tmp_path / "bench", workers=2, progress=False)
     assert (tmp_path / "bench" / "logs" / "simple_slider_1.log").is_file()
     assert (tmp_path / "bench" / "fig4.png").is_file() and (tmp_path / "bench" / "summary.md").is_file()
     rows = summary_rows(out.database)
-    assert {r.planner for r in rows} == {"LA-RRT", "RRT*"} and all(r.runs == 2 for r in rows)
-    assert next(r for r in rows if r.planner == "LA-RRT").success == 1.0
+    assert {r.planner for r in rows} == {"LA-RRT", "LA-RRT+push (ours)", "RRT*"} and all(r.runs == 2 for r in rows)
+    assert all(r.success == 1.0 for r in rows if r.planner.startswith("LA-RRT"))
     saved = json.loads((folder / BEST_SOLUTION).read_text())
-    assert saved["planner"] == "LA-RRT" and saved["action_cost"] == 2
+    assert saved["planner"] in ("LA-RRT", "LA-RRT+push (ours)") and saved["action_cost"] == 2
     assert saved["joint_order"] == list(puzzle.joint_order)
     assert verify_certificate(puzzle.planning_chain, saved["path"], puzzle.goal) == []
+
+
+@pytest.mark.slow
+def test_a_benchmark_until_first_stops_every_run_at_its_first_solution(tmp_path):
+    from phyrogen_core.export import write_puzzle
+    from phyrogen_core.folder import find_puzzle_folders
+    from solver.benchmark import JOURNAL, read_journal, run_benchmark
+    from solver.generation import generate_puzzle, versions
+
+    write_puzzle(generate_puzzle("move_n_times", 1), tmp_path / "puzzles", versions())
+    puzzles = find_puzzle_folders(tmp_path / "puzzles")
+    profile = get_profile("quick", runs=1, time_limit=10.0)
+    out = run_benchmark(puzzles, list(PLANNERS), profile, tmp_path / "bench", workers=2, progress=False,
+                        save_solutions=False, until_first=True)
+    assert len(out.records) == len(PLANNERS)
+    for record in out.records:
+        if record.solved:  # stopped right at its first solution, which is the result
+            assert record.first_solution_time == record.best_solution_time
+            assert record.time - record.first_solution_time < 0.5, record
+        else:  # possible for RRT* and BIT*: a best path that clips a corner at fine resolution
+            assert record.time >= profile.time_limit("move_n_times"), record
+    assert all(r.solved for r in out.records if r.planner.startswith("LA-RRT"))  # well within a second
+    assert "--until first" in (tmp_path / "bench" / "summary.md").read_text()
+    log = (tmp_path / "bench" / "logs" / "move_n_times_1.log").read_text()
+    assert log.count("until_first BOOLEAN = 1") == len(PLANNERS)
+    keys = [json.loads(k) for k in read_journal(tmp_path / "bench" / JOURNAL)]
+    assert {k["until"] for k in keys} == {"first"} and len({k["goal_seed"] for k in keys}) == 1
+    # The same benchmark until the limit reuses none of them.
+    again = run_benchmark(puzzles, ["la_rrt"], get_profile("quick", runs=1, time_limit=0.3), tmp_path / "bench",
+                          workers=1, progress=False, save_solutions=False, plots=False)
+    assert again.reused == 0

@@ -38,13 +38,41 @@ def test_a_diagonal_segment_counts_one_action_per_object():
 def test_unknown_planner_names_the_valid_ones():
     with pytest.raises(ValueError, match="la_rrt"):
         get_planner("prm")
-    assert list(PLANNERS) == ["la_rrt", "rrt_star", "lbt_rrt", "bit_star"]
+    assert list(PLANNERS) == ["la_rrt", "la_rrt_push", "rrt_star", "lbt_rrt", "bit_star"]
+    titles = [spec.title for spec in PLANNERS.values()]
+    assert titles == ["LA-RRT", "LA-RRT+push (ours)", "RRT*", "LBT-RRT", "BIT*"]
+
+
+def test_the_paper_la_rrt_has_none_of_our_additions():
+    from solver.la_rrt import PAPER_SETTINGS, PUSH_SETTINGS, LaRrtSettings
+
+    assert PUSH_SETTINGS == LaRrtSettings()  # the judge and LA-RRT+push: the defaults
+    assert (PAPER_SETTINGS.max_pushes, PAPER_SETTINGS.limit_probability, PAPER_SETTINGS.single_factor_probability,
+            PAPER_SETTINGS.extension, PAPER_SETTINGS.weighted_metric, PAPER_SETTINGS.goal_root_rule,
+            PAPER_SETTINGS.defragment_share) == (0, 0.0, 0.0, "isolate", False, "half_tree", 1.0)
+    with pytest.raises(ValueError, match="extension"):
+        LaRrtSettings(extension="teleport")
+
+
+def test_planner_versions_name_their_settings_and_the_goal_sampler():
+    from dataclasses import replace
+
+    from solver.goal_sampling import DEFAULT_GOAL_SETTINGS, GoalSamplerSettings
+    from solver.la_rrt import PAPER_SETTINGS
+    from solver.planners import _version
+
+    versions = {spec.name: spec.version for spec in PLANNERS.values()}
+    assert len(set(versions.values())) == len(versions) - 1  # RRT* and BIT* share the OMPL wrapper's
+    assert all(DEFAULT_GOAL_SETTINGS.tag in v for v in versions.values())
+    assert _version("paper-1", PAPER_SETTINGS) == versions["la_rrt"]
+    assert _version("paper-1", replace(PAPER_SETTINGS, range_fraction=0.3)) != versions["la_rrt"]
+    assert GoalSamplerSettings(capacity=8).tag != DEFAULT_GOAL_SETTINGS.tag
 
 
 def test_run_seeds_are_stable_and_distinct():
     assert run_seed("la_rrt", "simple_slider_1", 0) == run_seed("la_rrt", "simple_slider_1", 0)
     seeds = {run_seed(p, "simple_slider_1", r) for p in PLANNERS for r in range(10)}
-    assert len(seeds) == 40
+    assert len(seeds) == 10 * len(PLANNERS)
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +108,7 @@ def move_once():
 
 @pytest.mark.parametrize("name", list(PLANNERS))
 def test_every_planner_returns_a_valid_path_at_fine_resolution(move_once, name):
-    # Move N Times 1, not Simple Slider 1: all four planners solve it within 0.2 s, while RRT*
+    # Move N Times 1, not Simple Slider 1: all five planners solve it within 0.2 s, while RRT*
     # solved Simple Slider 1 in only half of the benchmark's 4 s runs. OMPL's RNG is global and
     # seeded once per process, so its draws here depend on the tests run before.
     puzzle, problem = move_once
@@ -95,11 +123,25 @@ def test_every_planner_returns_a_valid_path_at_fine_resolution(move_once, name):
     assert costs[-1] == result.action_cost
 
 
-def test_la_rrt_finds_the_fewest_actions(slider):
-    _, problem = slider
-    result = get_planner("la_rrt").plan(problem, time_limit=1.0, seed=11)
-    assert result.action_cost == 2
+@pytest.mark.parametrize("name", list(PLANNERS))
+def test_until_first_stops_at_the_first_solution(move_once, name):
+    puzzle, problem = move_once
+    result = get_planner(name).plan(problem, time_limit=5.0, seed=4, progress_interval=0.05, until_first=True)
+    if not result.solved:
+        # Only a planner whose paths are checked at planning resolution can be stuck with a best path
+        # that clips a corner at fine resolution; it then plans on until the limit.
+        assert name not in ("la_rrt", "la_rrt_push") and result.time >= 5.0
+        return
+    assert result.time - result.first_solution_time < 0.5  # it stopped there (all five take well under 1 s)
+    assert result.first_solution_time == result.best_solution_time  # the first solution is the result
+    assert verify_certificate(puzzle.planning_chain, chain_path(problem, result.path), puzzle.goal) == []
 
+
+@pytest.mark.parametrize("name", ["la_rrt", "la_rrt_push"])
+def test_la_rrt_finds_the_fewest_actions(slider, name):
+    _, problem = slider
+    result = get_planner(name).plan(problem, time_limit=1.0, seed=11)
+    assert result.action_cost == 2
 
 
 @pytest.mark.parametrize("pushes", [0, 2])
@@ -126,3 +168,28 @@ def test_la_rrt_pushes_the_blocker_aside_when_the_target_is_blocked(slider, push
         reached_goal += in_goal(problem, branch[-1])
     # The target's straight slide hits the blocker: only a push gets it to its goal.
     assert (reached_goal > 0) == (pushes > 0)
+
+
+def test_an_isolated_step_is_all_or_nothing(slider):
+    from dataclasses import replace
+
+    from solver.la_rrt import _REACHED, _TRAPPED, PAPER_SETTINGS, LaRrt
+
+    _, problem = slider
+    # Target and blocker both to their far ends, in one step (the range covers the whole space):
+    # blocker first works, target first hits the blocker.
+    settings = replace(PAPER_SETTINGS, range_fraction=1.0)
+    statuses = set()
+    for seed in range(8):
+        planner = LaRrt(problem, np.random.default_rng(seed), settings)
+        planner.start_tree.add(problem.start, -1)
+        status, node = planner._isolate(planner.start_tree, 0, problem.upper.copy())
+        statuses.add(status)
+        if status == _TRAPPED:  # nothing of the blocked staircase is kept
+            assert (node, planner.start_tree.size) == (0, 1)
+        else:
+            assert status == _REACHED and planner.start_tree.size == 3  # one node per factor
+            branch = np.array(planner.start_tree.branch(node))
+            assert np.count_nonzero(np.diff(branch, axis=0), axis=1).tolist() == [1, 1]
+            assert np.array_equal(branch[-1], problem.upper)
+    assert statuses == {_REACHED, _TRAPPED}  # the factor order is drawn afresh every time

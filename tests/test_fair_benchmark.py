@@ -1,0 +1,140 @@
+"""A fair benchmark: one shared goal sampler for every planner, and every planner makes progress on
+every paper puzzle (BIT* used to make no iteration on Lockbox Random and Simple Slider 3-4)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from solver.goal_sampling import GoalSampler, GoalSamplerSettings, goal_seed
+from solver.problem import in_goal, problem_for_chain
+
+
+@pytest.fixture(scope="module")
+def slider4():
+    from solver.generation import generate_puzzle
+
+    puzzle = generate_puzzle("simple_slider", 4)
+    return problem_for_chain(puzzle.planning_chain, puzzle.goal)
+
+
+def _stream(problem, seed: int, settings: GoalSamplerSettings | None = None) -> list[np.ndarray]:
+    sampler = GoalSampler(problem, seed, settings)
+    states = []
+    while (state := sampler.next()) is not None:
+        states.append(state)
+    return states
+
+
+def test_goal_states_are_valid_deterministic_and_bounded(slider4):
+    # Simple Slider 4: 26 in 200,000 uniform goal states are valid; the sampler repairs the others.
+    states = _stream(slider4, 5)
+    assert len(states) == GoalSamplerSettings().capacity
+    assert all(slider4.model.is_valid(s) and in_goal(slider4, s) for s in states)
+    assert len({tuple(s) for s in states}) == len(states)
+    again = _stream(slider4, 5)
+    assert all(np.array_equal(a, b) for a, b in zip(states, again, strict=True))
+    assert not np.array_equal(_stream(slider4, 6)[0], states[0])
+
+
+def test_a_planner_that_asks_later_gets_the_same_states(slider4):
+    # What one planner draws in between (its own rng) does not change the stream.
+    eager, lazy = GoalSampler(slider4, 9), GoalSampler(slider4, 9)
+    first = [eager.next() for _ in range(3)]
+    rng = np.random.default_rng(0)
+    rng.random(1000)
+    assert all(np.array_equal(a, lazy.sample(rng)) for a in first)
+
+
+def test_the_stream_ends_at_its_budget_and_then_repeats_what_it_found(slider4):
+    small = GoalSamplerSettings(capacity=50, budget=3000)
+    sampler = GoalSampler(slider4, 5, small)
+    found = []
+    while (state := sampler.next()) is not None:
+        found.append(state)
+    assert sampler.exhausted and sampler.checked <= small.budget and 0 < len(found) < small.capacity
+    rng = np.random.default_rng(1)
+    repeats = [sampler.sample(rng) for _ in range(20)]
+    assert all(any(np.array_equal(r, f) for f in found) for r in repeats)
+    nothing = GoalSampler(slider4, 5, GoalSamplerSettings(budget=10))  # less than one batch
+    assert nothing.next() is None and nothing.sample(rng) is None
+
+
+def test_the_goal_seed_is_the_same_for_every_planner_of_a_run():
+    assert goal_seed("rooms_1", 0) == goal_seed("rooms_1", 0)
+    assert len({goal_seed("rooms_1", r) for r in range(10)} | {goal_seed("rooms_2", 0)}) == 11
+
+
+def test_ompls_goal_region_hands_out_only_the_shared_valid_states(slider4):
+    from solver.ompl_planners import _setup
+
+    goals = GoalSampler(slider4, 5, GoalSamplerSettings(capacity=4))
+    si, pdef, keep = _setup(slider4, goals, np.random.default_rng(0))
+    region = keep[0][3]
+    assert region.maxSampleCount() == 4 and region.couldSample()
+    state = si.allocState()
+    drawn = []
+    for _ in range(6):
+        region.sampleGoal(state)
+        drawn.append(np.array([state[i] for i in range(len(slider4.start))]))
+    assert all(slider4.model.is_valid(s) and in_goal(slider4, s) for s in drawn) and region.isSatisfied(state)
+    assert all(np.array_equal(a, b) for a, b in zip(drawn[:4], goals.states, strict=True))
+    assert region.maxSampleCount() == 4  # full: BIT* takes these four and stops asking
+    empty = GoalSampler(slider4, 5, GoalSamplerSettings(budget=10))
+    _si, _pdef, keep = _setup(slider4, empty, np.random.default_rng(0))
+    empty.next()
+    assert keep[0][3].maxSampleCount() == 0 and not keep[0][3].couldSample()  # nothing: never waited for
+
+
+# -- every planner makes progress on every paper puzzle ----------------------------------------------
+PROGRESS_LIMIT = 0.4
+"""Seconds per run: BIT* takes its 16 goal states first (about 0.2 s on a lockbox), then iterates."""
+
+
+def _progress_on(args) -> tuple[str, dict[str, tuple[int, int, int]], int]:
+    """In a fresh process: every planner on one puzzle for :data:`PROGRESS_LIMIT` seconds.
+    Returns the puzzle, per planner (iterations, graph vertices, goal states; -1 where not
+    recorded), and the goal states the sampler finds with the run's goal seed."""
+    from ompl import geometric as og
+
+    from solver.ompl_planners import run_ompl
+    from solver.planners import PLANNERS, get_planner, run_seed
+    from solver.validation import seed_ompl
+
+    name, puzzle = args
+    problem = problem_for_chain(puzzle.planning_chain, puzzle.goal)
+    seed_ompl(run_seed("bit_star", name, 0))
+    goals = goal_seed(name, 0)
+    out = {}
+    for planner in PLANNERS:
+        seed = run_seed(planner, name, 0)
+        if planner == "bit_star":
+            run = run_ompl("BIT*", og.BITstar, problem, PROGRESS_LIMIT, seed, 0.05, goal_seed=goals)
+            out[planner] = (run.result.iterations, run.vertices, run.goal_states)
+        else:
+            result = get_planner(planner).plan(problem, PROGRESS_LIMIT, seed, 0.05, goal_seed=goals)
+            out[planner] = (result.iterations, -1, -1)
+    return name, out, len(_stream(problem, goals))
+
+
+@pytest.mark.slow
+def test_every_planner_makes_progress_on_every_paper_puzzle(paper_reports):
+    from solver.planners import PLANNERS
+    from solver.pool import fresh_process_pool
+
+    jobs = [(f"{r.generator}_{r.seed}", r.puzzle) for r in paper_reports]
+    assert len(jobs) == 24
+    with fresh_process_pool(2, len(jobs), []) as pool:
+        results = list(pool.imap(_progress_on, jobs))
+    stalled = []
+    for name, runs, goal_states in results:
+        if goal_states != GoalSamplerSettings().capacity:
+            stalled.append(f"{name}: the goal sampler found {goal_states} goal states")
+        for planner in PLANNERS:
+            iterations, vertices, goals = runs[planner]
+            if iterations <= 0:
+                stalled.append(f"{name}: {planner} made no iteration")
+        _, vertices, goals = runs["bit_star"]
+        if goals <= 0 or vertices <= 1:
+            stalled.append(f"{name}: BIT* had {goals} goal states and {vertices} vertices")
+    assert not stalled, "\n".join(stalled)
