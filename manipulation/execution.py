@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 import pybullet as pb
 
+from phyrogen_core.actions import Action, split_actions
 from phyrogen_core.chain import JointType, KinematicChain
 from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
-from solver.actions import Action, split_actions
 from solver.problem import densify
 
 from .following import FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory

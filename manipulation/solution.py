@@ -4,7 +4,7 @@ The preferred input is the lowest-cost LA-RRT solution stored beside the
 puzzle (``solutions/la_rrt_best.json``: ``joint_order`` and ``path``); a
 puzzle without one falls back to its certificate from ``puzzle.json``.
 Either path is split into single-object actions by
-:func:`solver.actions.split_actions`, the rule the planners count actions by:
+:func:`phyrogen_core.actions.split_actions`, the rule the planners count actions by:
 a segment that moves several objects becomes one move per object (in factor
 order), and consecutive moves of the same object form one action.
 """

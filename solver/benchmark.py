@@ -324,7 +324,7 @@ def build_database(db_path: Path, logs: Iterable[Path]) -> None:
 # -- best solutions -----------------------------------------------------------
 def solution_json(record: RunRecord, factors: Mapping[str, Sequence[int]]) -> dict:
     """The saved form of a best path: joint order, path and the object moved by each action."""
-    from .actions import action_sequence
+    from phyrogen_core.actions import action_sequence
 
     return {
         "format": "phyrogen-solution",

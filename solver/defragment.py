@@ -21,10 +21,10 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from phyrogen_core.actions import factor_membership, moved_factors
 from phyrogen_core.chain import KinematicChain
 from phyrogen_core.puzzle import Goal
 
-from .actions import factor_membership, moved_factors
 from .collision import CollisionModel
 from .problem import (
     DEFAULT_RESOLUTION,
@@ -41,7 +41,7 @@ Action = tuple[int, tuple[np.ndarray, ...]]  # (factor index, waypoints of that 
 ISOLATE_SPLITS = 6
 """How often a multi-factor segment may be halved to find single-factor moves (at most 64 pieces)."""
 MOVE_TOLERANCE = 1e-9
-"""Stricter than :data:`solver.actions.MOVE_TOLERANCE`: any change of a factor's joints makes it a move here."""
+"""Stricter than :data:`phyrogen_core.actions.MOVE_TOLERANCE`: any change of a factor's joints makes it a move here."""
 
 
 class Defragmenter:

@@ -18,12 +18,12 @@ from pathlib import Path
 from typing import Any
 
 from phyrogen_core import __version__
+from phyrogen_core.actions import count_actions
 from phyrogen_core.maker import GenerationError, make, rng_for
 from phyrogen_core.objects import build_chain
 from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.registry import ParameterError, get_generator
 
-from .actions import count_actions
 from .defragment import defragment_certificate
 from .pool import deferred_signals, fresh_process_pool, stable_seed
 from .problem import dependency_graph

@@ -31,7 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .actions import factor_membership
+from phyrogen_core.actions import factor_membership
+
 from .goal_sampling import GoalSampler, default_goal_seed
 from .planning import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning_steps
 from .problem import FINE_RESOLUTION, Problem, in_goal, path_is_valid, problem_factors

@@ -4,7 +4,7 @@ The paper's action cost (runs of moves of one object) is not additive over
 path segments, which OMPL's objectives must be. The planners therefore
 optimize its additive upper bound: each segment costs the number of objects
 it moves. Every path a planner returns is scored with the true action count
-(:func:`solver.actions.count_actions`) like every other planner's. Planners
+(:func:`phyrogen_core.actions.count_actions`) like every other planner's. Planners
 are solved in short slices (OMPL keeps the tree between ``solve`` calls), so
 the best cost can be sampled over time; with ``until_first`` a run ends at
 its first solution that holds at fine resolution.

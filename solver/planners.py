@@ -2,7 +2,7 @@
 
 ``get_planner(name).plan(problem, time_limit, seed)`` -> :class:`~solver.planning.PlanResult`
 (best path, action cost, first-solution time, cost over time). Every planner
-scores paths with :func:`solver.actions.count_actions`, runs until its time
+scores paths with :func:`phyrogen_core.actions.count_actions`, runs until its time
 limit (all are anytime) or, with ``until_first``, until its first solution
 that holds at fine resolution, and takes its goal states from the shared
 goal sampler (:mod:`solver.goal_sampling`) seeded with ``goal_seed``: the

@@ -3,7 +3,7 @@
 A planner gets a :class:`~solver.problem.Problem` (the collision model and
 the free joints' bounds, start and goal) and a time limit; it reports a
 :class:`PlanResult`: the best path it found, scored with the paper's action
-cost (:func:`solver.actions.count_actions`, the same function for every
+cost (:func:`phyrogen_core.actions.count_actions`, the same function for every
 planner), when it found its first solution, and how the best cost evolved.
 Paths in a result list states in the problem's joint order
 (``problem.model.joint_order``); :func:`solver.problem.chain_path` expands
@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .actions import count_actions
+from phyrogen_core.actions import count_actions
+
 from .problem import FINE_RESOLUTION, Path, Problem, in_goal, path_is_valid, problem_factors
 
 PLANNING_RESOLUTION = 0.01

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from phyrogen_core.actions import count_actions
 from phyrogen_core.export.metadata import puzzle_metadata
 from phyrogen_core.registry import paper_generators
-from solver.actions import count_actions
 from solver.defragment import defragment_certificate
 from solver.generation import Job, run_jobs
 from solver.judge import JUDGE_BUDGET, attempt_fixed

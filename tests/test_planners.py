@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solver.actions import count_actions
+from phyrogen_core.actions import count_actions
 from solver.defragment import Defragmenter
 from solver.planners import PLANNERS, get_planner, run_seed
 from solver.problem import (
