@@ -44,7 +44,10 @@ def _poses(q, kin_int, kin_float, x, y, c, s):
         s[link] = math.sin(yaw)
 
 
-@njit(cache=True, nogil=True)
+# Inlined into its callers: a call that passes numba arrays pays reference counting on
+# each of them, and with thirteen array arguments that cost 20x the test itself
+# (benchmarks/collision_speed.py; docs/performance.md).
+@njit(cache=True, nogil=True, inline='always')
 def _pair_collides(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
                    shape_verts, shape_normals, shape_extent, reach_tol, tol):
     la, lb = shape_link[a], shape_link[b]
