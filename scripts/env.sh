@@ -12,7 +12,7 @@ if [ ! -x "$ROOT/.venv/bin/python" ]; then
 fi
 VENV="$ROOT/.venv"
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
-"$VENV/bin/python" -m pip install --quiet -e "$ROOT[${PHYROGEN_EXTRAS:-blender,manipulation,dev}]"
+"$VENV/bin/python" -m pip install --quiet -e "$ROOT[${PHYROGEN_EXTRAS:-blender,manipulation,interop,datasets,dev}]"
 
 # System packages for headless rendering, the Blender binary and browser checks.
 # Installed only when running as root on a Debian-like machine and missing.
