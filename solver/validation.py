@@ -16,6 +16,7 @@ Generator.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 from ompl import base as ob
@@ -34,6 +35,7 @@ from .problem import (
     Problem,
     chain_path,
     goal_distance,
+    in_goal,
     path_is_valid,
     problem_for_objects,
     verify_certificate,
@@ -190,15 +192,54 @@ class OmplValidator:
         problem = problem_for_objects(objects, goal)
         if problem is None:
             return SolveResult(False)
+        budget = int(self.budget * budget_scale)
         path = self._extend_previous(objects, goal)
         if path is None:
-            result = rrt_connect(problem, int(self.budget * budget_scale), self.rng, self.resolution)
+            previous = self._previous_with_same_joints(objects)
+            if previous is not None:
+                path = self._replan_tail(problem, previous, self.resolution, budget)
+        if path is None:
+            result = rrt_connect(problem, budget, self.rng, self.resolution)
             self.checks += result.checks
             if not result.solved:
                 return result
             path = chain_path(problem, result.path)
         self._solved[objects] = path
         return SolveResult(True, path, 0)
+
+    def _previous_with_same_joints(self, objects: tuple[PuzzleObject, ...]):
+        """The certificate of the longest solved prefix of ``objects`` when every object added
+        since is fixed (walls, corridors): its states are states of the new puzzle too."""
+        prefix = next((k for k in range(len(objects) - 1, 0, -1) if objects[:k] in self._solved), None)
+        if prefix is None or any(o.is_movable for o in objects[prefix:]):
+            return None
+        return self._solved[objects[:prefix]]
+
+    def _replan_tail(self, problem: Problem, path, resolution: float, budget: int):
+        """Factored validation: keep the longest prefix of ``path`` (chain joint order) that is
+        collision-free at ``resolution`` and plan only the rest, from where it stops.
+
+        When the new objects are walls (a corridor of Move N Times) the old certificate still
+        holds up to the new walls, so only the new level is searched: the cost of a puzzle
+        grows with its levels instead of 4x per level. Returns None when no path is found
+        within ``budget`` queries (the caller then plans from the start)."""
+        model = problem.model
+        order = model.chain.joint_order
+        states = np.array([[state[order.index(j)] for j in model.joint_order] for state in path], dtype=np.float64)
+        steps = model.motion_steps(resolution)
+        if not model.is_valid(states[0]) or np.any(np.abs(states[0] - problem.start) > 1e-12):
+            return None
+        kept = 1
+        while kept < len(states) and model.check_motion(states[kept - 1], states[kept], steps):
+            kept += 1
+        self.checks += kept
+        if kept == len(states) and in_goal(problem, states[-1]):
+            return chain_path(problem, states)
+        result = rrt_connect(replace(problem, start=states[kept - 1]), budget, self.rng, resolution)
+        self.checks += result.checks
+        if not result.solved:
+            return None
+        return chain_path(problem, np.concatenate([states[:kept - 1], np.array(result.path)]))
 
     def necessity(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], margin: float, *,
                   budget_scale: float = 1.0) -> float | None:
@@ -241,12 +282,19 @@ class OmplValidator:
         """A certificate that holds at :data:`FINE_RESOLUTION`: ``path`` itself when it does,
         else a path planned again at that resolution (a path planned coarsely can clip a
         corner between two checked states). Returns None when none is found."""
-        if not verify_certificate(build_chain(objects), path, goal):
+        chain = build_chain(objects)
+        if not verify_certificate(chain, path, goal):
             return tuple(path)
+        # Most coarse paths clip a corner late or not at all: re-plan from the last fine-valid state first.
+        problem = problem_for_objects(objects, goal)
+        if problem is not None:
+            repaired = self._replan_tail(problem, path, FINE_RESOLUTION, int(self.budget * budget_scale))
+            if repaired is not None and not verify_certificate(chain, repaired, goal):
+                return repaired
         fine = OmplValidator(self.rng, self.budget, FINE_RESOLUTION)
         result = fine.solve(objects, goal, budget_scale=budget_scale)
         self.checks += fine.checks
-        if result.solved and not verify_certificate(build_chain(objects), result.path, goal):
+        if result.solved and not verify_certificate(chain, result.path, goal):
             return result.path
         return None
 
