@@ -129,8 +129,8 @@ def test_all_generators_over_seeds_1_to_8_is_refused_before_any_work(tmp_path, c
 
 
 @pytest.mark.parametrize(("generator", "overrides", "fragment"), [
-    ("move_n_times", {"n": 20}, "4^n"),  # the n = 20: accepted before, 4^18 times the budget of n = 2
-    ("move_n_times", {"n": 6}, "n must lie in 1..5"),
+    ("move_n_times", {"n": 20}, "2.5x per move"),  # the n = 20: accepted before, 4^18 times the budget of n = 2
+    ("move_n_times", {"n": 8}, "n must lie in 1..7"),
     ("simple_slider", {"n_objects": 8}, "n_objects must lie in 1..7"),
     ("grid_world", {"n_objects": 50}, "n_objects must lie in 1..25"),
     ("lockbox_random", {"n_objects": 50}, "n_objects must lie in 1..19"),

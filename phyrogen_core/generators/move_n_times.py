@@ -34,11 +34,12 @@ DOOR_THICKNESS = 0.1
 DOOR_Y = -0.5
 """The door runs along this line, the open top of every corridor."""
 CELL = 1.0
-MAX_N = 5
-"""The most door moves accepted. Generation cost grows about 4x per move (the validator's budget,
-:func:`search_budget_scale`, grows as 4^n): n = 5 takes 40-45 s of CPU time, n = 6 about 3 min,
-beyond the bound every size must keep (docs/generators.md#feasible-sizes). Two-digit wall names
-alone would allow n = 20 (5n - 4 walls)."""
+MAX_N = 7
+"""The most door moves accepted. The validator re-plans only the new corridor of each level
+(factored validation, :meth:`solver.validation.OmplValidator.solve`), so the cost grows about
+2.5x per move instead of 4x: n = 7 takes 20-23 s of CPU time, within the bound every size must
+keep (docs/generators.md#feasible-sizes); n = 8 took 38-54 s on two seeds but over 2 min on a
+third. Two-digit wall names alone would allow n = 20 (5n - 4 walls)."""
 
 
 @dataclass(frozen=True)
@@ -94,8 +95,8 @@ class MoveNTimesParams:
         moves = self.moves(seed)
         if moves > MAX_N:
             raise ParameterError(
-                f"n must lie in 1..{MAX_N}, got n = {moves} (seed {seed}): the search budget grows as 4^n; "
-                f"n = 5 takes about 45 s, n = 6 about 3 min of CPU time ({kit.SIZES_DOC}): "
+                f"n must lie in 1..{MAX_N}, got n = {moves} (seed {seed}): the cost grows about 2.5x per move; "
+                f"n = 7 takes about 25 s of CPU time, n = 8 up to minutes ({kit.SIZES_DOC}): "
                 f"set n (or use a seed) between 1 and {MAX_N}"
             )
 
@@ -104,8 +105,9 @@ def search_budget_scale(moves: int) -> float:
     """How much more search the validator gets than its default: 5 x 4^(n-2) for n >= 2.
 
     The door and the target must meet at the far ends of their ranges n times,
-    so the search RRT-Connect needs grows about 4x per move
-    (docs/generators.md#move-n-times has the measurements).
+    so the search RRT-Connect needs from the start grows about 4x per move
+    (docs/generators.md#move-n-times has the measurements). This is a cap: with
+    factored validation each level re-plans only its own corridor and spends far less.
     """
     return 1.0 if moves < 2 else 5.0 * 4.0 ** (moves - 2)
 
@@ -247,8 +249,9 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     Difficulty parameters:
         ``n`` (0: n = Seed, the paper) is the number of door moves and sets
         the number of corridors (n - 1), the door width and the target's range.
-        Validation cost grows about 4x per move, so n is capped at 5 (about
-        45 s of CPU time; n = 6 would take about 3 min).
+        Validation re-plans one corridor per level, so its cost grows about
+        2.5x per move; n is capped at 7 (about 25 s of CPU time; n = 8
+        took over 2 min on one seed of three).
 
     Departures:
         The Maker runs n + 1 iterations, not Table I's Seed + 2: the pocket
