@@ -160,6 +160,24 @@ def cmd_check(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from phyrogen_core.export import chain_to_mjcf, read_puzzle_dir, write_mjcf
+    from phyrogen_core.folder import require_writable_dir
+
+    # Every folder is read, converted and checked writable before the first file is written:
+    # bad input (a missing folder, a malformed puzzle) leaves every folder as it was.
+    folders = [f.path if isinstance(f, PuzzleFolder) else Path(f) for f in find_in_paths(args.puzzle_dirs)]
+    puzzles = []
+    for folder in folders:
+        loaded = read_puzzle_dir(folder)
+        chain_to_mjcf(loaded.chain)
+        require_writable_dir(folder, "puzzle folder")
+        puzzles.append((folder, loaded))
+    for folder, loaded in puzzles:
+        print(write_mjcf(folder, loaded.chain, loaded.metadata["name"]))
+    return 0
+
+
 def cmd_audit(args) -> int:
     from tqdm import tqdm
 
@@ -391,6 +409,11 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="re-validate an exported puzzle folder")
     check.add_argument("puzzle_dir")
     check.set_defaults(func=cmd_check)
+    export = sub.add_parser("export", help="write other formats into puzzle folders: mjcf -> <folder>/mjcf/<name>.xml")
+    export.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR",
+                        help="puzzle folder(s), or a folder of generated puzzles (all of them)")
+    export.add_argument("--format", required=True, choices=("mjcf",), help="mjcf: MuJoCo (docs/interop.md)")
+    export.set_defaults(func=cmd_export)
     bench = sub.add_parser("benchmark", help="benchmark planners on puzzle folders (OMPL logs, database, plots)")
     bench.add_argument("--puzzles", default="output", help="folder of puzzle folders (default: output)")
     bench.add_argument("--generator", default="all", help="generators to include (default: all found)")

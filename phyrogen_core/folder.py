@@ -197,6 +197,7 @@ class Stage(StrEnum):
     EXPORT = "export"
     BENCHMARK = "benchmark"
     RENDER = "render"
+    INTEROP = "interop"  # files for other tools (MJCF), converted from the export
 
 
 def stage_entries(stage: Stage, name: str) -> tuple[str, ...]:
@@ -205,6 +206,7 @@ def stage_entries(stage: Stage, name: str) -> tuple[str, ...]:
         Stage.EXPORT: ("urdf", "srdf", "meshes", METADATA_FILE),
         Stage.BENCHMARK: ("solutions",),
         Stage.RENDER: ("images", f"{name}.blend"),
+        Stage.INTEROP: ("mjcf",),
     }[stage]
 
 
@@ -386,7 +388,7 @@ newer packages into the same files is the same puzzle and keeps its renders and 
 
 def derived_stages(stage: Stage) -> tuple[Stage, ...]:
     """The stages whose entries are computed from ``stage``'s, and go stale when those change."""
-    return (Stage.BENCHMARK, Stage.RENDER) if stage is Stage.EXPORT else ()
+    return (Stage.BENCHMARK, Stage.RENDER, Stage.INTEROP) if stage is Stage.EXPORT else ()
 
 
 def same_stage_entries(old: str | Path, new: str | Path, names: Iterable[str]) -> bool:
