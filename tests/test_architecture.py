@@ -20,7 +20,7 @@ THIRD_PARTY = {
     "solver": {"numpy", "ompl", "numba", "tqdm", "matplotlib", "ray", "pyarrow", "duckdb"},
     "blender_addon": {"numpy", "bpy", "mathutils", "addon_utils"},
     "manipulation": {"numpy", "numba", "pybullet", "pybullet_data", "imageio", "tqdm", "ompl"},
-    "phyrogen": {"tqdm"},
+    "phyrogen": {"tqdm", "numpy", "gymnasium"},
 }
 """Outside the standard library, what each package may import."""
 
