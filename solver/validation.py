@@ -207,10 +207,14 @@ class OmplValidator:
         self._solved[objects] = path
         return SolveResult(True, path, 0)
 
+    def _solved_prefix(self, objects: tuple[PuzzleObject, ...]) -> int | None:
+        """The length of the longest proper prefix of ``objects`` solved before, or None."""
+        return next((k for k in range(len(objects) - 1, 0, -1) if objects[:k] in self._solved), None)
+
     def _previous_with_same_joints(self, objects: tuple[PuzzleObject, ...]):
         """The certificate of the longest solved prefix of ``objects`` when every object added
         since is fixed (walls, corridors): its states are states of the new puzzle too."""
-        prefix = next((k for k in range(len(objects) - 1, 0, -1) if objects[:k] in self._solved), None)
+        prefix = self._solved_prefix(objects)
         if prefix is None or any(o.is_movable for o in objects[prefix:]):
             return None
         return self._solved[objects[:prefix]]
@@ -224,8 +228,8 @@ class OmplValidator:
         grows with its levels instead of 4x per level. Returns None when no path is found
         within ``budget`` queries (the caller then plans from the start)."""
         model = problem.model
-        order = model.chain.joint_order
-        states = np.array([[state[order.index(j)] for j in model.joint_order] for state in path], dtype=np.float64)
+        columns = [model.chain.joint_order.index(j) for j in model.joint_order]
+        states = np.asarray(path, dtype=np.float64)[:, columns]
         steps = model.motion_steps(resolution)
         if not model.is_valid(states[0]) or np.any(np.abs(states[0] - problem.start) > 1e-12):
             return None
@@ -253,7 +257,7 @@ class OmplValidator:
 
     def _extend_previous(self, objects: tuple[PuzzleObject, ...], goal: Goal):
         """A certificate for ``objects`` built from one for a prefix of them, or None."""
-        prefix = next((k for k in range(len(objects) - 1, 0, -1) if objects[:k] in self._solved), None)
+        prefix = self._solved_prefix(objects)
         if prefix is None:
             return None
         old_chain = build_chain(objects[:prefix])
