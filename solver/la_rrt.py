@@ -452,8 +452,9 @@ class LaRrt:
                         # Kept only if it holds at fine resolution, as the result's final check asks
                         # (segment by segment: a failing segment is found after a few states).
                         segments = zip(raw[:-1], raw[1:], strict=True)
-                        if all(self.model.check_motion(a, b, self.fine_steps) for a, b in segments) \
-                                and recorder.offer(raw):
+                        if not all(self.model.check_motion(a, b, self.fine_steps) for a, b in segments):
+                            recorder.clip()
+                        elif recorder.offer(raw):
                             break
                     else:
                         self._offer_defragmented(recorder, raw)

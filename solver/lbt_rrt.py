@@ -73,7 +73,12 @@ class LbtRrt:
         self.membership = factor_membership(problem_factors(problem), dimension)
         self.range = self.settings.range_fraction * float(np.linalg.norm(problem.upper - problem.lower))
         self.k_rrg = math.e * (1.0 + 1.0 / dimension)
-        self.states = np.empty((1024, dimension))
+        self._restart()
+        self.iterations = 0
+
+    def _restart(self) -> None:
+        """A tree of the start alone (a new run, or a restart after a clipped first path)."""
+        self.states = np.empty((1024, len(self.problem.start)))
         self.size = 0
         self.parent_apx: list[int] = []
         self.cost_apx: list[float] = []
@@ -83,7 +88,8 @@ class LbtRrt:
         self.cost_lb: list[float] = []
         self.children_lb: list[set[int]] = []
         self.goal_nodes: list[int] = []
-        self.iterations = 0
+        root = self._add(self.problem.start)
+        self.cost_apx[root] = self.cost_lb[root] = 0.0
 
     # -- helpers -----------------------------------------------------------
     def _cost(self, a: int, b: int) -> float:
@@ -232,8 +238,6 @@ class LbtRrt:
         fine_steps = self.model.motion_steps(FINE_RESOLUTION)
         if not self.model.is_valid(problem.start):
             return recorder.result(0, "Invalid start")
-        root = self._add(problem.start)
-        self.cost_apx[root] = self.cost_lb[root] = 0.0
         if in_goal(problem, problem.start):
             recorder.offer([problem.start])
         offered = math.inf
@@ -267,15 +271,24 @@ class LbtRrt:
             if in_goal(problem, sample):
                 self.goal_nodes.append(new)
             best = self._best_goal()
-            if best >= 0 and self.cost_apx[best] < offered:
-                offered = self.cost_apx[best]
-                branch = self._branch(best)
-                if not until_first:
-                    recorder.offer(branch)
-                # Checked before it is offered: a path the result would drop must not block an
-                # equally cheap one that holds.
-                elif path_is_valid(self.model, np.asarray(branch), fine_steps) and recorder.offer(branch):
+            if best < 0 or self.cost_apx[best] >= offered:
+                continue
+            offered = self.cost_apx[best]
+            branch = self._branch(best)
+            if not until_first:
+                recorder.offer(branch)
+            # Checked before it is offered: a path the result would drop must not block an
+            # equally cheap one that holds.
+            elif path_is_valid(self.model, np.asarray(branch), fine_steps):
+                if recorder.offer(branch):
                     break
+            else:
+                # It clips a corner at fine resolution, and so would every later branch through
+                # the clipping edge: start a fresh tree, as the OMPL planners do
+                # (:func:`solver.ompl_planners.run_ompl`).
+                recorder.clip()
+                self._restart()
+                offered = math.inf
         return recorder.result(self.iterations)
 
 

@@ -7,7 +7,8 @@ it moves. Every path a planner returns is scored with the true action count
 (:func:`phyrogen_core.actions.count_actions`) like every other planner's. Planners
 are solved in short slices (OMPL keeps the tree between ``solve`` calls), so
 the best cost can be sampled over time; with ``until_first`` a run ends at
-its first solution that holds at fine resolution.
+its first solution that holds at fine resolution (a first path that clips at
+fine resolution restarts the planner; see :func:`run_ompl`).
 
 Goal states come from the run's shared goal sampler
 (:mod:`solver.goal_sampling`) through :class:`SharedGoalRegion`, which hands
@@ -145,6 +146,7 @@ def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, see
         return OmplRun(recorder.result(0, "Invalid start"), 0, 0, 0)
     dimension = len(problem.start)
     fine_steps = problem.model.motion_steps(FINE_RESOLUTION)
+    earlier = 0  # iterations of the trees cleared by restarts
     while not recorder.expired():
         slice_end = min(recorder.time_limit - recorder.elapsed(), progress_interval)
         planner.solve(ob.timedPlannerTerminationCondition(max(slice_end, 1e-3)))
@@ -156,13 +158,20 @@ def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, see
                 # Checked before it is offered: a path the result would drop must not block an
                 # equally cheap one that holds.
                 if recorder.offer(path):
-                    recorder.sample(planner.numIterations(), force=True)
+                    recorder.sample(earlier + planner.numIterations(), force=True)
                     break
             else:
-                # It clips a corner at fine resolution: plan on (anytime) until the best path holds.
-                objective.setCostThreshold(ob.Cost(0.0))
-        recorder.sample(planner.numIterations(), force=True)
-    result = recorder.result(planner.numIterations())
+                # It clips a corner at fine resolution. The planner would keep it as its best
+                # path until a strictly cheaper one turns up, which never happens when it is
+                # already the cheapest (most often one action per object). LA-RRT and LBT-RRT
+                # check every new way into the goal; OMPL shows only the best, so the run starts
+                # a fresh tree instead, with the time left and OMPL's RNG where it is.
+                recorder.clip()
+                earlier += planner.numIterations()
+                planner.clear()
+                pdef.clearSolutionPaths()
+        recorder.sample(earlier + planner.numIterations(), force=True)
+    result = recorder.result(earlier + planner.numIterations())
     data = ob.PlannerData(si)
     planner.getPlannerData(data)
     return OmplRun(result, data.numVertices(), data.numGoalVertices(), len(goals.states))

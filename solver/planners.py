@@ -99,12 +99,12 @@ def _version(code: str, settings: object = None) -> str:
 def _registry() -> dict[str, PlannerSpec]:
     specs = (
         PlannerSpec("la_rrt", "LA-RRT", partial(_la_rrt, PAPER_SETTINGS, "LA-RRT"), False,
-                    _version("paper-1", PAPER_SETTINGS)),
+                    _version("paper-2", PAPER_SETTINGS)),
         PlannerSpec("la_rrt_push", "LA-RRT+push (ours)", partial(_la_rrt, PUSH_SETTINGS, "LA-RRT+push (ours)"),
-                    False, _version("push-2", PUSH_SETTINGS)),
-        PlannerSpec("rrt_star", "RRT*", _rrt_star, True, _version("ompl-2")),
-        PlannerSpec("lbt_rrt", "LBT-RRT", _lbt_rrt, False, _version("py-2")),
-        PlannerSpec("bit_star", "BIT*", _bit_star, True, _version("ompl-2")),
+                    False, _version("push-3", PUSH_SETTINGS)),
+        PlannerSpec("rrt_star", "RRT*", _rrt_star, True, _version("ompl-3")),
+        PlannerSpec("lbt_rrt", "LBT-RRT", _lbt_rrt, False, _version("py-3")),
+        PlannerSpec("bit_star", "BIT*", _bit_star, True, _version("ompl-3")),
     )
     return {spec.name: spec for spec in specs}
 

@@ -51,7 +51,7 @@ class PlanResult:
     iterations: int
     progress: tuple[ProgressSample, ...]
     status: str  # one of OMPL's PlannerStatus names, e.g. "Exact solution", "Timeout"
-    rejected: int = 0  # best paths dropped because they failed the fine-resolution check
+    rejected: int = 0  # solution paths dropped because they failed the fine-resolution check
     best_solution_time: float | None = None  # when the returned path was found
 
     @property
@@ -88,6 +88,7 @@ class AnytimeRecorder:
         self.improvements: list[tuple[float, int, np.ndarray]] = []  # (time, action cost, path)
         self.samples: list[tuple[float, int]] = []  # (time, iterations)
         self._next_sample = 0.0
+        self.clipped = 0  # paths dropped while running (``until_first``) for failing the fine check
 
     @property
     def best_cost(self) -> float:
@@ -120,6 +121,10 @@ class AnytimeRecorder:
         self.improvements.append((self.elapsed(), cost, states.copy()))
         return True
 
+    def clip(self) -> None:
+        """Count a solution path the planner dropped because it failed the fine-resolution check."""
+        self.clipped += 1
+
     def sample(self, iterations: int, force: bool = False) -> None:
         """Record a progress sample if the sampling interval has passed (or ``force``)."""
         now = self.elapsed()
@@ -131,7 +136,7 @@ class AnytimeRecorder:
         self.sample(iterations, force=True)
         elapsed = self.elapsed()
         fine_steps = self.problem.model.motion_steps(FINE_RESOLUTION)
-        rejected = 0
+        rejected = self.clipped
         kept = list(self.improvements)
         while kept and not path_is_valid(self.problem.model, kept[-1][2], fine_steps):
             kept.pop()

@@ -64,8 +64,8 @@ def test_planner_versions_name_their_settings_and_the_goal_sampler():
     versions = {spec.name: spec.version for spec in PLANNERS.values()}
     assert len(set(versions.values())) == len(versions) - 1  # RRT* and BIT* share the OMPL wrapper's
     assert all(DEFAULT_GOAL_SETTINGS.tag in v for v in versions.values())
-    assert _version("paper-1", PAPER_SETTINGS) == versions["la_rrt"]
-    assert _version("paper-1", replace(PAPER_SETTINGS, range_fraction=0.3)) != versions["la_rrt"]
+    assert _version("paper-2", PAPER_SETTINGS) == versions["la_rrt"]
+    assert _version("paper-2", replace(PAPER_SETTINGS, range_fraction=0.3)) != versions["la_rrt"]
     assert GoalSamplerSettings(capacity=8).tag != DEFAULT_GOAL_SETTINGS.tag
 
 
