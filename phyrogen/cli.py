@@ -108,7 +108,7 @@ def cmd_generate(args) -> int:
         require_writable_dir(out / name)
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
-    jobs = (Job(name, seed, overrides) for name in names for r in seeds for seed in r)
+    jobs = (Job(name, seed, overrides, mjcf=args.mjcf) for name in names for r in seeds for seed in r)
     progress = _progress(count * len(names), args.quiet)
 
     def show_running(running: list) -> None:
@@ -404,6 +404,7 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--out", default="output", help="output folder (default: output)")
     gen.add_argument("--workers", type=workers_option, default=2,
                      help="worker processes (default 2; at most 4 per usable core)")
+    gen.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.set_defaults(func=cmd_generate)
     check = sub.add_parser("check", help="re-validate an exported puzzle folder")

@@ -81,6 +81,7 @@ class Job:
     seed: int
     overrides: Mapping[str, str] = field(default_factory=dict)
     params: Any = None  # a parameter dataclass instance; takes precedence over ``overrides``
+    mjcf: bool = False  # also write the MJCF (``mjcf/<name>.xml``) into the folder
 
 
 @dataclass(frozen=True)
@@ -107,10 +108,12 @@ def _run_job(job: Job, out_root: str | None) -> Report:
         folder = None
         notices: list[str] = []
         if out_root is not None:
-            from phyrogen_core.export import write_puzzle
+            from phyrogen_core.export import write_mjcf, write_puzzle
 
             with deferred_signals():  # stopped while writing, a worker finishes the folder first
                 folder = str(write_puzzle(puzzle, Path(out_root), versions(), notices))
+                if job.mjcf:
+                    write_mjcf(folder, puzzle.chain, puzzle.name)
         chain = puzzle.planning_chain
         return Report(job.generator, job.seed, sum(o.is_movable for o in puzzle.objects),
                       count_actions(puzzle.certificate, chain.factors), time.perf_counter() - started,

@@ -274,3 +274,18 @@ def test_contacts_follow_objects_not_bodies():
     _set_state(model, data, chain.joint_order, [0.0, -1.0])  # the slider pushed into the leaf, its parent
     depth, between = _deepest_between_objects(model, data, chain)
     assert depth == pytest.approx(0.2) and set(between) == {"leaf", "slider"}
+
+
+def test_generate_writes_the_mjcf_beside_the_urdf_on_request(tmp_path, capsys):
+    argv = ["generate", "--generator", "simple_slider", "--seed", "8316", "--set", "n_objects=2", "--quiet"]
+    assert main([*argv, "--out", str(tmp_path / "plain")]) == 0
+    assert main([*argv, "--mjcf", "--out", str(tmp_path / "with")]) == 0
+    capsys.readouterr()
+    plain = tmp_path / "plain" / "simple_slider" / "simple_slider_8316"
+    folder = tmp_path / "with" / "simple_slider" / "simple_slider_8316"
+    assert not mjcf_path(plain, "simple_slider_8316").exists()
+    written = mjcf_path(folder, "simple_slider_8316").read_bytes()
+    assert written == chain_to_mjcf(read_puzzle_dir(folder).chain).encode("utf-8")
+    assert PuzzleFolder(folder, "simple_slider_8316").urdf.read_bytes() == \
+        PuzzleFolder(plain, "simple_slider_8316").urdf.read_bytes()
+    mujoco.MjModel.from_xml_path(str(mjcf_path(folder, "simple_slider_8316")))
