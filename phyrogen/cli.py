@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import math
 import os
 import signal
 import sys
@@ -143,6 +144,92 @@ def cmd_generate(args) -> int:
     return 1 if failed else 0
 
 
+def cmd_dataset(args) -> int:
+    """Make or resume a dataset (docs/datasets.md); with ``--stats DIR``, describe one. Exit 0 once
+    every entry has its manifest row: failed seeds are rows too, counted in the last line."""
+    if args.stats is not None:
+        given = [flag for flag, value in (("--generator", args.generator), ("--seeds", args.seeds),
+                                          ("--count", args.count), ("--set", args.set), ("--out", args.out)) if value]
+        if given:
+            raise UsageError(f"--stats reads a finished or unfinished dataset; it takes no {given[0]}")
+        from solver.dataset import dataset_stats, plot_stats
+
+        stats = dataset_stats(Path(args.stats))
+        print(stats.text(), end="")
+        print(f"plots: {plot_stats(stats)}")
+        return 0
+    from phyrogen_core.folder import shard_name
+    from solver.dataset import build_dataset, check_dataset_root, make_request
+
+    if args.generator is None or args.out is None:
+        raise UsageError("dataset needs --generator and --out (or --stats DIR to describe a dataset)")
+    if (args.seeds is None) == (args.count is None):
+        raise UsageError("give the seeds either with --seeds (e.g. 1-1000) or with --count N [--start S]")
+    if args.seeds is not None and args.start is not None:
+        raise UsageError("--start goes with --count; --seeds lists the seeds itself")
+    names = _generators(args.generator)
+    if args.seeds is not None:
+        seeds = parse_seeds(args.seeds)
+    else:
+        start = 1 if args.start is None else args.start
+        if start + args.count - 1 > MAX_SEED:
+            raise UsageError(f"--start {start} --count {args.count} goes past the largest seed {MAX_SEED}")
+        seeds = (range(start, start + args.count),)
+    # Everything is checked before the first file is written: the request, every entry's size
+    # (feasible for its generator), and the folder (writable; empty, or this request's dataset).
+    request = make_request(names, seeds, args.set or [], args.sweep, args.shard_size)
+    root = check_dataset_root(request, Path(args.out))
+    progress = _progress(request.size, args.quiet)
+
+    def show_running(running: list) -> None:
+        if progress.disable:
+            return
+        shown = [task.name for task in running[:3]]
+        text = "running " + ", ".join(shown) + (f" and {len(running) - 3} more" if len(running) > 3 else "")
+        since = time.time() - progress.last_print_t
+        if since >= 1.0 or (text != progress.postfix and since >= progress.mininterval):
+            progress.set_postfix_str(text)
+
+    def show_row(row: dict, made_now: bool) -> None:
+        if made_now and row["status"] != "ok":
+            progress.write(f"{row['generator']} {row['seed']}: FAILED: {row['error'].splitlines()[0]}",
+                           file=sys.stdout)
+        progress.update(1)
+
+    def show_shard(shard: int, rows: list) -> None:
+        ok = sum(row["status"] == "ok" for row in rows)
+        progress.write(f"{shard_name(shard)}: {ok}/{len(rows)} puzzles ok; rows in parts/{shard_name(shard)}.parquet",
+                       file=sys.stdout)
+        sys.stdout.flush()
+
+    try:
+        result = build_dataset(request, root, args.workers, on_row=show_row, on_skip=progress.update,
+                               on_shard=show_shard, on_running=show_running)
+    finally:
+        progress.close()
+    rate = f" ({result.puzzles_per_hour:.0f} puzzles/hour)" if result.generated else ""
+    print(f"{result.ok}/{result.entries} puzzles ok, {result.failed} failed; {result.generated} made now, "
+          f"{result.reused} found done; {result.seconds:.1f} s wall time with {args.workers} workers{rate}")
+    print(f"manifest: {result.manifest}")
+    return 0
+
+
+def dataset_count_option(text: str) -> int:
+    from solver.dataset.request import MAX_ENTRIES  # here, not at the top: the parser stays quick to build
+
+    return _whole_number(text, 1, MAX_ENTRIES, " puzzles")
+
+
+def dataset_start_option(text: str) -> int:
+    return _whole_number(text, 1, MAX_SEED)
+
+
+def shard_size_option(text: str) -> int:
+    from solver.dataset.request import MAX_SHARD_SIZE
+
+    return _whole_number(text, 1, MAX_SHARD_SIZE, " puzzle folders per shard")
+
+
 def cmd_check(args) -> int:
     from phyrogen_core.export import read_puzzle_dir
     from solver.problem import verify_certificate
@@ -176,6 +263,50 @@ def cmd_export(args) -> int:
     for folder, loaded in puzzles:
         print(write_mjcf(folder, loaded.chain, loaded.metadata["name"]))
     return 0
+
+
+def cmd_import(args) -> int:
+    from phyrogen_core.export import write_puzzle
+    from phyrogen_core.folder import require_writable_dir
+    from phyrogen_core.urdf_import import import_urdf
+    from solver.importing import IMPORT_BUDGET, certify_imported, versions
+
+    out = require_writable_dir(args.out)  # an unusable --out is found before any work
+    imported = import_urdf(args.urdf, target=args.target, goal=args.goal, name=args.name)
+    for note in imported.notes:
+        print(f"phyrogen: note: {note}", file=sys.stderr)
+    puzzle = imported.puzzle
+    result = certify_imported(puzzle, IMPORT_BUDGET if args.budget is None else args.budget, args.seed)
+    if result.puzzle is None:
+        print(f"phyrogen: error: {puzzle.name}: not solved by LA-RRT within {result.budget} collision queries "
+              f"(seed {args.seed}); nothing written (a larger --budget may solve it, or the goal is wrong)",
+              file=sys.stderr)
+        return 1
+    notices: list[str] = []
+    folder = write_puzzle(result.puzzle, out, versions(), notices)
+    for notice in notices:
+        print(f"phyrogen: note: {notice}", file=sys.stderr)
+    static = len(imported.objects) - imported.movable
+    print(f"{folder}: {imported.movable} movable and {static} static objects, {len(puzzle.joint_order)} joints, "
+          f"goal from the {imported.goal_source} (target {puzzle.goal.target}); certified by LA-RRT in "
+          f"{result.queries} collision queries: {len(result.puzzle.certificate)} states, {result.actions} actions")
+    return 0
+
+
+def goal_values_option(text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if not values or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"must be comma-separated finite numbers (joint values), got {text!r}")
+    return values
+
+
+def import_budget_option(text: str) -> int:
+    from solver.importing import MAX_IMPORT_BUDGET
+
+    return _whole_number(text, 1, MAX_IMPORT_BUDGET, " collision queries")
 
 
 def cmd_audit(args) -> int:
@@ -407,6 +538,27 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.set_defaults(func=cmd_generate)
+    data = sub.add_parser("dataset", help="generate a sharded, resumable dataset with a Parquet manifest "
+                                          "(docs/datasets.md); --stats DIR describes one")
+    data.add_argument("--generator", help="a name, comma-separated names, or 'all' (the paper's six)")
+    data.add_argument("--seed", "--seeds", dest="seeds", help="seed, range or list, e.g. 1-1000 (or use --count)")
+    data.add_argument("--count", type=dataset_count_option, help="how many seeds per generator, from --start")
+    data.add_argument("--start", type=dataset_start_option, help="the first seed with --count (default 1)")
+    data.add_argument("--set", action="append", metavar="KEY=VALUE",
+                      help="a parameter for every puzzle, or a sweep: KEY=LOW:HIGH[:STEP] or KEY=A,B,C")
+    data.add_argument("--sweep", choices=("cross", "zip"), default="cross",
+                      help="cross (default): seed s gets combination s mod K of all swept values' K combinations "
+                           "(first --set slowest); zip: each swept parameter cycles on its own (value s mod n)")
+    data.add_argument("--out", help="the dataset's folder: new, empty, or this request's dataset (then resumed)")
+    data.add_argument("--shard-size", type=shard_size_option, default=1000,
+                      help="puzzle folders per shard (default 1000)")
+    data.add_argument("--workers", type=workers_option, default=2,
+                      help="worker processes (default 2; at most 4 per usable core)")
+    data.add_argument("--stats", metavar="DIR",
+                      help="print counts, distinct puzzles and difficulty histograms of the dataset DIR; "
+                           "plots into DIR/plots/")
+    data.add_argument("--quiet", action="store_true", help="no progress bar")
+    data.set_defaults(func=cmd_dataset)
     check = sub.add_parser("check", help="re-validate an exported puzzle folder")
     check.add_argument("puzzle_dir")
     check.set_defaults(func=cmd_check)
@@ -415,6 +567,21 @@ def build_parser() -> argparse.ArgumentParser:
                         help="puzzle folder(s), or a folder of generated puzzles (all of them)")
     export.add_argument("--format", required=True, choices=("mjcf",), help="mjcf: MuJoCo (docs/interop.md)")
     export.set_defaults(func=cmd_export)
+    imp = sub.add_parser("import", help="import a planar puzzle from a URDF file as a certified puzzle folder "
+                                        "(docs/import.md)")
+    imp.add_argument("urdf", metavar="URDF", help="the URDF file; meshes: STL (binary or ASCII) or OBJ")
+    imp.add_argument("--out", default="output", help="output folder; the puzzle goes to OUT/imported/NAME "
+                                                     "(default: output)")
+    imp.add_argument("--name", help="the puzzle's name (default: the URDF's robot name)")
+    imp.add_argument("--target", help="the target: a URDF joint or link (default: the object that fits the link "
+                                      "named 'goal')")
+    imp.add_argument("--goal", type=goal_values_option, metavar="VALUE[,VALUE...]",
+                     help="the target's goal in URDF joint values: one for a joint, one per joint (from the world "
+                          "outwards) for a link; needs --target (default: read from the link named 'goal')")
+    imp.add_argument("--budget", type=import_budget_option,
+                     help="collision queries LA-RRT may spend to certify the puzzle (default 100000)")
+    imp.add_argument("--seed", type=benchmark_seed_option, default=0, help="seed of the certifying search (default 0)")
+    imp.set_defaults(func=cmd_import)
     bench = sub.add_parser("benchmark", help="benchmark planners on puzzle folders (OMPL logs, database, plots)")
     bench.add_argument("--puzzles", default="output", help="folder of puzzle folders (default: output)")
     bench.add_argument("--generator", default="all", help="generators to include (default: all found)")

@@ -38,6 +38,15 @@ MAX_FILE_BYTES = 16 * 2**20
 16 MiB, some five hundred times the largest file of the paper's puzzles, checked before the file is read."""
 MAX_NAME_LENGTH = 200
 """The longest puzzle or generator name: ``<name>.blend`` and friends stay within file-name limits."""
+DATASET_FILE = "dataset.json"
+"""Marks a dataset root (``phyrogen dataset``): its puzzles lie in shard folders,
+``<root>/shard-<nnnnn>/<generator>/<name>/``, each shard an output root of its own."""
+SHARD_PREFIX = "shard-"
+
+
+def shard_name(index: int) -> str:
+    """The folder of shard ``index`` (0-based) of a dataset: ``shard-00000``, ``shard-00001``, ..."""
+    return f"{SHARD_PREFIX}{index:05d}"
 
 
 class OutputError(ValueError):
@@ -291,8 +300,10 @@ class PuzzleFolder:
 def find_puzzle_folders(root: str | Path, generators: Iterable[str] | None = None) -> list[PuzzleFolder]:
     """The puzzle folders ``root`` stands for, in a stable order.
 
-    ``root`` is either one puzzle folder (it holds ``puzzle.json``) or a
-    folder of generated puzzles (``<root>/<generator>/<name>/puzzle.json``);
+    ``root`` is either one puzzle folder (it holds ``puzzle.json``), a
+    folder of generated puzzles (``<root>/<generator>/<name>/puzzle.json``)
+    or a dataset root (it holds :data:`DATASET_FILE`; its puzzles are
+    ``<root>/shard-<n>/<generator>/<name>/puzzle.json``);
     folders being written (dot-prefixed temporary names) are skipped. The
     order is the registry's generator order, then seed, then name. Raises
     FileNotFoundError when ``root`` is missing or holds no puzzle (of
@@ -301,15 +312,16 @@ def find_puzzle_folders(root: str | Path, generators: Iterable[str] | None = Non
     root = Path(root)
     if not root.is_dir():
         raise FileNotFoundError(f"{root}: no such folder of puzzles (make one with `phyrogen generate --out {root}`)")
+    pattern = f"{SHARD_PREFIX}*/*/*/{METADATA_FILE}" if (root / DATASET_FILE).is_file() else f"*/*/{METADATA_FILE}"
     if (root / METADATA_FILE).is_file():
         found = [PuzzleFolder.open(root)]
     else:
-        found = [PuzzleFolder.open(meta.parent) for meta in sorted(root.glob(f"*/*/{METADATA_FILE}"))
+        found = [PuzzleFolder.open(meta.parent) for meta in sorted(root.glob(pattern))
                  if not meta.parent.name.startswith(".") and not meta.parent.parent.name.startswith(".")]
     wanted = None if generators is None else set(generators)
     found = [f for f in found if wanted is None or f.generator in wanted]
     if not found:
-        raise FileNotFoundError(f"{root}: no puzzle folders (*/*/{METADATA_FILE})"
+        raise FileNotFoundError(f"{root}: no puzzle folders ({pattern})"
                                 + (f" of generators {sorted(wanted)}" if wanted else ""))
     from .registry import all_generators
 

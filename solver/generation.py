@@ -50,11 +50,13 @@ def versions() -> dict[str, str]:
     return out
 
 
-def generate_here(generator: str, seed: int, params: Any = None) -> Puzzle:
+def generate_here(generator: str, seed: int, params: Any = None, *, stats: dict[str, Any] | None = None) -> Puzzle:
     """Generate and certify one puzzle in THIS process.
 
     Only deterministic in a process that has not planned before (see the
     module docstring); use :func:`generate_puzzle` unless you manage processes.
+    ``stats``, when given, receives ``validation_checks``: the collision queries the Maker's
+    validator spent (planning, necessity judging, certifying), a machine-independent cost.
     """
     spec = get_generator(generator)
     params = spec.default_params() if params is None else params
@@ -72,6 +74,8 @@ def generate_here(generator: str, seed: int, params: Any = None) -> Puzzle:
     certificate = defragment_certificate(build_chain(result.objects), result.goal, certificate)
     dependencies = dependency_graph(result.objects, certificate, shrink=maker_input.interlock_margin)
     margins = {name: m for name, m in result.margins.items() if name != result.goal.target}
+    if stats is not None:
+        stats["validation_checks"] = validator.checks
     return Puzzle(result.objects, result.goal, generator, seed, params, dependencies, certificate, margins)
 
 
