@@ -149,7 +149,8 @@ def cmd_dataset(args) -> int:
     every entry has its manifest row: failed seeds are rows too, counted in the last line."""
     if args.stats is not None:
         given = [flag for flag, value in (("--generator", args.generator), ("--seeds", args.seeds),
-                                          ("--count", args.count), ("--set", args.set), ("--out", args.out)) if value]
+                                          ("--count", args.count), ("--set", args.set), ("--out", args.out),
+                                          ("--mjcf", args.mjcf)) if value]
         if given:
             raise UsageError(f"--stats reads a finished or unfinished dataset; it takes no {given[0]}")
         from solver.dataset import dataset_stats, plot_stats
@@ -177,7 +178,7 @@ def cmd_dataset(args) -> int:
         seeds = (range(start, start + args.count),)
     # Everything is checked before the first file is written: the request, every entry's size
     # (feasible for its generator), and the folder (writable; empty, or this request's dataset).
-    request = make_request(names, seeds, args.set or [], args.sweep, args.shard_size)
+    request = make_request(names, seeds, args.set or [], args.sweep, args.shard_size, args.mjcf)
     root = check_dataset_root(request, Path(args.out))
     progress = _progress(request.size, args.quiet)
 
@@ -552,6 +553,7 @@ def build_parser() -> argparse.ArgumentParser:
     data.add_argument("--out", help="the dataset's folder: new, empty, or this request's dataset (then resumed)")
     data.add_argument("--shard-size", type=shard_size_option, default=1000,
                       help="puzzle folders per shard (default 1000)")
+    data.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
     data.add_argument("--workers", type=workers_option, default=2,
                       help="worker processes (default 2; at most 4 per usable core)")
     data.add_argument("--stats", metavar="DIR",

@@ -396,3 +396,28 @@ def test_a_dataset_folder_is_the_folder_generate_writes(reference, tmp_path):
     generated = tmp_path / "grid_world" / "grid_world_9100"
     in_dataset = reference / "shard-00000" / "grid_world" / "grid_world_9100"  # n_objects 2 + 9100 mod 3 = 3
     assert files(generated) == files(in_dataset)
+
+
+def test_mjcf_on_request_beside_every_urdf_and_made_again_when_missing(tmp_path, capsys):
+    from phyrogen_core.export import chain_to_mjcf, mjcf_path
+
+    root = tmp_path / "with-mjcf"
+    options = ["dataset", "--generator", "grid_world", "--seeds", "9120-9122", "--set", "n_objects=2",
+               "--shard-size", "2", "--mjcf", "--quiet", "--out", str(root)]
+    assert main(options) == 0
+    folders = find_puzzle_folders(root)
+    assert len(folders) == 3
+    for folder in folders:
+        written = mjcf_path(folder.path, folder.name).read_bytes()
+        assert written == chain_to_mjcf(read_puzzle_dir(folder.path).chain).encode()
+    assert json.loads((root / "dataset.json").read_text())["mjcf"] is True
+    # A folder whose MJCF is missing (a worker killed between the two) is not done: resumed, it is
+    # made again. The shard's part file is removed too, or the shard would count as complete.
+    last = folders[-1]
+    mjcf_path(last.path, last.name).unlink()
+    (root / "parts" / "shard-00001.parquet").unlink()
+    assert main(options) == 0
+    assert "1 made now, 2 found done" in capsys.readouterr().out
+    assert mjcf_path(last.path, last.name).is_file()
+    # Without --mjcf it is another request.
+    assert main([o for o in options if o != "--mjcf"]) == 2

@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from phyrogen_core.export.mjcf import mjcf_path
 from phyrogen_core.folder import (
     DATASET_FILE,
     PuzzleFormatError,
@@ -82,6 +83,7 @@ class EntryTask:
     seed: int
     params: Any
     shard_dir: str
+    mjcf: bool = False  # also write the puzzle's MJCF
 
     @property
     def name(self) -> str:
@@ -121,13 +123,15 @@ def make_entry(task: EntryTask) -> EntryOutcome:
         error = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}"
     outcome = EntryOutcome(task.index, error is None, error, time.perf_counter() - started,
                            stats.get("validation_checks"))
-    from phyrogen_core.export import write_puzzle
+    from phyrogen_core.export import write_mjcf, write_puzzle
 
     shard_dir = Path(task.shard_dir)
-    with deferred_signals():  # stopped now, a worker finishes both files first
+    with deferred_signals():  # stopped now, a worker finishes every file first
         write_record(shard_dir, task, outcome)
         if puzzle is not None:
-            write_puzzle(puzzle, shard_dir, versions())
+            folder = write_puzzle(puzzle, shard_dir, versions())
+            if task.mjcf:
+                write_mjcf(folder, puzzle.chain, puzzle.name)
     return outcome
 
 
@@ -321,7 +325,9 @@ def _scan_shard(request: DatasetRequest, root: Path, shard: int,
         record = _read_record(shard_dir, entry)
         row = None
         folder = _folder(root, shard, entry)
-        if folder.is_dir():
+        if folder.is_dir() and not (request.mjcf and not mjcf_path(folder, entry.name).is_file()):
+            # (A folder killed between its URDF and its MJCF is made again: the same puzzle, so
+            # only the MJCF is new.)
             try:
                 row = puzzle_row(entry, shard, root, folder, record if record and record.get("ok") else None)
             except (PuzzleFormatError, FileNotFoundError):
@@ -334,7 +340,8 @@ def _scan_shard(request: DatasetRequest, root: Path, shard: int,
                 on_row(row, False)
         else:
             state.waiting.add(entry.index)
-            todo.append(EntryTask(entry.index, entry.generator, entry.seed, entry.params, str(shard_dir)))
+            todo.append(EntryTask(entry.index, entry.generator, entry.seed, entry.params, str(shard_dir),
+                                  request.mjcf))
     return state, todo
 
 

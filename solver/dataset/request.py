@@ -107,6 +107,7 @@ class DatasetRequest:
     sweeps: tuple[Sweep, ...] = ()
     sweep_mode: str = "cross"
     shard_size: int = DEFAULT_SHARD_SIZE
+    mjcf: bool = False  # each puzzle's MJCF written beside its URDF (``mjcf/<name>.xml``)
 
     # -- size and order -------------------------------------------------------------
     @property
@@ -188,6 +189,7 @@ class DatasetRequest:
             "sweeps": [{"key": s.key, "values": list(s.values)} for s in self.sweeps],
             "sweep_mode": self.sweep_mode,
             "shard_size": self.shard_size,
+            "mjcf": self.mjcf,
             "entries": self.size,
             "shards": self.shard_count,
         }
@@ -216,7 +218,7 @@ class DatasetRequest:
 
 def make_request(generators: Sequence[str], seeds: Sequence[tuple[int, int]] | Sequence[range],
                  settings: Sequence[str] = (), sweep_mode: str = "cross",
-                 shard_size: int = DEFAULT_SHARD_SIZE) -> DatasetRequest:
+                 shard_size: int = DEFAULT_SHARD_SIZE, mjcf: bool = False) -> DatasetRequest:
     """A checked :class:`DatasetRequest`.
 
     ``seeds``: inclusive (low, high) spans or ranges; ``settings``: ``key=value`` texts as given
@@ -240,7 +242,8 @@ def make_request(generators: Sequence[str], seeds: Sequence[tuple[int, int]] | S
     if settings and len(names) > 1:
         raise DatasetError("--set applies to one generator; name it with --generator")
     fixed, sweeps = _parse_settings(names[0], settings) if settings else ((), ())
-    request = DatasetRequest(names, spans, fixed, sweeps, sweep_mode if len(sweeps) > 1 else "cross", shard_size)
+    request = DatasetRequest(names, spans, fixed, sweeps, sweep_mode if len(sweeps) > 1 else "cross", shard_size,
+                             bool(mjcf))
     if request.size > MAX_ENTRIES:
         raise DatasetError(f"{request.size} puzzles requested; a dataset holds at most {MAX_ENTRIES:,} "
                            "(make several datasets)")
@@ -378,7 +381,7 @@ def load_request(data: Mapping[str, Any]) -> DatasetRequest:
         return DatasetRequest(tuple(data["generators"]), tuple((int(a), int(b)) for a, b in data["seeds"]),
                               tuple(sorted(data["set"].items())),
                               tuple(Sweep(s["key"], tuple(s["values"])) for s in data["sweeps"]),
-                              data["sweep_mode"], int(data["shard_size"]))
+                              data["sweep_mode"], int(data["shard_size"]), bool(data.get("mjcf", False)))
     except (KeyError, TypeError, AttributeError, ValueError) as exc:
         if isinstance(exc, DatasetError):
             raise
