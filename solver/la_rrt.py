@@ -51,7 +51,7 @@ from numba import njit
 
 from .defragment import Defragmenter
 from .planning import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning_steps
-from .problem import FINE_RESOLUTION, Problem, in_goal, path_is_valid, problem_factors
+from .problem import FINE_RESOLUTION, Problem, in_goal, problem_factors
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2
 EXTENSIONS = ("staircase", "isolate")
@@ -465,14 +465,13 @@ class LaRrt:
     def _offer_defragmented(self, recorder: AnytimeRecorder, raw: np.ndarray) -> None:
         """Offer a connection's path, then (within the defragmenting share of the run) its
         defragmented form."""
-        recorder.offer(raw)  # a solution already; defragmenting improves it
+        # Both checked at fine resolution before they count (Offer), so that a clipping path
+        # never blocks an equally cheap one that holds.
+        recorder.offer_checked(raw)  # a solution already; defragmenting improves it
         if not recorder.has_solution or \
                 self.defragment_seconds < self.settings.defragment_share * recorder.elapsed():
             began = recorder.elapsed()
-            better = self.defragmenter.run(raw, recorder.expired)
-            # Checked at fine resolution now, so that the final check cannot reject it.
-            if recorder.improves(better) and path_is_valid(self.model, better, self.fine_steps):
-                recorder.offer(better)
+            recorder.offer_checked(self.defragmenter.run(raw, recorder.expired))
             self.defragment_seconds += recorder.elapsed() - began
 
 

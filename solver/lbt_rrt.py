@@ -34,8 +34,8 @@ import numpy as np
 from phyrogen_core.actions import factor_membership
 
 from .goal_sampling import GoalSampler, default_goal_seed
-from .planning import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning_steps
-from .problem import FINE_RESOLUTION, Problem, in_goal, path_is_valid, problem_factors
+from .planning import PLANNING_RESOLUTION, AnytimeRecorder, Offer, PlanResult, planning_steps
+from .problem import Problem, in_goal, problem_factors
 
 
 @dataclass(frozen=True)
@@ -235,7 +235,6 @@ class LbtRrt:
         """Grow until ``recorder`` expires, or until the first solution that holds at fine
         resolution when ``until_first``."""
         problem = self.problem
-        fine_steps = self.model.motion_steps(FINE_RESOLUTION)
         if not self.model.is_valid(problem.start):
             return recorder.result(0, "Invalid start")
         if in_goal(problem, problem.start):
@@ -274,19 +273,13 @@ class LbtRrt:
             if best < 0 or self.cost_apx[best] >= offered:
                 continue
             offered = self.cost_apx[best]
-            branch = self._branch(best)
-            if not until_first:
-                recorder.offer(branch)
-            # Checked before it is offered: a path the result would drop must not block an
-            # equally cheap one that holds.
-            elif path_is_valid(self.model, np.asarray(branch), fine_steps):
-                if recorder.offer(branch):
-                    break
-            else:
+            offer = recorder.offer_checked(self._branch(best))
+            if offer is Offer.BEST and until_first:
+                break
+            if offer is Offer.CLIPPED:
                 # It clips a corner at fine resolution, and so would every later branch through
                 # the clipping edge: start a fresh tree, as the OMPL planners do
                 # (:func:`solver.ompl_planners.run_ompl`).
-                recorder.clip()
                 self._restart()
                 offered = math.inf
         return recorder.result(self.iterations)

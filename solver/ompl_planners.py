@@ -43,8 +43,8 @@ from ompl import base as ob
 from ompl import geometric as og
 
 from .goal_sampling import GoalSampler, default_goal_seed
-from .planning import AnytimeRecorder, PlanResult, planning_steps
-from .problem import FINE_RESOLUTION, Problem, goal_distance, path_is_valid, problem_factors
+from .planning import AnytimeRecorder, Offer, PlanResult, planning_steps
+from .problem import Problem, goal_distance, problem_factors
 from .validation import ompl_setup
 
 
@@ -145,28 +145,21 @@ def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, see
     if not problem.model.is_valid(problem.start):
         return OmplRun(recorder.result(0, "Invalid start"), 0, 0, 0)
     dimension = len(problem.start)
-    fine_steps = problem.model.motion_steps(FINE_RESOLUTION)
     earlier = 0  # iterations of the trees cleared by restarts
     while not recorder.expired():
         slice_end = min(recorder.time_limit - recorder.elapsed(), progress_interval)
         planner.solve(ob.timedPlannerTerminationCondition(max(slice_end, 1e-3)))
         if pdef.hasExactSolution():
-            path = _solution(pdef, dimension)
-            if not until_first:
-                recorder.offer(path)
-            elif path_is_valid(problem.model, np.asarray(path), fine_steps):
-                # Checked before it is offered: a path the result would drop must not block an
-                # equally cheap one that holds.
-                if recorder.offer(path):
-                    recorder.sample(earlier + planner.numIterations(), force=True)
-                    break
-            else:
-                # It clips a corner at fine resolution. The planner would keep it as its best
-                # path until a strictly cheaper one turns up, which never happens when it is
-                # already the cheapest (most often one action per object). LA-RRT and LBT-RRT
-                # check every new way into the goal; OMPL shows only the best, so the run starts
-                # a fresh tree instead, with the time left and OMPL's RNG where it is.
-                recorder.clip()
+            offer = recorder.offer_checked(_solution(pdef, dimension))
+            if offer is Offer.BEST and until_first:
+                recorder.sample(earlier + planner.numIterations(), force=True)
+                break
+            if offer is Offer.CLIPPED:
+                # The planner would keep the clipping path as its best until a strictly cheaper
+                # one turns up, which never happens when it is already the cheapest (most often
+                # one action per object), and every later path through the clipping edge clips
+                # too: the run starts a fresh tree instead, with the time left and OMPL's RNG where
+                # it is (LBT-RRT does the same; LA-RRT's next connection is a new path anyway).
                 earlier += planner.numIterations()
                 planner.clear()
                 pdef.clearSolutionPaths()

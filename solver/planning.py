@@ -12,6 +12,7 @@ them to the chain's full joint order.
 
 from __future__ import annotations
 
+import enum
 import math
 import time
 from collections.abc import Sequence
@@ -63,6 +64,14 @@ class PlanResult:
         return float(np.linalg.norm(np.diff(states, axis=0), axis=1).sum())
 
 
+class Offer(enum.Enum):
+    """What :meth:`AnytimeRecorder.offer_checked` made of a path."""
+
+    BEST = "the new best path"
+    CLIPPED = "cheaper, but it clips a corner at fine resolution (counted, dropped)"
+    NO_GAIN = "not cheaper than the best so far"
+
+
 class AnytimeRecorder:
     """Keeps the best path a planner has found, its first-solution time and the cost over time.
 
@@ -88,7 +97,8 @@ class AnytimeRecorder:
         self.improvements: list[tuple[float, int, np.ndarray]] = []  # (time, action cost, path)
         self.samples: list[tuple[float, int]] = []  # (time, iterations)
         self._next_sample = 0.0
-        self.clipped = 0  # paths dropped while running (``until_first``) for failing the fine check
+        self.clipped = 0  # paths dropped while running for failing the fine check
+        self.fine_steps = problem.model.motion_steps(FINE_RESOLUTION)
 
     @property
     def best_cost(self) -> float:
@@ -121,6 +131,19 @@ class AnytimeRecorder:
         self.improvements.append((self.elapsed(), cost, states.copy()))
         return True
 
+    def offer_checked(self, path: Sequence[Sequence[float]]) -> Offer:
+        """Offer ``path`` if it is cheaper than the best so far and holds at fine resolution.
+
+        A cheaper path that clips is counted (:meth:`clip`) and dropped: kept, it would block
+        every equally cheap path that holds (:meth:`offer` takes strictly cheaper ones only).
+        """
+        if not self.improves(path):
+            return Offer.NO_GAIN
+        if not path_is_valid(self.problem.model, np.asarray(path, dtype=float), self.fine_steps):
+            self.clip()
+            return Offer.CLIPPED
+        return Offer.BEST if self.offer(path) else Offer.NO_GAIN
+
     def clip(self) -> None:
         """Count a solution path the planner dropped because it failed the fine-resolution check."""
         self.clipped += 1
@@ -135,10 +158,9 @@ class AnytimeRecorder:
     def result(self, iterations: int, status: str | None = None) -> PlanResult:
         self.sample(iterations, force=True)
         elapsed = self.elapsed()
-        fine_steps = self.problem.model.motion_steps(FINE_RESOLUTION)
         rejected = self.clipped
         kept = list(self.improvements)
-        while kept and not path_is_valid(self.problem.model, kept[-1][2], fine_steps):
+        while kept and not path_is_valid(self.problem.model, kept[-1][2], self.fine_steps):
             kept.pop()
             rejected += 1
         progress = []

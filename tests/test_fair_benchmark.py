@@ -141,8 +141,8 @@ def test_every_planner_makes_progress_on_every_paper_puzzle(paper_reports):
 
 
 # -- a first path that clips at fine resolution does not end a baseline's run -----------------------
-def _until_first_with_clips(args) -> list[tuple[bool, int, bool]]:
-    """In a fresh process: ``planner`` with ``until_first`` on Simple Slider 3, planning at a 0.2 m
+def _runs_with_clips(args) -> list[tuple[bool, int, bool]]:
+    """In a fresh process: ``planner`` (``until_first``, or 4 s runs) on Simple Slider 3, planning at a 0.2 m
     resolution so that most diagonal edges clip a corner at the 2 mm fine check. Per seed:
     (solved, clipped paths dropped, the path holds at fine resolution); stops after a run with clips."""
     import solver.ompl_planners as ompl_planners
@@ -151,7 +151,8 @@ def _until_first_with_clips(args) -> list[tuple[bool, int, bool]]:
     from solver.problem import FINE_RESOLUTION, path_is_valid
     from solver.validation import seed_ompl
 
-    planner, puzzle, coarse = args
+    planner, puzzle, coarse, until_first = args
+    limit = 60 if until_first else 4
     problem = problem_for_chain(puzzle.planning_chain, puzzle.goal)
     ompl_planners.planning_steps = lambda p: planning_steps(p, coarse)  # this process only
     fine = problem.model.motion_steps(FINE_RESOLUTION)
@@ -159,10 +160,11 @@ def _until_first_with_clips(args) -> list[tuple[bool, int, bool]]:
     for seed in range(41, 47):
         seed_ompl(seed)
         if planner == "lbt_rrt":
-            result = plan_lbt_rrt(problem, 60, seed, settings=LbtRrtSettings(resolution=coarse), until_first=True)
+            result = plan_lbt_rrt(problem, limit, seed, settings=LbtRrtSettings(resolution=coarse),
+                                  until_first=until_first)
         else:
             plan = ompl_planners.plan_rrt_star if planner == "rrt_star" else ompl_planners.plan_bit_star
-            result = plan(problem, 60, seed, until_first=True)
+            result = plan(problem, limit, seed, until_first=until_first)
         out.append((result.solved, result.rejected, result.solved and path_is_valid(problem.model, result.path, fine)))
         if result.rejected:
             break
@@ -170,8 +172,9 @@ def _until_first_with_clips(args) -> list[tuple[bool, int, bool]]:
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("until_first", [True, False], ids=["until-first", "until-limit"])
 @pytest.mark.parametrize("planner", ["rrt_star", "lbt_rrt", "bit_star"])
-def test_a_clipped_first_path_restarts_the_baseline_instead_of_ending_its_run(planner):
+def test_a_clipped_path_restarts_the_baseline_instead_of_ending_its_run(planner, until_first):
     # The planners keep a clipped path as their best until a strictly cheaper one turns up, which
     # never happens when it is already the cheapest: such runs used to time out on easy puzzles.
     from solver.generation import generate_puzzle
@@ -179,6 +182,6 @@ def test_a_clipped_first_path_restarts_the_baseline_instead_of_ending_its_run(pl
 
     puzzle = generate_puzzle("simple_slider", 3)
     with fresh_process_pool(1, 1, []) as pool:
-        runs = next(iter(pool.imap(_until_first_with_clips, [(planner, puzzle, 0.2)])))
+        runs = next(iter(pool.imap(_runs_with_clips, [(planner, puzzle, 0.2, until_first)])))
     assert runs[-1][1] > 0, f"no run clipped: {runs}"
     assert all(solved and holds for solved, _, holds in runs), runs
