@@ -3,9 +3,10 @@
 Layout (the one Phobos 2.x reads): every link is an Armature object with one
 bone, parented to its parent link and placed at the joint origin (the state
 of all joints is zero); the joint is described on the child link; visuals and
-collisions are mesh objects parented to their link; an Empty carries the
-link's mass and inertia. Collisions and inertials live in hidden child
-collections, so renders and the viewport show the visuals only.
+collisions are mesh objects parented to their link; a small box mesh (as
+Phobos makes them) carries the link's mass and inertia. Collisions and
+inertials live in child collections hidden in every view layer and in
+renders, so renders and the viewport show the visuals only.
 """
 
 from __future__ import annotations
@@ -58,9 +59,12 @@ def build_chain(chain: KinematicChain, scene: bpy.types.Scene | None = None,
     hidden = {}
     for kind in ("collision", "inertial"):
         child = bpy.data.collections.new(f"{chain.name}.{kind}")
-        child.hide_viewport = True
         child.hide_render = True
         collection.children.link(child)
+        # Hidden per view layer, not disabled (Collection.hide_viewport): a disabled collection's
+        # objects are not evaluated, so their matrix_world, which Phobos reads, would stay stale.
+        for view_layer in scene.view_layers:
+            view_layer.layer_collection.children[collection.name].children[child.name].hide_viewport = True
         hidden[kind] = child
 
     joint_index = {joint.name: i for i, joint in enumerate(chain.joints)}
@@ -134,14 +138,32 @@ def _add_bones(objects: Sequence[bpy.types.Object], joints: Sequence[Joint | Non
 
 def _build_inertial(link: Link, parent: bpy.types.Object, collection: bpy.types.Collection) -> None:
     centre, inertia = keys.inertial_values(link)
-    obj = bpy.data.objects.new(f"{link.name}_inertial", None)
+    # A small box mesh, as Phobos makes its own inertials: Phobos reads the mesh of an inertial
+    # (a massless link's centre of mass is weighed by volume), so an Empty breaks its export.
+    obj = bpy.data.objects.new(f"{link.name}_inertial", _inertial_mesh())
     collection.objects.link(obj)
     obj.parent = parent
     obj.location = centre
-    obj.empty_display_size = 0.05
+    obj.display_type = "WIRE"
+    obj.hide_render = True
     obj.phobostype = "inertial"
     obj[keys.MASS] = float(link.mass)
     obj[keys.INERTIA] = inertia
+
+
+INERTIAL_MESH = "phyrogen_inertial"
+INERTIAL_SIZE = 0.03  # the size of Phobos's own inertial boxes
+
+
+def _inertial_mesh() -> bpy.types.Mesh:
+    """The mesh every inertial object shares: a cube of :data:`INERTIAL_SIZE`."""
+    mesh = bpy.data.meshes.get(INERTIAL_MESH)
+    if mesh is None:
+        mesh = bpy.data.meshes.new(INERTIAL_MESH)
+        vertices, faces = _box_mesh((INERTIAL_SIZE,) * 3)
+        mesh.from_pydata(vertices, [], faces)
+        mesh.update()
+    return mesh
 
 
 def _build_geometry(link_name: str, kind: str, index: int, geometry: Geometry, parent: bpy.types.Object,

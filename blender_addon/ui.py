@@ -1,4 +1,5 @@
-"""The sidebar panel, its settings and the operators Generate, Validate, Export URDF, Render.
+"""The sidebar panel, its settings and the operators Generate, Validate, Export URDF, Render
+(and Export with Phobos, shown while the Phobos add-on is enabled).
 
 The parameter fields are made from the registry: one property group per
 generator, one property per field of its parameter dataclass, so a new
@@ -16,11 +17,11 @@ from pathlib import Path
 
 import bpy
 
-from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.folder import PuzzleFolder, name_problem
 from phyrogen_core.registry import ParameterError, all_generators
 
 from .environment import worker_python
-from .phobos import ensure_phobostype, remove_phobostype
+from .phobos import PHOBOS_FOLDER, ensure_phobostype, phobos_enabled, remove_phobostype
 
 _PROPERTY_OF_TYPE = {bool: bpy.props.BoolProperty, int: bpy.props.IntProperty, float: bpy.props.FloatProperty,
                      str: bpy.props.StringProperty}
@@ -53,6 +54,10 @@ def _settings_class(groups: dict[str, type]) -> type:
         "engine": bpy.props.EnumProperty(name="Engine", items=[("WORKBENCH", "Workbench", "fast"),
                                                                ("CYCLES", "Cycles", "CPU path tracing")]),
         "puzzle": bpy.props.StringProperty(name="Puzzle", description="Collection of the current puzzle"),
+        "phobos_output": bpy.props.StringProperty(
+            name="Phobos output", default="", subtype="DIR_PATH",
+            description="Folder for Export with Phobos (the puzzle goes to <folder>/<puzzle>); "
+                        "empty: the puzzle folder's phobos/"),
     }
     for name, group in groups.items():
         annotations[f"params_{name}"] = bpy.props.PointerProperty(type=group)
@@ -87,8 +92,11 @@ def current_collection(context) -> bpy.types.Collection:
 
 
 def _output(settings) -> Path:
+    return _path(settings.output)
+
+
+def _path(text: str) -> Path:
     # "//" means the .blend file's folder; an unsaved file has none, so the working folder stands in.
-    text = settings.output
     if text.startswith("//"):
         return Path(bpy.path.abspath(text)) if bpy.data.filepath else Path(text[2:] or ".")
     return Path(text)
@@ -210,6 +218,39 @@ class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801
         return run_reported(self, export)
 
 
+class PHYROGEN_OT_export_phobos(bpy.types.Operator):  # noqa: N801
+    """Export the puzzle in the scene with Phobos (URDF, OBJ meshes) into the puzzle folder's phobos/
+    (or the Phobos output folder's <puzzle>/)"""
+
+    bl_idname = "phyrogen.export_phobos"
+    bl_label = "Export with Phobos"
+
+    @classmethod
+    def poll(cls, context):
+        return phobos_enabled()
+
+    def execute(self, context):
+        from .phobos import export_with_phobos
+
+        def export() -> str:
+            collection = current_collection(context)
+            urdf = export_with_phobos(collection, phobos_folder(context.scene.phyrogen, collection))
+            return f"Phobos wrote {urdf}"
+
+        return run_reported(self, export)
+
+
+def phobos_folder(settings, collection) -> Path:
+    """Where Export with Phobos writes (replacing it): the chosen folder's ``<puzzle>/``, else the puzzle
+    folder's ``phobos/`` (an entry of the interop stage, see ``phyrogen_core.folder``)."""
+    if settings.phobos_output:
+        problem = name_problem(collection.name)
+        if problem is not None:
+            raise ValueError(f"{collection.name!r} cannot name a folder: it {problem}")
+        return _path(settings.phobos_output) / collection.name
+    return puzzle_folder(settings, collection).path / PHOBOS_FOLDER
+
+
 class PHYROGEN_OT_render(bpy.types.Operator):  # noqa: N801
     """Render the puzzle's views into <output>/<generator>/<puzzle>/images"""
 
@@ -244,8 +285,9 @@ class PHYROGEN_PT_panel(bpy.types.Panel):  # noqa: N801
         draw_panel(self.layout, context.scene.phyrogen)
 
 
-def draw_panel(layout, settings) -> None:
-    """The panel's content (a function of the settings, so a test can draw it into a fake layout)."""
+def draw_panel(layout, settings, phobos: bool | None = None) -> None:
+    """The panel's content (a function of the settings, so a test can draw it into a fake layout);
+    ``phobos``: whether to show Export with Phobos, by default while the Phobos add-on is enabled."""
     layout.prop(settings, "generator")
     layout.prop(settings, "seed")
     row = layout.row()
@@ -263,10 +305,15 @@ def draw_panel(layout, settings) -> None:
         box.prop(group, field.name)
     layout.prop(settings, "output")
     layout.prop(settings, "engine")
+    show_phobos = phobos_enabled() if phobos is None else phobos
+    if show_phobos:
+        box = layout.box()
+        box.operator("phyrogen.export_phobos", icon="EXPORT")
+        box.prop(settings, "phobos_output")
 
 
-_OPERATORS = (PHYROGEN_OT_generate, PHYROGEN_OT_validate, PHYROGEN_OT_export_urdf, PHYROGEN_OT_render,
-              PHYROGEN_PT_panel)
+_OPERATORS = (PHYROGEN_OT_generate, PHYROGEN_OT_validate, PHYROGEN_OT_export_urdf, PHYROGEN_OT_export_phobos,
+              PHYROGEN_OT_render, PHYROGEN_PT_panel)
 _registered: list[type] = []
 
 

@@ -5,6 +5,7 @@ A puzzle lives in one folder, ``<out>/<generator>/<name>/``::
     urdf/<name>.urdf, srdf/<name>.srdf, meshes/, puzzle.json     export (generate, the panel's Export)
     solutions/                                                    benchmark (planner solutions)
     images/, <name>.blend                                         render
+    mjcf/, phobos/                                                interop (MJCF; the add-on's Export with Phobos)
     stale/<n>/                                                    export, when the puzzle changed
 
 Every stage writes only the entries it owns and keeps every other entry,
@@ -206,7 +207,7 @@ class Stage(StrEnum):
     EXPORT = "export"
     BENCHMARK = "benchmark"
     RENDER = "render"
-    INTEROP = "interop"  # files for other tools (MJCF), converted from the export
+    INTEROP = "interop"  # files for other tools (MJCF; Phobos's URDF from the Blender add-on), made from the export
 
 
 def stage_entries(stage: Stage, name: str) -> tuple[str, ...]:
@@ -215,7 +216,7 @@ def stage_entries(stage: Stage, name: str) -> tuple[str, ...]:
         Stage.EXPORT: ("urdf", "srdf", "meshes", METADATA_FILE),
         Stage.BENCHMARK: ("solutions",),
         Stage.RENDER: ("images", f"{name}.blend"),
-        Stage.INTEROP: ("mjcf",),
+        Stage.INTEROP: ("mjcf", "phobos"),
     }[stage]
 
 

@@ -83,6 +83,15 @@ def test_panel_shows_generator_seed_parameters_and_operators(installed):
             "phyrogen.generate", "phyrogen.validate", "phyrogen.export_urdf", "phyrogen.render"]
 
 
+def test_export_with_phobos_is_offered_only_while_phobos_is_enabled(installed):
+    log = []
+    installed.ui.draw_panel(FakeLayout(log), bpy.context.scene.phyrogen, phobos=True)
+    assert ("operator", "phyrogen.export_phobos") in log and ("prop", "phobos_output") in log
+    # Phobos is not installed here: the panel leaves the button out (see above) and the operator is off.
+    assert not installed.phobos.phobos_enabled()
+    assert not bpy.ops.phyrogen.export_phobos.poll()
+
+
 def test_generator_drop_down_is_fed_by_the_registry(installed):
     items = bpy.types.Scene.bl_rna.properties["phyrogen"].fixed_type.properties["generator"].enum_items
     assert [i.identifier for i in items] == list(all_generators())
