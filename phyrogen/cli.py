@@ -15,7 +15,14 @@ import traceback
 from pathlib import Path
 
 from phyrogen_core.folder import PuzzleFolder, find_in_paths, find_puzzle_folders
-from phyrogen_core.registry import ParameterError, all_generators, describe_generators, paper_generators
+from phyrogen_core.registry import (
+    MAX_SEED,
+    ParameterError,
+    all_generators,
+    describe_generators,
+    merge_seed_spans,
+    paper_generators,
+)
 
 EXIT_BAD_INPUT = 2
 
@@ -23,8 +30,6 @@ EXIT_BAD_INPUT = 2
 class UsageError(ValueError):
     pass
 
-
-MAX_SEED = 2**63 - 1
 
 
 def parse_seeds(text: str) -> tuple[range, ...]:
@@ -46,13 +51,7 @@ def parse_seeds(text: str) -> tuple[range, ...]:
         raise UsageError(f"seeds must be positive integers, got {text!r}")
     if max(high for _, high in spans) > MAX_SEED:
         raise UsageError(f"seeds must be at most {MAX_SEED}, got {text!r}")
-    merged = [list(spans[0])]
-    for low, high in spans[1:]:
-        if low <= merged[-1][1] + 1:
-            merged[-1][1] = max(merged[-1][1], high)
-        else:
-            merged.append([low, high])
-    return tuple(range(low, high + 1) for low, high in merged)
+    return tuple(range(low, high + 1) for low, high in merge_seed_spans(spans))
 
 
 def parse_overrides(items: list[str]) -> dict[str, str]:

@@ -27,6 +27,21 @@ BENCHMARK_PROFILES = ("paper", "quick")
 """The benchmark profiles (``solver.benchmark``) every generator gives a time limit for:
 ``paper`` the paper's protocol, ``quick`` a short run of the same planners."""
 
+MAX_SEED = 2**63 - 1
+"""The largest seed (numpy's seeding takes any non-negative integer; this keeps names and logs bounded)."""
+
+
+def merge_seed_spans(spans: list[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
+    """Inclusive (low, high) seed spans, sorted and merged where they overlap or touch."""
+    merged: list[list[int]] = []
+    for low, high in sorted(spans):
+        if merged and low <= merged[-1][1] + 1:
+            merged[-1][1] = max(merged[-1][1], high)
+        else:
+            merged.append([low, high])
+    return tuple((low, high) for low, high in merged)
+
+
 Build = Callable[[int, Any], MakerInput]
 """``build(seed, params)``: a generator's input tuple to the Maker."""
 

@@ -53,6 +53,7 @@ from ..folder import METADATA_FILE, PuzzleFolder, PuzzleFormatError, name_proble
 from ..geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from ..objects import Motion
 from ..puzzle import Goal
+from ..xml_fields import XmlFields
 from .metadata import FORMAT_VERSION
 from .obj import read_prism_piece
 from .urdf import MESH_NAME
@@ -220,7 +221,7 @@ def read_urdf(path: Path, roles: Mapping[str, tuple[Role, str]] | None = None,
     return _UrdfReader(path, roles or {}, root).chain(robot)
 
 
-class _UrdfReader:
+class _UrdfReader(XmlFields):
     """One URDF file's parse; holds the file name for error messages and a mesh cache."""
 
     def __init__(self, path: Path, roles: Mapping[str, tuple[Role, str]], root: Path) -> None:
@@ -404,18 +405,6 @@ class _UrdfReader:
         )
 
     # -- primitives --------------------------------------------------------
-    def child(self, element: ET.Element, tag: str, where: str) -> ET.Element:
-        found = element.find(tag)
-        if found is None:
-            raise self.error(f"{where}: missing <{tag}>")
-        return found
-
-    def attribute(self, element: ET.Element, name: str, where: str) -> str:
-        value = element.get(name)
-        if value is None:
-            raise self.error(f"{where}: missing attribute {name!r}")
-        return value
-
     def number(self, element: ET.Element, name: str, where: str, default: float | None = None,
                low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE) -> float:
         """The attribute ``name`` as a finite number in [``low``, ``high``] (``default`` when absent, if given)."""

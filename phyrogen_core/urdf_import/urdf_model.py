@@ -22,6 +22,7 @@ from ..export.reader import MAX_MAGNITUDE
 from ..folder import MAX_FILE_BYTES, PuzzleFormatError, read_folder_file
 from ..geometry import Pose
 from ..mesh_files import MeshFormatError, read_triangles
+from ..xml_fields import XmlFields
 
 MESH_SEARCH_LIMIT = 10_000
 """Most folder entries looked at when searching a moved mesh by its name."""
@@ -104,7 +105,7 @@ def read_urdf_model(path: str | Path) -> UrdfModel:
     return _Reader(path).model(robot)
 
 
-class _Reader:
+class _Reader(XmlFields):
     def __init__(self, path: Path) -> None:
         self.path = path
         self.materials: dict[str, RGBA] = {}
@@ -324,18 +325,6 @@ class _Reader:
         return JointSpec(name, kind, parent, child, origin, unit, lower, upper)  # type: ignore[arg-type]
 
     # -- primitives --------------------------------------------------------
-    def child(self, element: ET.Element, tag: str, where: str) -> ET.Element:
-        found = element.find(tag)
-        if found is None:
-            raise self.error(f"{where}: missing <{tag}>")
-        return found
-
-    def attribute(self, element: ET.Element, name: str, where: str) -> str:
-        value = element.get(name)
-        if value is None:
-            raise self.error(f"{where}: missing attribute {name!r}")
-        return value
-
     def numbers(self, element: ET.Element, name: str, where: str, size: int,
                 positive: bool = False) -> tuple[float, ...]:
         text = self.attribute(element, name, where)

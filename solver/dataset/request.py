@@ -32,7 +32,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from phyrogen_core.registry import get_generator
+from phyrogen_core.registry import MAX_SEED, get_generator, merge_seed_spans
 
 FORMAT_VERSION = 1
 """The version of ``dataset.json`` and of the manifest's columns; bumped when one changes meaning."""
@@ -54,7 +54,6 @@ MAX_PERIOD = 10_000
 CHECK_EVERY_ENTRY_UP_TO = 10_000
 """Requests of at most this many seeds are checked seed by seed before any work; larger ones at both
 ends of each seed range for every combination (sizes that depend on the seed only grow with it)."""
-MAX_SEED = 2**63 - 1
 SWEEP_MODES = ("cross", "zip")
 
 
@@ -273,14 +272,7 @@ def _spans(seeds: Sequence[tuple[int, int]] | Sequence[range]) -> tuple[tuple[in
         spans.append((low, high))
     if not spans:
         raise DatasetError("no seeds given")
-    spans.sort()
-    merged = [list(spans[0])]
-    for low, high in spans[1:]:
-        if low <= merged[-1][1] + 1:
-            merged[-1][1] = max(merged[-1][1], high)
-        else:
-            merged.append([low, high])
-    return tuple((low, high) for low, high in merged)
+    return merge_seed_spans(spans)
 
 
 def _parse_settings(generator: str, settings: Sequence[str]) -> tuple[tuple[tuple[str, Any], ...], tuple[Sweep, ...]]:
