@@ -633,19 +633,27 @@ def require_writable_dir(path: str | Path, label: str = "output folder") -> Path
     return path
 
 
-def write_file_atomic(path: str | Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary sibling and a rename: readers see the old
-    file or the new one, never a part."""
+@contextmanager
+def atomic_file(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
+    """A temporary sibling of ``path`` to write (by any writer that takes a path), renamed onto
+    ``path`` when the block ends: readers see the old file or the new one, never a part. An
+    exception (or a signal) in the block removes the temporary file instead."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile("wb", dir=path.parent, prefix=f".{path.name}.", suffix=".tmp",
-                                     delete=False) as handle:
-        handle.write(data)
-        temporary = Path(handle.name)
+    handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    os.close(handle)
+    temporary = Path(name)
     try:
+        yield temporary
         os.chmod(temporary, 0o644)
         os.replace(temporary, path)
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
-    return path
+
+
+def write_file_atomic(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary sibling and a rename (:func:`atomic_file`)."""
+    with atomic_file(path) as temporary:
+        temporary.write_bytes(data)
+    return Path(path)

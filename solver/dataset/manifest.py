@@ -18,14 +18,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from phyrogen_core.chain import KinematicChain, Role
-from phyrogen_core.folder import Stage, read_folder_file, stage_entries
+from phyrogen_core.folder import Stage, atomic_file, read_folder_file, stage_entries
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 
 from .request import Entry
@@ -235,18 +233,9 @@ def write_manifest(root: Path, parts: Sequence[Path]) -> Path:
     import pyarrow.parquet as pq
 
     final = Path(root) / MANIFEST_FILE
-    handle, name = tempfile.mkstemp(prefix=f".{MANIFEST_FILE}.", suffix=".tmp", dir=root)
-    os.close(handle)
-    temporary = Path(name)
-    try:
-        with pq.ParquetWriter(temporary, schema()) as writer:
-            for part in parts:
-                writer.write_table(pq.read_table(part, schema=schema()))
-        os.chmod(temporary, 0o644)
-        os.replace(temporary, final)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
+    with atomic_file(final) as temporary, pq.ParquetWriter(temporary, schema()) as writer:
+        for part in parts:
+            writer.write_table(pq.read_table(part, schema=schema()))
     return final
 
 

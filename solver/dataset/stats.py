@@ -8,11 +8,10 @@ actions, dependency depth), drawn as text and into ``<root>/plots/difficulty.png
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from phyrogen_core.folder import atomic_file
 from phyrogen_core.registry import all_generators
 
 from .manifest import read_manifest
@@ -136,16 +135,9 @@ def plot_stats(stats: DatasetStats, out_path: str | Path | None = None) -> Path:
     names = ", ".join(g.generator for g in shown)
     figure.suptitle(f"{stats.root.name}: {sum(g.ok for g in stats.generators)} puzzles ({names})", fontsize=10)
     figure.tight_layout()
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{out_path.name}.", suffix=".tmp.png", dir=out_path.parent)
-    os.close(handle)
     try:
-        figure.savefig(name, dpi=80)
-        os.chmod(name, 0o644)
-        os.replace(name, out_path)
-    except BaseException:
-        Path(name).unlink(missing_ok=True)
-        raise
+        with atomic_file(out_path, suffix=".tmp.png") as temporary:  # the suffix tells savefig the format
+            figure.savefig(temporary, dpi=80)
     finally:
         plt.close(figure)
     return out_path
