@@ -159,7 +159,7 @@ def cmd_dataset(args) -> int:
         print(f"plots: {plot_stats(stats)}")
         return 0
     from phyrogen_core.folder import shard_name
-    from solver.dataset import build_dataset, check_dataset_root, make_request
+    from solver.dataset import build_dataset, check_dataset_root, local_backend, make_request, ray_backend
 
     if args.generator is None or args.out is None:
         raise UsageError("dataset needs --generator and --out (or --stats DIR to describe a dataset)")
@@ -202,9 +202,11 @@ def cmd_dataset(args) -> int:
                        file=sys.stdout)
         sys.stdout.flush()
 
+    backend = local_backend if args.ray is None else ray_backend(args.ray)
     try:
-        result = build_dataset(request, root, args.workers, on_row=show_row, on_skip=progress.update,
-                               on_shard=show_shard, on_running=show_running)
+        with ray_connection(args.ray, args.workers):  # (an unreachable cluster is refused before anything is written)
+            result = build_dataset(request, root, args.workers, backend=backend, on_row=show_row,
+                                   on_skip=progress.update, on_shard=show_shard, on_running=show_running)
     finally:
         progress.close()
     rate = f" ({result.puzzles_per_hour:.0f} puzzles/hour)" if result.generated else ""
@@ -426,7 +428,8 @@ def cmd_benchmark(args) -> int:
               "delete it to run them again)", file=sys.stderr)
     if args.dry_run:
         return 0
-    result = run_plan(plan, progress=not args.quiet)
+    with ray_connection(args.ray, args.workers):
+        result = run_plan(plan, progress=not args.quiet, ray=args.ray)
     print((Path(args.out) / "summary.md").read_text(encoding="utf-8"))
     print(f"database: {result.database}  figure: {Path(args.out) / 'fig4.png'}")
     for line in result.unsaved_solutions:
@@ -474,6 +477,22 @@ def _whole_number(text: str, low: int, high: int, why: str = "") -> int:
     if value is None or not low <= value <= high:
         raise argparse.ArgumentTypeError(f"must be a whole number in {low}..{high}{why}, got {text!r}")
     return value
+
+
+def ray_connection(address: str | None, workers: int):
+    """The Ray cluster of ``--ray`` for the block (see :func:`solver.ray_pool.ray_instance`); nothing without it."""
+    if address is None:
+        return contextlib.nullcontext()
+    from solver.ray_pool import ray_instance
+
+    return ray_instance(address, workers)
+
+
+def add_ray_option(parser, what: str) -> None:
+    parser.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
+                        help=f"make the {what} as Ray tasks: alone, on a local Ray instance with --workers CPUs; "
+                             "with an address (auto, HOST:PORT, ray://HOST:PORT), on that cluster, whose nodes "
+                             "must see the puzzle folders at the same paths (docs/datasets.md#ray)")
 
 
 def workers_option(text: str) -> int:
@@ -555,6 +574,7 @@ def build_parser() -> argparse.ArgumentParser:
     data.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
     data.add_argument("--workers", type=workers_option, default=2,
                       help="worker processes (default 2; at most 4 per usable core)")
+    add_ray_option(data, "puzzles")
     data.add_argument("--stats", metavar="DIR",
                       help="print counts, distinct puzzles and difficulty histograms of the dataset DIR; "
                            "plots into DIR/plots/")
@@ -599,6 +619,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--out", default="output/benchmark", help="output folder (default: output/benchmark)")
     bench.add_argument("--workers", type=workers_option, default=2,
                        help="worker processes (default 2; at most 4 per usable core)")
+    add_ray_option(bench, "runs")
     bench.add_argument("--until", choices=("limit", "first"), default="limit",
                        help="limit (default): every run lasts its time limit; first: a run stops at its first "
                             "solution (success within the limit and time to it, affordably)")

@@ -73,7 +73,7 @@ from phyrogen_core.registry import benchmark_time_limits
 
 from .goal_sampling import goal_seed
 from .planners import LA_RRT_PLANNERS, PLANNERS, get_planner, run_seed
-from .pool import fresh_process_pool
+from .pool import task_pool
 
 PAPER_TIME_LIMITS: Mapping[str, float] = benchmark_time_limits("paper")
 """Seconds per run for each generator's puzzles, as in the paper (from the generator registry)."""
@@ -244,10 +244,11 @@ def make_jobs(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile:
 
 
 def run_all(jobs: Sequence[RunJob], workers: int = 2,
-            on_done: Callable[[RunRecord], None] | None = None) -> Iterator[RunRecord]:
-    """Run every job in a fresh process (one per job), yielding records as they finish."""
+            on_done: Callable[[RunRecord], None] | None = None, ray: str | None = None) -> Iterator[RunRecord]:
+    """Run every job in a fresh process (one per job), yielding records as they finish; with
+    ``ray`` (an address, or :data:`solver.ray_pool.LOCAL`) as Ray tasks (:mod:`solver.ray_pool`)."""
     check_workers(workers)
-    with fresh_process_pool(workers, len(jobs), _PRELOAD) as pool:
+    with task_pool(workers, len(jobs), _PRELOAD, ray) as pool:
         for record in pool.imap_unordered(_run_job, jobs, on_lost=_lost):
             if on_done is not None:
                 on_done(record)
@@ -669,10 +670,11 @@ def run_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], prof
 
 
 def run_plan(plan: BenchmarkPlan, plots: bool = True, progress: bool = True,
-             on_done: Callable[[RunRecord], None] | None = None) -> BenchmarkOutput:
+             on_done: Callable[[RunRecord], None] | None = None, ray: str | None = None) -> BenchmarkOutput:
     """Run the plan's remaining jobs, each journaled as it finishes (then ``on_done`` is called),
-    and write the outputs once all are done. Interrupted (KeyboardInterrupt, any exception), it
-    keeps every journaled run and writes no output: the same plan, made again, resumes."""
+    and write the outputs once all are done; ``ray`` as in :func:`run_all`. Interrupted
+    (KeyboardInterrupt, any exception), it keeps every journaled run and writes no output: the
+    same plan, made again, resumes."""
     from tqdm import tqdm
 
     plan.out.mkdir(parents=True, exist_ok=True)
@@ -685,7 +687,7 @@ def run_plan(plan: BenchmarkPlan, plots: bool = True, progress: bool = True,
         if todo:
             bar = tqdm(total=len(plan.jobs), initial=len(plan.done), unit="run", disable=not progress)
             try:
-                for record in run_all(todo, plan.workers):
+                for record in run_all(todo, plan.workers, ray=ray):
                     key = key_of[(_planner_id(record.planner), record.puzzle, record.run)]
                     journal.append(key, record)
                     records[key] = record

@@ -59,6 +59,17 @@ def fresh_process_pool(workers: int, tasks: int, preload: Sequence[str]) -> Fres
     return FreshProcessPool(context, max(1, min(workers, tasks)))
 
 
+def task_pool(workers: int, tasks: int, preload: Sequence[str], ray: str | None = None, *, fresh: bool = True):
+    """Where tasks run: :func:`fresh_process_pool` on this machine, or with ``ray`` (an address, or
+    :data:`solver.ray_pool.LOCAL`) a :class:`solver.ray_pool.RayPool`, which runs each task in a
+    new worker process only when ``fresh``. Both are context managers with ``imap_unordered``."""
+    if ray is None:
+        return fresh_process_pool(workers, tasks, preload)
+    from .ray_pool import RayPool
+
+    return RayPool(ray, workers, preload, fresh=fresh)
+
+
 @dataclass(eq=False)
 class _Task:
     process: Any
@@ -80,11 +91,13 @@ class FreshProcessPool:
     def __exit__(self, *exc_info) -> None:
         self.terminate()
 
-    def imap_unordered(self, func: Callable[[Any], Any], items: Iterable[Any], *,
-                       on_lost: Callable[[Any, str], Any] | None = None) -> Iterator[Any]:
-        """``func(item)`` for each item, in the order they finish; ``items`` is read as workers free up.
-        ``on_lost`` as in :meth:`imap`."""
-        return self._results(func, items, ordered=False, on_lost=on_lost)
+    def imap_unordered(self, func: Callable[[Any], Any], items: Iterable[Any], *, lookahead: int = 0,
+                       priority: Callable[[Any], float] | None = None,
+                       on_lost: Callable[[Any, str], Any] | None = None,
+                       heartbeat: Callable[[list[Any]], None] | None = None) -> Iterator[Any]:
+        """``func(item)`` for each item, in the order they finish; the arguments as in :meth:`imap`."""
+        return self._results(func, items, ordered=False, lookahead=lookahead, priority=priority,
+                             on_lost=on_lost, heartbeat=heartbeat)
 
     def imap(self, func: Callable[[Any], Any], items: Iterable[Any], *, lookahead: int = 0,
              priority: Callable[[Any], float] | None = None,

@@ -8,7 +8,16 @@
 docs/datasets.md walks through a dataset from the command line.
 """
 
-from .build import Backend, BuildResult, EntryOutcome, EntryTask, build_dataset, check_dataset_root, local_backend
+from .build import (
+    Backend,
+    BuildResult,
+    EntryOutcome,
+    EntryTask,
+    build_dataset,
+    check_dataset_root,
+    local_backend,
+    ray_backend,
+)
 from .manifest import COLUMNS, MANIFEST_FILE, TIMING_COLUMNS, canonical_hash, content_hash, read_manifest
 from .request import (
     DEFAULT_SHARD_SIZE,
@@ -25,5 +34,5 @@ __all__ = [
     "COLUMNS", "DEFAULT_SHARD_SIZE", "MANIFEST_FILE", "MAX_ENTRIES", "MAX_SHARD_SIZE", "TIMING_COLUMNS", "Backend",
     "BuildResult", "DatasetError", "DatasetRequest", "Entry", "EntryOutcome", "EntryTask", "build_dataset",
     "canonical_hash", "check_dataset_root", "content_hash", "dataset_stats", "local_backend", "make_request",
-    "plot_stats", "read_manifest",
+    "plot_stats", "ray_backend", "read_manifest",
 ]

@@ -1,0 +1,94 @@
+"""``--ray``: a dataset and a benchmark on a local Ray instance with 2 CPUs give what the local pool
+gives; a Ray run killed with SIGKILL leaves no process and resumes to the same dataset.
+
+Seeds are drawn afresh for every run (they are in the failure messages): the backends must agree on
+puzzles no one looked at before.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("ray")
+pq = pytest.importorskip("pyarrow.parquet")
+
+from phyrogen.cli import main  # noqa: E402
+from solver.benchmark import JOURNAL, read_journal  # noqa: E402
+from solver.dataset import TIMING_COLUMNS  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def dataset_files(root: Path) -> dict[str, bytes]:
+    """Every file of a dataset but its Parquet files (timing columns) and the run's plots."""
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*"))
+            if p.is_file() and p.suffix != ".parquet"}
+
+
+def manifest_rows(root: Path) -> list[dict]:
+    return pq.read_table(root / "manifest.parquet").drop_columns(list(TIMING_COLUMNS)).to_pylist()
+
+
+def ray_processes(session_of: int) -> list[str]:
+    """Command lines of the Ray processes a command of process group ``session_of`` started."""
+    out = subprocess.run(["ps", "-eo", "pgid=,args="], capture_output=True, text=True).stdout
+    return [line for line in out.splitlines() if line.split(None, 1)[0] == str(session_of) and "ray" in line]
+
+
+@pytest.mark.slow
+def test_a_dataset_on_ray_is_the_local_one_byte_for_byte_even_after_sigkill(tmp_path):
+    first = random.SystemRandom().randrange(200_000, 900_000)
+    options = ["dataset", "--generator", "grid_world,rooms", "--seeds", f"{first}-{first + 11}",
+               "--shard-size", "8", "--quiet"]
+    assert main([*options, "--out", str(tmp_path / "local")]) == 0
+
+    root = tmp_path / "ray"
+    command = [sys.executable, "-m", "phyrogen", *options, "--out", str(root), "--ray", "--workers", "2"]
+    process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
+    deadline = time.monotonic() + 120
+    while len(list(root.glob("shard-*/*/[!.]*/puzzle.json"))) < 3:
+        assert process.poll() is None, process.communicate()
+        assert time.monotonic() < deadline, f"seeds {first}+: no puzzle on Ray in time"
+        time.sleep(0.05)
+    os.kill(process.pid, signal.SIGKILL)  # the command alone: Ray's processes must end with it
+    process.communicate(timeout=60)
+    for _ in range(300):
+        if not ray_processes(process.pid):
+            break
+        time.sleep(0.1)
+    else:
+        pytest.fail(f"Ray processes outlived the killed command: {ray_processes(process.pid)}")
+
+    resumed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    assert "24/24 puzzles ok" in resumed.stdout, resumed.stdout
+    assert dataset_files(root) == dataset_files(tmp_path / "local"), f"seeds {first}-{first + 11}"
+    assert manifest_rows(root) == manifest_rows(tmp_path / "local"), f"seeds {first}-{first + 11}"
+
+
+@pytest.mark.slow
+def test_a_benchmark_on_ray_runs_every_job_with_the_local_seeds_and_results(tmp_path):
+    seed = random.SystemRandom().randrange(200_000, 900_000)
+    assert main(["generate", "--generator", "simple_slider", "--seeds", str(seed), "--set", "n_objects=3",
+                 "--out", str(tmp_path / "puzzles"), "--quiet"]) == 0
+    journals = {}
+    for name, extra in (("local", []), ("ray", ["--ray"])):
+        out = tmp_path / name
+        assert main(["benchmark", "--puzzles", str(tmp_path / "puzzles"), "--planners", "la_rrt,la_rrt_push,rrt_star",
+                     "--runs", "2", "--time-limit", "2", "--until", "first", "--no-solutions", "--out", str(out),
+                     "--quiet", *extra]) in (0, 1)
+        journals[name] = {key: record for key, record in read_journal(out / JOURNAL).items()}
+        assert (out / "summary.md").is_file() and (out / "benchmark.db").is_file()
+    assert journals["ray"].keys() == journals["local"].keys() and len(journals["ray"]) == 6, f"seed {seed}"
+    for key, local in journals["local"].items():
+        if local.planner.startswith("LA-RRT"):  # seeded and stopped at its first solution: the same path
+            assert journals["ray"][key].path == local.path, f"seed {seed}: {key}"
