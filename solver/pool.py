@@ -1,12 +1,13 @@
 """Fresh worker processes and the seeds they run with.
 
-OMPL's global RNG can be seeded only once per process
-(:func:`solver.validation.seed_ompl`), so work whose random draws must not
-depend on what ran before (generating a puzzle, one benchmark run) runs in a
-process of its own: forked from a server process that has imported
-``preload`` but never planned, one task per process. Seeds come from a
-stable hash of names and numbers, so they are the same on any machine, in
-any order and on any number of workers.
+Work that must not depend on what ran before it runs in a process of its
+own: forked from a server process that has imported ``preload`` but never
+planned, one task per process. A benchmark run is such a task (its time
+must not profit from another run's warm caches); so is a batch of puzzles,
+each of which seeds every random source it uses, OMPL's seed generator
+included (:func:`solver.validation.seed_ompl`). Seeds come from a stable
+hash of names and numbers, so they are the same on any machine, in any
+order and on any number of workers.
 
 Stopping is part of the contract. The parent owns Ctrl-C: workers ignore
 SIGINT (a terminal sends it to the whole process group) and are stopped by
