@@ -16,6 +16,12 @@ class DependencyShape:
     depth: int
     branching: int
 
+    @property
+    def kind(self) -> str:
+        """``none`` (nothing blocks the target), ``chain`` (each object has at most one blocker)
+        or ``tree`` (some object has several: the blockers fan out, as in a tree or a DAG)."""
+        return "none" if self.depth == 0 else "chain" if self.branching <= 1 else "tree"
+
 
 def dependency_shape(edges: Iterable[tuple[str, str]], target: str) -> DependencyShape:
     """The shape of the graph of (blocker, blocked) ``edges`` seen from ``target``."""

@@ -174,6 +174,9 @@ def test_a_dataset_has_every_seed_once_in_valid_folders(reference):
         assert row["actions"] == loaded.metadata["certificate_actions"] >= row["movable_objects"]
         assert row["depth"] == loaded.metadata["dependency_graph"]["depth"]
         assert row["branching"] == loaded.metadata["dependency_graph"]["branching"]
+        blocked = [edge[1] for edge in loaded.metadata["dependency_graph"]["edges"]]
+        fan_in = max((blocked.count(name) for name in blocked), default=0)
+        assert row["shape"] == ("none" if not blocked else "chain" if fan_in == 1 else "tree")
         assert row["interlock_margin"] == min(o["interlock_margin"] for o in loaded.metadata["objects"]
                                               if "interlock_margin" in o)
         assert row["content_hash"] == content_hash(folder, row["name"])

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from phyrogen_core.chain import KinematicChain, Role
+from phyrogen_core.dependencies import DependencyShape
 from phyrogen_core.folder import Stage, atomic_file, read_folder_file, stage_entries
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 
@@ -47,6 +48,7 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("actions", "int32", "the minimal known action count: actions in the stored (defragmented) certificate"),
     ("depth", "int32", "the dependency graph's depth (puzzle.json dependency_graph.depth)"),
     ("branching", "int32", "the dependency graph's branching (puzzle.json dependency_graph.branching)"),
+    ("shape", "string", "the dependency graph's shape: none, chain or tree (phyrogen_core.dependencies)"),
     ("interlock_margin", "float64", "the smallest measured interlock margin over the blocking objects [m] "
                                     "(null when the puzzle has no blocker)"),
     ("validation_checks", "int64", "collision queries the Maker's validator spent on the puzzle (planning, "
@@ -76,8 +78,8 @@ def base_row(entry: Entry, shard: int, record: Mapping[str, Any] | None) -> dict
         "index": entry.index, "generator": entry.generator, "name": entry.name, "seed": entry.seed,
         "parameters": entry.parameters_json, "shard": shard, "path": None, "status": "failed", "error": None,
         "content_hash": None, "canonical_hash": None, "movable_objects": None, "actions": None, "depth": None,
-        "branching": None, "interlock_margin": None, "validation_checks": record.get("validation_checks"),
-        "generation_seconds": record.get("seconds"),
+        "branching": None, "shape": None, "interlock_margin": None,
+        "validation_checks": record.get("validation_checks"), "generation_seconds": record.get("seconds"),
     }
 
 
@@ -115,6 +117,7 @@ def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
         "movable_objects": len(loaded.chain.object_names),
         "actions": int(meta["certificate_actions"]),
         "depth": int(graph["depth"]), "branching": int(graph["branching"]),
+        "shape": DependencyShape(int(graph["depth"]), int(graph["branching"])).kind,
         "interlock_margin": float(min(margins)) if margins else None,
     })
     return row
