@@ -241,10 +241,14 @@ class LaRrt:
     # -- sampling ----------------------------------------------------------
     def _draw(self, lower: np.ndarray, upper: np.ndarray, limit_probability: float) -> np.ndarray:
         """Uniform values in [lower, upper], each at a random one of its limits with ``limit_probability``."""
-        values = lower + (upper - lower) * self.rng.random(len(lower))
-        at_limit = self.rng.random(len(values)) < limit_probability
-        high = self.rng.random(len(values)) < 0.5
-        values[at_limit] = np.where(high, upper, lower)[at_limit]
+        n = len(lower)
+        # One call for the three draws of n numbers each (uniform, at a limit?, which limit?):
+        # the generator's stream is the same as with three calls, and a call costs more than n draws.
+        u = self.rng.random(3 * n)
+        values = lower + (upper - lower) * u[:n]
+        at_limit = u[n:2 * n] < limit_probability
+        if at_limit.any():
+            values[at_limit] = np.where(u[2 * n:] < 0.5, upper, lower)[at_limit]
         return values
 
     def _sample(self) -> np.ndarray:
@@ -275,9 +279,10 @@ class LaRrt:
         for candidates in (uniform, projected):
             for column, value in self.problem.goal_columns.items():
                 candidates[:, column] = value
-            valid = np.flatnonzero(self.model.check_prepared(candidates))
-            if len(valid):
-                self.goal_tree.add(candidates[valid[0]], -1)
+            valid = self.model.check_prepared(candidates)
+            first = int(valid.argmax())
+            if valid[first]:
+                self.goal_tree.add(candidates[first], -1)
                 return True
         return False
 
