@@ -99,3 +99,17 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
         if not attempt.solved:
             return Necessity(True, level * margin, queries)
     return Necessity(False, 0.0, queries, attempt)
+
+
+def warm_up() -> None:
+    """Load the judge's compiled loop (from numba's cache, or compile it) on a two-box puzzle: a
+    server process does it once before it forks workers, so that no worker pays for it."""
+    from phyrogen_core.chain import Geometry
+    from phyrogen_core.geometry import Box, Pose
+    from phyrogen_core.objects import Motion, PuzzleObject, build_chain
+
+    geometry = (Geometry(Box((1.0, 1.0, 1.0))),)
+    chain = build_chain([PuzzleObject(f"obj_0{i}", Motion.PRISMATIC, Pose.planar(1.5 * i, 0.0, 0.5), geometry,
+                                      geometry, limits=((0.0, 1.0),)) for i in range(2)])
+    goal = Goal("obj_00", {chain.joint_order[0]: 1.0})
+    attempt_fixed(chain, goal, ["obj_01"], 0.0, 50, np.random.default_rng(0))

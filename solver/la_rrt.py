@@ -534,11 +534,47 @@ class _BudgetRecorder(AnytimeRecorder):
 
 
 def la_rrt_within(problem: Problem, budget: int, rng: np.random.Generator,
-                  settings: LaRrtSettings | None = None) -> tuple[PlanResult, int]:
+                  settings: LaRrtSettings | None = None, *, compiled: bool = True) -> tuple[PlanResult, int]:
     """LA-RRT until its first solution or until ``budget`` collision queries are spent
-    (deterministic: no clock decides anything). Returns the result and the queries spent."""
+    (deterministic: no clock decides anything). Returns the result and the queries spent.
+
+    The run is the compiled loop of :mod:`solver._judge_loop` where it applies (staircase
+    extensions, goal roots by probability) and ``compiled``; the same run either way."""
     model = _CountingModel(problem.model)
     counted = replace(problem, model=model)
     planner = LaRrt(counted, rng, settings)
-    result = planner.solve(_BudgetRecorder(counted, model, budget), until_first=True)
-    return result, model.queries
+    recorder = _BudgetRecorder(counted, model, budget)
+    if compiled and planner.settings.extension == "staircase" and planner.settings.goal_root_rule == "probability" \
+            and problem.model.is_valid(problem.start) and not in_goal(problem, problem.start):
+        return _compiled_run(planner, recorder, model), model.queries
+    return planner.solve(recorder, until_first=True), model.queries
+
+
+def _compiled_run(planner: LaRrt, recorder: _BudgetRecorder, model: _CountingModel) -> PlanResult:
+    from . import _judge_loop
+
+    problem, settings, real = planner.problem, planner.settings, model._model
+    factor_sizes = np.array([len(c) for c in planner.columns], dtype=np.int64)
+    factor_columns = np.full((len(planner.columns), max(factor_sizes)), -1, dtype=np.int64)
+    for f, columns in enumerate(planner.columns):
+        factor_columns[f, :len(columns)] = columns
+    names = sorted({name for pair in real._pair_objects for name in pair})
+    number = {name: i for i, name in enumerate(names)}
+    pair_objects = np.array([(number[a], number[b]) for a, b in real._pair_objects], dtype=np.int64).reshape(-1, 2)
+    object_factor = np.array([planner.factor_index.get(name, -1) for name in names], dtype=np.int64)
+    goal_columns = np.array(list(problem.goal_columns), dtype=np.int64)
+    goal_values = np.array(list(problem.goal_columns.values()), dtype=np.float64)
+    # Nodes never outnumber queries, and one iteration adds at most this many beyond the budget.
+    capacity = recorder.budget + 2 + 4 * (len(factor_sizes) + settings.max_pushes)
+    path, iterations, queries, clipped = _judge_loop.run(
+        planner.rng, np.ascontiguousarray(problem.start, dtype=np.float64), problem.lower, problem.upper,
+        goal_columns, goal_values, planner.weights, planner.range, planner.steps, planner.fine_steps,
+        factor_columns, factor_sizes, pair_objects, object_factor, settings.limit_probability,
+        settings.single_factor_probability, settings.goal_root_probability, settings.goal_sample_attempts,
+        settings.max_pushes, settings.push_attempts, recorder.budget, model.queries, capacity,
+        *real._arguments, real._pair_columns)
+    model.queries = int(queries)
+    recorder.clipped = int(clipped)
+    if len(path) and not recorder.offer(path):
+        raise RuntimeError("the compiled LA-RRT loop returned a path its recorder refuses")
+    return recorder.result(int(iterations))
