@@ -16,7 +16,7 @@ from .outputs import summary_table, write_outputs
 from .solution import load_solution
 
 OMPL_SEED = 1
-"""BIT* draws from OMPL's global generator, seeded once per process."""
+"""The seed of OMPL's seed generator, from which BIT* draws, set once per batch."""
 
 
 def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = True, table: Path | None = None,

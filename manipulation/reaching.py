@@ -27,7 +27,7 @@ CHECK_STEP = 0.02
 
 
 def seed_reaching(seed: int) -> None:
-    """Seed the OMPL RNG that BIT* draws from (once per process; later calls have no effect)."""
+    """Seed the OMPL seed generator BIT* draws from (:func:`solver.validation.seed_ompl`)."""
     seed_ompl(stable_seed("ompl", "manipulation", seed))
 
 

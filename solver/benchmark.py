@@ -1,7 +1,7 @@
 """Benchmark planners x puzzles x runs; OMPL benchmark logs, the SQLite database, plots, best solutions.
 
 Each run (planner, puzzle, run index) is planned in its own fresh worker
-process (OMPL's global RNG can be seeded only once per process) with a seed
+process (no run profits from another's warm caches) with a seed
 derived from (base seed, planner, puzzle, run): the same runs give the same
 random draws in any order, on any number of workers. Goal states come from
 the shared goal sampler (:mod:`solver.goal_sampling`) with a goal seed

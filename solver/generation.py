@@ -1,10 +1,11 @@
 """Generate certified puzzles, each in a fresh worker process.
 
-OMPL seeds its global RNG once per process, so a puzzle generated after
-another one in the same process would see different random numbers. Each
-puzzle therefore runs in its own process, forked from a server process that
-has imported everything but never planned; OMPL is seeded there from
-(generator, seed), and the result is the same in any process and any order.
+Each puzzle seeds every random source it draws from at its start (numpy
+Generators and OMPL's seed generator, from (generator, seed)), so the result
+is the same in any process and any order. ``phyrogen generate`` still runs
+each puzzle in a process of its own, forked from a server process that has
+imported everything (a crash or a hang costs that puzzle only);
+datasets run cheap puzzles in batches (:mod:`solver.dataset.build`).
 """
 
 from __future__ import annotations
@@ -53,8 +54,7 @@ def versions() -> dict[str, str]:
 def generate_here(generator: str, seed: int, params: Any = None, *, stats: dict[str, Any] | None = None) -> Puzzle:
     """Generate and certify one puzzle in THIS process.
 
-    Only deterministic in a process that has not planned before (see the
-    module docstring); use :func:`generate_puzzle` unless you manage processes.
+    Deterministic in any process, after anything else (see the module docstring).
     ``stats``, when given, receives ``validation_checks``: the collision queries the Maker's
     validator spent (planning, necessity judging, certifying), a machine-independent cost.
     """

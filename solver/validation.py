@@ -6,11 +6,9 @@ validator. The problem itself, densifying and checking certificates, and
 the dependency graph need no OMPL and live in :mod:`solver.problem`.
 
 Budgets are counted in motion checks, never seconds, so the answer (and
-therefore every generated puzzle) is the same on any machine. OMPL's global
-RNG can be seeded only once per process; :mod:`solver.generation` therefore
-runs each puzzle in a fresh worker process and seeds it there
-(:func:`seed_ompl`), and the goal sampler draws from its own seeded numpy
-Generator.
+therefore every generated puzzle) is the same on any machine. Each puzzle
+seeds OMPL's seed generator at its start (:func:`seed_ompl`), and the goal
+sampler draws from its own seeded numpy Generator.
 """
 
 from __future__ import annotations
@@ -158,8 +156,13 @@ def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
 
 
 def seed_ompl(seed: int) -> None:
-    """Seed OMPL's global RNG (see :mod:`solver.pool`); only the first call in a process has an effect."""
+    """Seed OMPL's seed generator, from which every OMPL RNG made afterwards (each planner and
+    state sampler makes its own) takes its seed: a run seeded first draws the same numbers in any
+    process, whatever ran there before (OMPL logs a needless error about it, silenced here)."""
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
     ou.RNG.setSeed(int(seed))
+    ou.setLogLevel(level)
 
 
 EXTENSION_GRID = 25
