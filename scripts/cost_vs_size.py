@@ -2,12 +2,12 @@
 
     .venv/bin/python scripts/cost_vs_size.py [--seeds 3] [--workers 2] [--out docs/cost_vs_size.png]
 
-Each generator is swept over its size knob (n_objects from 2 to 12 where the generator allows it,
-Rooms' n_rooms 1-6, Simple Slider's 1-7, Move N Times' n 1-8), with --seeds fresh seeds per size
-(printed), each puzzle in a process of its own (batches of one), as one dataset per generator. The
-cost of a puzzle is its generation time in its worker (generation and certification, not export)
-and the collision queries its validation spent (machine-independent). The plot shows the median
-and the range over the seeds.
+Each generator is swept over its size knob (n_objects from 2 to 12 where the generator allows
+it, Rooms' n_rooms 2-6 with 2 doors, Simple Slider's 1-7, Move N Times' n 1-7, its largest),
+with --seeds fresh seeds per size (printed), each puzzle in a process of its own (batches of
+one), as one dataset per generator. The cost of a puzzle is its generation time in its worker
+(generation and certification, not export) and the collision queries its validation spent
+(machine-independent). The plot shows the median and the range over the seeds.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ from solver.dataset import build_dataset, local_backend, make_request, read_mani
 
 SWEEPS = {  # generator: (size parameter, smallest, largest, other settings)
     "simple_slider": ("n_objects", 1, 7, []),
-    "move_n_times": ("n", 1, 8, []),
-    "rooms": ("n_rooms", 1, 6, []),
+    "move_n_times": ("n", 1, 7, []),  # MAX_N
+    "rooms": ("n_rooms", 2, 6, ["doors=2"]),
     "grid_world": ("n_objects", 2, 12, []),
     "lockbox_random": ("n_objects", 2, 12, []),
     "continuous_space": ("n_objects", 2, 12, []),
