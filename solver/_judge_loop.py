@@ -10,7 +10,7 @@ the same order from the same numpy Generator (numba's Generator methods share
 the generator's state and reproduce numpy's streams), the same collision
 queries in the same order, and the same floating-point operations, so every
 verdict, path and query count equals the Python loop's: the puzzles stay
-byte-identical (``tests/test_guarantees.py`` compares both loops).
+byte-identical (``tests/test_judge_loop.py`` compares both loops).
 """
 
 from __future__ import annotations
@@ -18,23 +18,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._kernels import check_states, motion_collision, pair_hits
+from ._kernels import check_states, motion_collision, nearest_l1, pair_hits
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2  # as in solver.la_rrt
-
-
-@njit(cache=True, nogil=True)
-def _nearest(states, size, query, weights):
-    best, best_distance = 0, np.inf
-    for i in range(size):
-        distance = 0.0
-        for j in range(query.shape[0]):
-            distance += weights[j] * abs(states[i, j] - query[j])
-            if distance >= best_distance:
-                break
-        if distance < best_distance:
-            best, best_distance = i, distance
-    return best
 
 
 @njit(cache=True, nogil=True)
@@ -120,7 +106,7 @@ def run(rng, start, lower, upper, goal_columns, goal_values, weights, extension_
         if sizes[1] == 0:
             growing = 0
         sample = _draw(rng, lower, upper, limit_probability)
-        near = _nearest(states[growing], sizes[growing], sample, weights)
+        near = nearest_l1(states[growing], sizes[growing], sample, weights)
         single = rng.random() < single_probability
         status, new, queries = _staircase(
             rng, states, parents, sizes, growing, near, sample, extension_range, single, lower, upper, weights, steps,
@@ -130,7 +116,7 @@ def run(rng, start, lower, upper, goal_columns, goal_values, weights, extension_
         if new != near and sizes[other] > 0:
             target = states[growing, new].copy()
             status, reached, queries = _staircase(
-                rng, states, parents, sizes, other, _nearest(states[other], sizes[other], target, weights),
+                rng, states, parents, sizes, other, nearest_l1(states[other], sizes[other], target, weights),
                 target, np.inf, False, lower, upper, weights, steps, factor_columns, factor_sizes, pair_objects,
                 object_factor, max_pushes, push_attempts, queries, kin_int, kin_float, n_links, shape_link,
                 shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,

@@ -191,3 +191,19 @@ def pair_hits(states, kin_int, kin_float, n_links, shape_link, shape_nv, shape_c
                                               shape_extent, tol, tol):
                 hits[p] = True
     return hits
+
+
+@njit(cache=True, nogil=True)
+def nearest_l1(states: np.ndarray, size: int, query: np.ndarray, weights: np.ndarray) -> int:
+    """Index of the row of ``states[:size]`` nearest to ``query`` in weighted L1 (compiled:
+    the brute-force scan dominates a run once the trees hold thousands of nodes)."""
+    best, best_distance = 0, np.inf
+    for i in range(size):
+        distance = 0.0
+        for j in range(query.shape[0]):
+            distance += weights[j] * abs(states[i, j] - query[j])
+            if distance >= best_distance:
+                break
+        if distance < best_distance:
+            best, best_distance = i, distance
+    return best

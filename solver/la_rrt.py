@@ -47,8 +47,8 @@ from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
-from numba import njit
 
+from ._kernels import nearest_l1
 from .defragment import Defragmenter
 from .planning import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning_steps
 from .problem import FINE_RESOLUTION, Problem, in_goal, problem_factors
@@ -63,22 +63,6 @@ class GoalSource(Protocol):
 
     def next(self) -> np.ndarray | None:
         """A new valid goal state, or None when there are no more."""
-
-
-@njit(cache=True, nogil=True)
-def _nearest_l1(states: np.ndarray, size: int, query: np.ndarray, weights: np.ndarray) -> int:
-    """Index of the row of ``states[:size]`` nearest to ``query`` in weighted L1 (compiled:
-    the brute-force scan dominates a run once the trees hold thousands of nodes)."""
-    best, best_distance = 0, np.inf
-    for i in range(size):
-        distance = 0.0
-        for j in range(query.shape[0]):
-            distance += weights[j] * abs(states[i, j] - query[j])
-            if distance >= best_distance:
-                break
-        if distance < best_distance:
-            best, best_distance = i, distance
-    return best
 
 
 @dataclass(frozen=True)
@@ -200,7 +184,7 @@ class _Tree:
         return self.size - 1
 
     def nearest(self, state: np.ndarray) -> int:
-        return int(_nearest_l1(self.states, self.size, state, self.weights))
+        return int(nearest_l1(self.states, self.size, state, self.weights))
 
     def branch(self, node: int) -> list[np.ndarray]:
         """States from the node's root to the node."""
