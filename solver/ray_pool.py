@@ -20,7 +20,10 @@ atomically, so a cancelled task leaves at most a temporary file, which the
 next run removes. Killed with SIGKILL, the driver cannot shut its local
 instance down, and Ray then leaves two agent processes running for good
 (Ray 2.60); a small reaper process, started with the instance, ends every
-process of the instance when the driver's pipe to it closes.
+process of the instance when the driver's pipe to it closes. It knows them
+by a token in their environment and by the files they hold open in the
+instance's session folder (Ray's process titles can overwrite the
+environment).
 """
 
 from __future__ import annotations
@@ -46,17 +49,38 @@ _MARK = "PHYROGEN_RAY_INSTANCE"
 """An environment variable every process of a local instance inherits, with a value of its own."""
 
 _REAPER = f"""
-import os, signal, sys
+import os, signal, sys, time
 signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C for the group is the driver's to handle
-sys.stdin.buffer.read()  # returns when the driver closes the pipe or dies
+spared = {{os.getpid(), os.getppid()}}  # the driver too: after a normal shutdown it may hold a log open
+session = sys.stdin.buffer.read().decode().strip()  # sent once the instance runs; the read ends with the driver
 mark = ("{_MARK}=" + sys.argv[1]).encode()
-for pid in filter(str.isdigit, os.listdir("/proc")):
-    try:
-        with open(f"/proc/{{pid}}/environ", "rb") as environ:
-            if mark in environ.read().split(b"\\0"):
+
+def ours(pid):
+    # Its environment (unless Ray's process titles overwrote it), or a file open in the session's folder.
+    with open(f"/proc/{{pid}}/environ", "rb") as environ:
+        if mark in environ.read().split(b"\\0"):
+            return True
+    if session:
+        for fd in os.listdir(f"/proc/{{pid}}/fd"):
+            try:
+                if os.readlink(f"/proc/{{pid}}/fd/{{fd}}").startswith(session + "/"):
+                    return True
+            except OSError:
+                pass
+    return False
+
+quiet, deadline = 0, time.monotonic() + 30
+while quiet < 4 and time.monotonic() < deadline:  # until a second passes with none left (one may be starting)
+    found = False
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            if int(pid) not in spared and ours(pid):
                 os.kill(int(pid), signal.SIGKILL)
-    except OSError:
-        pass
+                found = True
+        except OSError:
+            pass
+    quiet = 0 if found else quiet + 1
+    time.sleep(0.25)
 """
 
 
@@ -100,6 +124,9 @@ def ray_instance(address: str, workers: int) -> Iterator[int]:
             ray.init(num_cpus=workers, **options)
         finally:
             os.environ.pop(_MARK, None)  # the instance has it; later children of this process need not
+        if reaper is not None:
+            reaper.stdin.write(_session_folder(ray).encode() + b"\n")
+            reaper.stdin.flush()
     else:
         _check_reachable(address)
         try:
@@ -113,6 +140,15 @@ def ray_instance(address: str, workers: int) -> Iterator[int]:
         if reaper is not None:  # it ends what shutdown left
             reaper.stdin.close()
             reaper.wait()
+
+
+def _session_folder(ray) -> str:
+    """The local instance's session folder, where its processes keep their logs open ('' if unknown:
+    the reaper then knows them by their environment only)."""
+    try:
+        return str(ray._private.worker.global_worker.node.get_session_dir_path())
+    except Exception:
+        return ""
 
 
 def _import_ray():
