@@ -129,6 +129,9 @@ class MakerInput:
     fixed_budget_scale: float = 1.0  # scales the FixJoint judge's own budget (see the validator)
     interlock_margin: float = 0.01  # metres every shape is shrunk by when FixJoint asks if an object is needed
     budget_scale: float = 1.0  # harder families may give the validator's solve a larger search budget
+    # The validator re-plans each new level along the target's route (nested corridors, Move N Times);
+    # it finds other certificates than a whole-space search, so only a generator that asks gets it.
+    routed_validation: bool = False
 
 
 @dataclass(frozen=True)

@@ -63,7 +63,7 @@ def generate_here(generator: str, seed: int, params: Any = None, *, stats: dict[
     spec.check(seed, params)
     seed_ompl(ompl_seed(generator, seed))
     maker_input = spec.build(seed, params)
-    validator = OmplValidator(rng_for(generator, seed, "validator"))
+    validator = OmplValidator(rng_for(generator, seed, "validator"), routed=maker_input.routed_validation)
     validator.budget = int(validator.budget * maker_input.budget_scale)
     result = make(maker_input, seed, validator, generator)
     certificate = validator.certify(result.objects, result.goal, result.certificate)

@@ -26,7 +26,7 @@ from phyrogen.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 QUICK = ["--generator", "simple_slider", "--set", "n_objects=2"]  # about 0.1 s a puzzle
-SLOW = ["--generator", "move_n_times", "--set", "n=7"]  # about 25 s of CPU a puzzle
+SLOW = ["--generator", "move_n_times", "--set", "n=20"]  # about 20 s of CPU a puzzle
 INTERRUPTED = "phyrogen: interrupted\n"
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")

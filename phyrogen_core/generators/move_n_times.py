@@ -34,12 +34,11 @@ DOOR_THICKNESS = 0.1
 DOOR_Y = -0.5
 """The door runs along this line, the open top of every corridor."""
 CELL = 1.0
-MAX_N = 7
-"""The most door moves accepted. The validator re-plans only the new corridor of each level
-(factored validation, :meth:`solver.validation.OmplValidator.solve`), so the cost grows about
-2.5x per move instead of 4x: n = 7 takes 20-23 s of CPU time, within the bound every size must
-keep (docs/generators.md#feasible-sizes); n = 8 took 38-54 s on two seeds but over 2 min on a
-third. Two-digit wall names alone would allow n = 20 (5n - 4 walls)."""
+MAX_N = 20
+"""The most door moves accepted: 5n - 4 walls must fit two-digit names (``kit.MAX_OBJECTS``).
+Time is no longer the limit: the validator plans each new level along the target's route
+(``MakerInput.routed_validation``), so its queries grow about as n^1.8 and its CPU time as n^3, and
+n = 20 took 19-24 s of CPU time on six seeds (docs/generators.md#feasible-sizes)."""
 
 
 @dataclass(frozen=True)
@@ -81,8 +80,8 @@ class MoveNTimesItems:
 class MoveNTimesParams:
     """Parameters of Move N Times (each field says what it means)."""
 
-    n: int = parameter(0, f"how many times the door must move (1..{MAX_N}; each move costs about 4x the "
-                          f"generation time); 0: n = Seed, taken from the seed as the paper does", difficulty=True)
+    n: int = parameter(0, f"how many times the door must move (1..{MAX_N}; n = 20 takes about 20-25 s of "
+                          f"CPU time); 0: n = Seed, taken from the seed as the paper does", difficulty=True)
     interlock_margin: float = kit.interlock_margin_parameter()
 
     def moves(self, seed: int) -> int:
@@ -95,21 +94,23 @@ class MoveNTimesParams:
         moves = self.moves(seed)
         if moves > MAX_N:
             raise ParameterError(
-                f"n must lie in 1..{MAX_N}, got n = {moves} (seed {seed}): the cost grows about 2.5x per move; "
-                f"n = 7 takes about 25 s of CPU time, n = 8 up to minutes ({kit.SIZES_DOC}): "
+                f"n must lie in 1..{MAX_N}, got n = {moves} (seed {seed}): its {5 * moves - 4} walls would not "
+                f"fit two-digit names (at most {kit.MAX_OBJECTS}; {kit.SIZES_DOC}): "
                 f"set n (or use a seed) between 1 and {MAX_N}"
             )
 
 
 def search_budget_scale(moves: int) -> float:
-    """How much more search the validator gets than its default: 5 x 4^(n-2) for n >= 2.
+    """How much more search the validator gets than its default: 5 x 4^(n-2) for n = 2..8.
 
     The door and the target must meet at the far ends of their ranges n times,
     so the search RRT-Connect needs from the start grows about 4x per move
-    (docs/generators.md#move-n-times has the measurements). This is a cap: with
-    factored validation each level re-plans only its own corridor and spends far less.
+    (docs/generators.md#move-n-times has the measurements). Only the validator's
+    fallbacks search that way: the routed re-plan of each level has budgets of its
+    own, per leg, and has not needed a fallback on any seed measured. Past n = 8 the
+    scale stays at n = 8's, so a fallback stays bounded (and fails rather than run for hours).
     """
-    return 1.0 if moves < 2 else 5.0 * 4.0 ** (moves - 2)
+    return 1.0 if moves < 2 else 5.0 * 4.0 ** (min(moves, 8) - 2)
 
 
 def door_width(moves: int) -> float:
@@ -249,9 +250,9 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     Difficulty parameters:
         ``n`` (0: n = Seed, the paper) is the number of door moves and sets
         the number of corridors (n - 1), the door width and the target's range.
-        Validation re-plans one corridor per level, so its cost grows about
-        2.5x per move; n is capped at 7 (about 25 s of CPU time; n = 8
-        took over 2 min on one seed of three).
+        Validation plans each new corridor along the target's route, a leg at a
+        time, so its CPU time grows about as n^3; n is capped at 20, where the
+        walls run out of two-digit names (19-24 s of CPU time).
 
     Departures:
         The Maker runs n + 1 iterations, not Table I's Seed + 2: the pocket
@@ -266,6 +267,7 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     moves = params.moves(seed)
     budget_scale = search_budget_scale(moves)
     return MakerInput(
+        routed_validation=True,
         interlock_margin=params.interlock_margin,
         objects=MoveNTimesItems(moves),
         joints=InfiniteSequence((Motion.SE2, Motion.PRISMATIC, Motion.FIXED), repeat_from=2),
