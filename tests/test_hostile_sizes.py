@@ -136,6 +136,7 @@ def test_all_generators_over_seeds_1_to_8_is_refused_before_any_work(tmp_path, c
     ("continuous_space", {"n_objects": 50}, "n_objects must lie in 1..20"),
     ("rooms", {"n_rooms": 12, "doors": 0}, "n_rooms must lie in 1..6"),
     ("grid_world", {"branching": 73}, "branching must lie in 0..72"),
+    ("continuous_space", {"branching": 19}, "branching must lie in 0..18"),
     ("rooms", {"scaling": 8.0}, "scaling must lie in [1, 4]"),  # 6 rooms, 6 doors: over 2 min at 8
     ("continuous_space", {"bar_length": 10.0}, "bar_length must lie in [1, 5]"),  # 20 bars: 85 s at 10
     ("continuous_space", {"bar_width": 0.01}, "bar_width"),

@@ -59,10 +59,16 @@ class ContinuousSpaceParams:
                                      difficulty=True)
     max_limit_deg: float = parameter(180.0, "largest magnitude of a bar's joint limit (degrees, <= 180)",
                                      difficulty=True)
+    branching: int = parameter(0, f"extra blockers earlier bars may get in total, 0..{MAX_BARS - 2}: while this "
+                                  f"lasts, each new bar blocks a random earlier bar that already has a "
+                                  f"blocker instead of the last one; 0 (the paper) gives a single chain",
+                               difficulty=True)
     interlock_margin: float = kit.interlock_margin_parameter()
 
     def validate(self, seed: int) -> None:
         kit.check_interlock_margin(self)
+        kit.check_count("branching", self.branching, 0, MAX_BARS - 2,
+                        "each bar after the second can add at most one extra blocker")
         kit.check_object_count(self.n_objects, high=MAX_BARS,
                                why=f"generation time grows steeply with the count (20: up to about 1 min of CPU "
                                    f"time, 25: up to 2 min, 40: many minutes; {kit.SIZES_DOC})")
@@ -118,10 +124,19 @@ def _bar_object(params: ContinuousSpaceParams, index: int, bar: _Bar, limit: flo
                         visuals, geometry, role, limits)
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """The bars placed so far and how many extra blockers (``branching``) are left to give."""
+
+    bars: tuple[_Bar, ...]
+    branches_left: int
+
+
 def _attach_for(params: ContinuousSpaceParams):
     def attach(draft: Draft, obj_item: str, joint_item: Motion, tf_item: tuple[float, float], n: int,
                rng: np.random.Generator) -> Draft | None:
-        bars: tuple[_Bar, ...] = draft.context or ()
+        layout: _Layout = draft.context or _Layout((), params.branching)
+        bars, branches_left = layout.bars, layout.branches_left
         sign = 1 if rng.random() < 0.5 else -1
         limit = math.radians(float(rng.uniform(params.min_limit_deg, params.max_limit_deg)))
         if not bars:
@@ -129,16 +144,20 @@ def _attach_for(params: ContinuousSpaceParams):
             bar = _Bar(0.0, 0.0, float(rng.uniform(0.0, 2 * math.pi)), sign)
         else:
             arc_deg, reach = tf_item
-            previous = bars[-1]
-            end = math.pi if rng.random() < 0.5 else 0.0  # either half of the previous bar
-            angle = previous.yaw + end + previous.sign * math.radians(arc_deg)
+            # Every bar but the last already has a blocker: one more makes the dependencies a tree.
+            # Drawn only while the budget lasts, so that branching 0 keeps the paper's random stream.
+            branch = branches_left > 0 and len(bars) > 1
+            blocked = bars[int(rng.integers(len(bars) - 1))] if branch else bars[-1]
+            branches_left -= branch
+            end = math.pi if rng.random() < 0.5 else 0.0  # either half of the blocked bar
+            angle = blocked.yaw + end + blocked.sign * math.radians(arc_deg)
             r = reach_radius(params, reach)
-            bar = _Bar(previous.x + r * math.cos(angle), previous.y + r * math.sin(angle), angle, sign)
+            bar = _Bar(blocked.x + r * math.cos(angle), blocked.y + r * math.sin(angle), angle, sign)
             area = bar.floor_area(params)
             if any(kit.overlaps(area, old.floor_area(params)) for old in bars):
                 return None
         new = _bar_object(params, len(bars), bar, limit)
-        return Draft(draft.objects + (new,), bars + (bar,))
+        return Draft(draft.objects + (new,), _Layout(bars + (bar,), branches_left))
 
     return attach
 
@@ -162,7 +181,10 @@ def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
         swing (measured from either end of it, the rng picks), at distance
         L/2 + W/2 + r (L/2 - W/2) from the previous hinge, pointing at it.
         The rng also draws the limits' sign and size, the target's yaw
-        U[0, 360) degrees and which end. Candidates overlapping an earlier
+        U[0, 360) degrees and which end. While the ``branching`` budget lasts,
+        the rng picks the bar to block among the earlier ones that already have
+        a blocker (every bar but the last), instead of the last. Candidates
+        overlapping an earlier
         bar are refused by attach; the Maker rejects the rest that do not
         block or cannot be cleared.
 
@@ -173,7 +195,9 @@ def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
     Difficulty parameters:
         ``n_objects``; the bar's floor size ``bar_length`` x ``bar_width``;
         the limit range [``min_limit_deg``, ``max_limit_deg``]
-        (90 <= min <= max <= 180). ``bar_height`` changes only the look.
+        (90 <= min <= max <= 180); ``branching`` (0, the paper: a chain; each
+        unit gives an earlier bar one more blocker, so the dependencies form a
+        tree, shallower for the same count). ``bar_height`` changes only the look.
 
     Departures:
         Revolute bars only, as in the paper (the prototype mixed prismatic and
