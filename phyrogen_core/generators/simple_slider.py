@@ -20,9 +20,9 @@ PITCH = 1.0
 """Distance from a slider's centre to the centre of the slider across its path."""
 BASE_ANGLES = (-90.0, 0.0)
 """The prototype's orientation (degrees) of even and odd sliders, before the transformation."""
-MAX_SLIDERS = 7
-"""The longest chain accepted: 7 sliders generate on every seed tried, in seconds; from 8 on,
-the Maker runs out of tries on some seeds (docs/generators.md#feasible-sizes)."""
+MAX_SLIDERS = 50
+"""The longest chain accepted: 50 sliders take about 27 s of CPU time (the cost grows about as
+n^3: 20 take 1.2 s, 30 about 4.5 s; docs/generators.md#feasible-sizes)."""
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,7 @@ class SimpleSliderParams:
             raise ParameterError(
                 f"n_objects must lie in 1..{MAX_SLIDERS}, got {count} sliders"
                 + (f" (Seed + 1, seed {seed})" if self.n_objects == 0 else "")
-                + f": from {MAX_SLIDERS + 1} sliders on the Maker gives up on some seeds ({kit.SIZES_DOC}); "
+                + f": {MAX_SLIDERS} take about 30 s of CPU time, growing as n^3 ({kit.SIZES_DOC}); "
                 f"use a seed up to {MAX_SLIDERS - 1} or set n_objects"
             )
         # A slider must travel 1 - gap to clear the path it crosses but is stopped after
@@ -85,27 +85,43 @@ def _slider_object(index: int, slider: _Slider, motion: Motion, length: float) -
     return PuzzleObject(kit.movable_name(index), motion, pose, geometry, geometry, role, ((0.0, STROKE),))
 
 
-def _attach_for(params: SimpleSliderParams):
+def _next_slider(placed: tuple[_Slider, ...], flip: float) -> _Slider:
+    """The next slider of the staircase for a flip (degrees): across the previous slider's
+    path, PITCH ahead of its centre (the prototype's step)."""
+    direction = kit.axis_direction(BASE_ANGLES[len(placed) % 2] + flip)
+    if not placed:
+        return _Slider((0.0, 0.0), direction)
+    return _Slider(kit.ahead(placed[-1].centre, placed[-1].direction, PITCH), direction)
+
+
+def _fits(slider: _Slider, placed: tuple[_Slider, ...], half_length: float) -> bool:
+    """Only the previous slider may interact with the new one; a staircase that folds back onto
+    an older slider would add dependencies nobody asked for."""
+    swept = _swept_area(slider, half_length)
+    return not any(kit.overlaps(swept, _swept_area(old, half_length)) for old in placed[:-1])
+
+
+def _can_grow(placed: tuple[_Slider, ...], half_length: float, more: int) -> bool:
+    """Whether some flips place ``more`` sliders after ``placed`` without folding. Checked before a
+    slider is accepted, so the Maker never walks into a staircase with no way on (at 7 sliders
+    about 1 seed in 10 used to give up after all its restarts); a zigzag always has one."""
+    return more == 0 or any(
+        _fits(slider, placed, half_length) and _can_grow((*placed, slider), half_length, more - 1)
+        for slider in (_next_slider(placed, flip) for flip in kit.HALF_TURNS)
+    )
+
+
+def _attach_for(params: SimpleSliderParams, count: int):
     half_length = params.slider_length / 2
 
     def attach(draft: Draft, obj_item: str, joint_item: Motion, tf_item: float, n: int,
                rng: np.random.Generator) -> Draft | None:
         placed: tuple[_Slider, ...] = draft.context or ()
-        index = len(draft.objects)
-        direction = kit.axis_direction(BASE_ANGLES[index % 2] + tf_item)
-        if placed:
-            # Across the previous slider's path, PITCH ahead of its centre: the prototype's step.
-            previous = placed[-1]
-            centre = kit.ahead(previous.centre, previous.direction, PITCH)
-        else:
-            centre = (0.0, 0.0)
-        slider = _Slider(centre, direction)
-        swept = _swept_area(slider, half_length)
-        # Only the previous slider may interact with the new one; a staircase that folds back
-        # onto an older slider would add dependencies nobody asked for.
-        if any(kit.overlaps(swept, _swept_area(old, half_length)) for old in placed[:-1]):
+        slider = _next_slider(placed, tf_item)
+        if not _fits(slider, placed, half_length) or not _can_grow((*placed, slider), half_length,
+                                                                    count - len(placed) - 1):
             return None
-        new = _slider_object(index, slider, joint_item, params.slider_length)
+        new = _slider_object(len(draft.objects), slider, joint_item, params.slider_length)
         return Draft(draft.objects + (new,), placed + (slider,))
 
     return attach
@@ -130,8 +146,9 @@ def build(seed: int, params: SimpleSliderParams) -> MakerInput:
         sliding direction) relative to the prototype's orientation (-90 degrees
         for even, 0 for odd sliders); the next slider is placed in front of
         wherever the flipped slider now slides, so the staircase turns left or
-        right. A flip that would fold the staircase onto an older slider is
-        rejected (attach returns None) and the Maker draws again.
+        right. A flip that would fold the staircase onto an older slider, or
+        leave no flips for the sliders still to come that do not, is rejected
+        (attach returns None) and the Maker draws again.
 
     Goal:
         The paper's rule: the target (``obj_00``, the first slider) at the far end
@@ -156,6 +173,6 @@ def build(seed: int, params: SimpleSliderParams) -> MakerInput:
         joints=Choice((Motion.PRISMATIC,)),
         transforms=Choice(kit.HALF_TURNS),
         n_objects=params.count(seed),
-        attach=_attach_for(params),
+        attach=_attach_for(params, params.count(seed)),
         goal=kit.target_paper_goal,
     )
