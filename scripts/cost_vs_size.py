@@ -3,7 +3,7 @@
     .venv/bin/python scripts/cost_vs_size.py [--seeds 3] [--workers 2] [--out docs/cost_vs_size.png]
 
 Each generator is swept over its size knob (n_objects from 2 to 12 where the generator allows
-it, Rooms' n_rooms 2-6 with 2 doors, Simple Slider's 1-7, Move N Times' n 1-7, its largest),
+it, Rooms' n_rooms 2-6 with 2 doors, Move N Times' n 1-12),
 with --seeds fresh seeds per size (printed), each puzzle in a process of its own (batches of
 one), as one dataset per generator. The cost of a puzzle is its generation time in its worker
 (generation and certification, not export) and the collision queries its validation spent
@@ -28,8 +28,8 @@ sys.path.insert(0, str(ROOT))
 from solver.dataset import build_dataset, local_backend, make_request, read_manifest  # noqa: E402
 
 SWEEPS = {  # generator: (size parameter, smallest, largest, other settings)
-    "simple_slider": ("n_objects", 1, 7, []),
-    "move_n_times": ("n", 1, 7, []),  # MAX_N
+    "simple_slider": ("n_objects", 1, 12, []),
+    "move_n_times": ("n", 1, 12, []),
     "rooms": ("n_rooms", 2, 6, ["doors=2"]),
     "grid_world": ("n_objects", 2, 12, []),
     "lockbox_random": ("n_objects", 2, 12, []),
