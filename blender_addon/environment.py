@@ -1,13 +1,23 @@
 """Finding PhyRoGen's Python environment from inside a Blender binary.
 
-A Blender binary embeds its own Python without numpy, OMPL or our packages;
-the project's virtual environment supplies them. Its site-packages are added
-with :func:`site.addsitedir` so that ``.pth`` files (the editable install of
-PhyRoGen itself) are honoured. No bpy here: entry scripts call this first.
+A Blender binary embeds its own Python (with numpy) without OMPL, numba or our
+packages. Two things supply them:
+
+- the extension zip's bundled wheels (``scripts/build_addon.py``), which
+  Blender 4.2+ installs into its extensions' site-packages and puts on
+  ``sys.path``: nothing to find, but worker processes started with Blender's
+  own Python need that folder on their ``PYTHONPATH`` (:func:`share_with_workers`);
+- the project's virtual environment ($PHYROGEN_VENV, or ``.venv`` beside a
+  checkout): its site-packages are added with :func:`site.addsitedir` so that
+  ``.pth`` files (the editable install of PhyRoGen itself) are honoured, and
+  its Python runs the workers.
+
+No bpy here: entry scripts call this first.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import site
 import sys
@@ -52,6 +62,7 @@ def ensure_project_importable() -> None:
         import numpy  # noqa: F401
 
         import phyrogen_core  # noqa: F401
+        share_with_workers()
         return
     except ImportError:
         pass
@@ -67,18 +78,64 @@ def ensure_project_importable() -> None:
     except ImportError as exc:
         tried = ", ".join(str(p) for p in candidate_environments())
         version = f"{sys.version_info.major}.{sys.version_info.minor}"
+        extension = ("Install the extension zip that bundles them (scripts/build_addon.py builds it, for "
+                     f"Linux x86-64 and Python {version}); or " if (__package__ or "").startswith("bl_ext.") else "")
         raise ImportError(
-            f"PhyRoGen's Python environment was not found ({exc}); tried {tried}. Create it with "
-            f"'python{version} -m venv .venv && .venv/bin/pip install -e .' in {REPOSITORY}, or set "
-            f"{ENVIRONMENT_VARIABLE} to a Python {version} environment where PhyRoGen is installed"
+            f"PhyRoGen's Python environment was not found ({exc}); tried {tried}. {extension}Create it with "
+            f"'python{version} -m venv .venv && .venv/bin/pip install -e .' in a PhyRoGen checkout, and set "
+            f"{ENVIRONMENT_VARIABLE} to it (any Python {version} environment where PhyRoGen is installed)"
         ) from None
+    share_with_workers()
+
+
+WORKER_MODULES = ("phyrogen_core", "solver", "ompl", "numba", "llvmlite", "tqdm")
+"""What worker processes (``phyrogen generate``) import beyond the standard library and numpy."""
+
+
+def module_search_path(name: str) -> str | None:
+    """The ``sys.path`` folder from which module ``name`` is imported here, or None when it is not found."""
+    try:
+        spec = importlib.util.find_spec(name)
+    except (ImportError, ValueError):
+        return None
+    if spec is None or spec.origin is None or not os.path.isabs(spec.origin):
+        return None
+    origin = Path(spec.origin)
+    return str(origin.parent.parent if spec.submodule_search_locations is not None else origin.parent)
+
+
+def share_with_workers() -> None:
+    """Let processes started with :func:`worker_python` import what this process imports.
+
+    Without a virtual environment the workers run this interpreter (Blender's own
+    Python), which finds the extension's bundled wheels only because Blender added
+    their folder to *this* process's ``sys.path``. Those folders go first on
+    ``PYTHONPATH`` in ``os.environ``, which subprocesses inherit; folders a fresh
+    process of this interpreter finds by itself (its site-packages, an editable
+    install's finder) are left out. (The top-level ``phyrogen`` package sits beside
+    ``phyrogen_core`` in the bundle; it is not looked up by name, as a legacy add-on
+    installed as ``phyrogen`` has that name too.)
+    """
+    if find_environment() is not None:
+        return
+    own = set(site.getsitepackages())
+    folders: list[str] = []
+    for name in WORKER_MODULES:
+        folder = module_search_path(name)
+        if folder is not None and folder in sys.path and folder not in own and folder not in folders:
+            folders.append(folder)
+    existing = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and p not in folders]
+    if folders:
+        os.environ["PYTHONPATH"] = os.pathsep.join([*folders, *existing])
 
 
 def worker_python() -> str:
     """A Python interpreter that can run PhyRoGen's worker processes.
 
     Inside a Blender binary ``sys.executable`` is a Python without our
-    dependencies, so worker processes use the project's environment instead.
+    dependencies, so worker processes use the project's environment where there
+    is one; otherwise this interpreter, with the extension's bundled wheels on its
+    ``PYTHONPATH`` (:func:`share_with_workers`).
     """
     environment = find_environment()
     if environment is not None:

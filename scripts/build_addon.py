@@ -4,19 +4,46 @@ Uses Blender's own extension builder (shipped with the bpy wheel, or given
 with ``--builder``), so the zip is what Blender 4.2+ installs. Older Blender
 (3.4+) installs ``blender_addon`` as a legacy add-on from the same zip.
 Prints the path of the zip.
+
+The zip is self-contained: it bundles, as the manifest's ``wheels``, what
+Generate and Re-plan need for Blender 4.2+'s Python 3.11 on Linux x86-64:
+PhyRoGen itself (a wheel built from this repository) and OMPL, numba with
+llvmlite, and tqdm, at the versions ``pyproject.toml`` pins. numpy is not
+bundled: Blender ships it (1.26 in 4.2 to 4.5), and a second copy would shadow
+Blender's own for every add-on (extensions' wheels come first on sys.path).
+Wheels are downloaded once into ``build/wheels`` (git-ignored; ``--wheels DIR``
+for another cache); later builds work offline. ``--no-wheels`` builds the thin
+zip that needs PhyRoGen's virtual environment (``PHYROGEN_VENV``).
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
 import subprocess
 import sys
 import tempfile
+import tomllib
 from pathlib import Path
 
 REPOSITORY = Path(__file__).resolve().parent.parent
 SOURCE = REPOSITORY / "blender_addon"
+WHEEL_CACHE = REPOSITORY / "build" / "wheels"
+
+BUNDLED = ("ompl", "numba", "tqdm")
+"""Project dependencies that generation and planning import (llvmlite comes with numba)."""
+PROVIDED_BY_BLENDER = ("numpy",)
+"""Resolved with the bundle (numba needs a compatible one) but not bundled: Blender ships them."""
+NOT_BUNDLED = {
+    "numpy": "Blender ships numpy (1.26 in Blender 4.2 to 4.5); a bundled copy would shadow it",
+    "pybullet": "only manipulation and audit use it, not the panel",
+    "matplotlib": "only benchmark plots use it, not the panel",
+}
+"""Why each project dependency outside ``BUNDLED`` stays out of the zip (a test checks the list is complete)."""
+PLATFORM = "linux-x64"
+WHEEL_PLATFORMS = ("manylinux_2_28_x86_64", "manylinux2014_x86_64")  # Blender 4.2+ on Linux needs glibc 2.28
+PYTHON_VERSION = "3.11"  # Blender 4.2 to 4.5 (and the bpy 4.5 wheel)
 
 
 def find_builder() -> Path:
@@ -33,14 +60,106 @@ def find_builder() -> Path:
     return found[-1]
 
 
-def build(out_dir: Path, builder: Path | None = None) -> Path:
-    """Build the zip into ``out_dir`` and return its path."""
+def project_requirements() -> dict[str, str]:
+    """``pyproject.toml``'s dependencies, by lower-case distribution name -> requirement string."""
+    dependencies = tomllib.loads((REPOSITORY / "pyproject.toml").read_text(encoding="utf-8"))["project"]["dependencies"]
+    return {re.split(r"[<>=!~ \[;]", requirement, maxsplit=1)[0].lower(): requirement
+            for requirement in dependencies}
+
+
+def distribution_name(wheel: Path) -> str:
+    """The normalised distribution name of a wheel file (``numba-0.61.2-cp311-...whl`` -> ``numba``)."""
+    return wheel.name.split("-")[0].lower().replace("_", "-")
+
+
+def _pip(arguments: list[str]) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "pip", *arguments, "--disable-pip-version-check"],
+                          capture_output=True, text=True)
+
+
+def dependency_wheels(cache: Path) -> list[Path]:
+    """Wheels of ``BUNDLED`` and what they need for Blender's Python on Linux x86-64, from ``cache``
+    (downloaded into it when missing); those of ``PROVIDED_BY_BLENDER`` are left out."""
+    requirements = project_requirements()
+    missing = [name for name in (*BUNDLED, *PROVIDED_BY_BLENDER) if name not in requirements]
+    if missing:
+        raise RuntimeError(f"pyproject.toml no longer lists {missing}; update BUNDLED in {Path(__file__).name}")
+    wanted = [requirements[name] for name in (*BUNDLED, *PROVIDED_BY_BLENDER)]
+    cache.mkdir(parents=True, exist_ok=True)
+    platforms = [argument for platform in WHEEL_PLATFORMS for argument in ("--platform", platform)]
+    target = ["--only-binary=:all:", *platforms, "--python-version", PYTHON_VERSION,
+              "--implementation", "cp", "--abi", f"cp{PYTHON_VERSION.replace('.', '')}", "--dest", str(cache)]
+    # The cache first, so that a second build needs no network; the index when something is missing.
+    result = _pip(["download", "--quiet", "--no-index", "--find-links", str(cache), *target, *wanted])
+    if result.returncode != 0:
+        result = _pip(["download", "--quiet", *target, *wanted])
+    if result.returncode != 0:
+        raise RuntimeError(f"could not download the wheels to bundle ({' '.join(wanted)}) into {cache}: "
+                           f"{result.stderr.strip().splitlines()[-1:]}; with no network, build the thin zip "
+                           "with --no-wheels (it needs PHYROGEN_VENV)")
+    # pip reports what it resolved as "Saved ..." or "File was already downloaded ..." lines only
+    # without --quiet; the resolution is asked again, offline, to learn which files it chose.
+    listing = _pip(["download", "--no-index", "--find-links", str(cache), *target, *wanted])
+    chosen = sorted({Path(match) for match in re.findall(r"(\S+\.whl)", listing.stdout)}, key=lambda p: p.name)
+    wheels = [cache / path.name for path in chosen
+              if distribution_name(path) not in PROVIDED_BY_BLENDER and (cache / path.name).is_file()]
+    found = {distribution_name(w) for w in wheels}
+    if listing.returncode != 0 or not set(BUNDLED) <= found:
+        raise RuntimeError(f"the wheels in {cache} do not cover {list(BUNDLED)} (found {sorted(found)}): "
+                           f"{listing.stdout[-500:]}{listing.stderr[-500:]}")
+    return wheels
+
+
+PROJECT_FILES = ("pyproject.toml", "README.md", "LICENSE")
+
+
+def project_wheel(out_dir: Path) -> Path:
+    """A wheel of PhyRoGen itself (``phyrogen``, ``phyrogen_core``, ``solver``, ...) built from this repository.
+
+    Built from a clean copy of the packages ``pyproject.toml`` names, so that no ``build/lib`` left
+    by an earlier build can put a deleted module back, and nothing is written into the repository.
+    """
+    source = out_dir / "source"
+    source.mkdir(parents=True)
+    for name in PROJECT_FILES:
+        shutil.copy2(REPOSITORY / name, source / name)
+    include = tomllib.loads((REPOSITORY / "pyproject.toml").read_text(encoding="utf-8"))
+    patterns = include["tool"]["setuptools"]["packages"]["find"]["include"]
+    packages = {pattern.split(".")[0].rstrip("*") for pattern in patterns}
+    for package in sorted(packages):
+        shutil.copytree(REPOSITORY / package, source / package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    result = _pip(["wheel", "--quiet", "--no-deps", "--wheel-dir", str(out_dir), str(source)])
+    wheels = sorted(out_dir.glob("phyrogen-*.whl"))
+    if result.returncode != 0 or not wheels:
+        raise RuntimeError(f"building PhyRoGen's wheel failed ({result.returncode}): {result.stderr[-1000:]}")
+    return wheels[-1]
+
+
+def manifest_with_wheels(manifest: str, wheels: list[str]) -> str:
+    """The manifest text with ``platforms`` and ``wheels`` added as top-level keys (before the first table)."""
+    keys = (f'platforms = ["{PLATFORM}"]\n'
+            "wheels = [\n" + "".join(f'  "./wheels/{name}",\n' for name in wheels) + "]\n\n")
+    lines = manifest.splitlines(keepends=True)
+    first_table = next((i for i, line in enumerate(lines) if line.lstrip().startswith("[")), len(lines))
+    return "".join(lines[:first_table]) + keys + "".join(lines[first_table:])
+
+
+def build(out_dir: Path, builder: Path | None = None, wheels: bool = True, cache: Path = WHEEL_CACHE) -> Path:
+    """Build the zip into ``out_dir`` and return its path; ``wheels``: bundle the dependencies (see above)."""
     builder = builder or find_builder()
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as staging:
         # Build from a clean copy: no caches, nothing a developer left beside the sources.
         source = Path(staging) / "phyrogen"
         shutil.copytree(SOURCE, source, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        if wheels:
+            folder = source / "wheels"
+            folder.mkdir()
+            for wheel in [*dependency_wheels(cache), project_wheel(Path(staging) / "project")]:
+                shutil.copy2(wheel, folder / wheel.name)
+            manifest = source / "blender_manifest.toml"
+            manifest.write_text(manifest_with_wheels(manifest.read_text(encoding="utf-8"),
+                                                     sorted(p.name for p in folder.iterdir())), encoding="utf-8")
         result = subprocess.run([sys.executable, str(builder), "build", "--source-dir", str(source),
                                  "--output-dir", str(out_dir)], capture_output=True, text=True)
     if result.returncode != 0:
@@ -55,9 +174,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="dist", help="output folder (default: dist)")
     parser.add_argument("--builder", type=Path, help="Blender's blender_ext.py (default: the bpy wheel's)")
+    parser.add_argument("--wheels", type=Path, default=WHEEL_CACHE,
+                        help="cache of the wheels to bundle (default: build/wheels; downloaded when missing)")
+    parser.add_argument("--no-wheels", action="store_true",
+                        help="bundle nothing: the thin zip, which needs PhyRoGen's environment (PHYROGEN_VENV)")
     args = parser.parse_args(argv)
     try:
-        print(build(Path(args.out), args.builder))
+        print(build(Path(args.out), args.builder, wheels=not args.no_wheels, cache=args.wheels))
     except (FileNotFoundError, RuntimeError) as exc:
         print(f"build_addon: error: {exc}", file=sys.stderr)
         return 1
