@@ -1,11 +1,17 @@
 """Generate one puzzle and build it in Blender: a folder with URDF, SRDF, puzzle.json and a .blend.
 
-    blender --background --python scripts/generate.py -- --generator NAME --seed N --out DIR
-    python scripts/generate.py --generator NAME --seed N --out DIR      (with the bpy wheel)
+    blender --background --python scripts/generate.py -- --generator NAME --seed N --out DIR [--render]
+    python scripts/generate.py --generator NAME --seed N --out DIR [--render]      (with the bpy wheel)
 
 Inside a Blender binary the project's environment (``.venv`` beside this
 folder, or $PHYROGEN_VENV) supplies numpy, OMPL and PhyRoGen. The URDF is
 exported from the Blender scene and checked against the core's.
+
+``--render`` then renders the puzzle's images in this Blender, as ``phyrogen
+render`` does in its workers (the render stage's ``images/`` and ``<name>.blend``;
+``--engine``, ``--size``, ``--views`` as there). Workbench needs an OpenGL
+context (a display, or Mesa through EGL) and Blender aborts without one:
+``--engine cycles`` renders on the CPU anywhere.
 """
 
 from __future__ import annotations
@@ -15,8 +21,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-USAGE = ("usage: blender --background --python scripts/generate.py -- --generator NAME --seed N --out DIR\n"
-         "   or: python scripts/generate.py --generator NAME --seed N --out DIR")
+USAGE = ("usage: blender --background --python scripts/generate.py -- --generator NAME --seed N --out DIR [--render]\n"
+         "   or: python scripts/generate.py --generator NAME --seed N --out DIR [--render]")
 
 
 def script_arguments(argv: list[str]) -> list[str]:
@@ -47,7 +53,23 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--seed", type=int, required=True)
     parser.add_argument("--out", required=True)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="generator parameter")
+    parser.add_argument("--render", action="store_true", help="also render the puzzle's images (images/)")
+    parser.add_argument("--engine", choices=("workbench", "cycles"), default="workbench",
+                        help="render engine for --render (default: workbench; cycles needs no OpenGL)")
+    parser.add_argument("--size", default="480x360", help="image size for --render, WIDTHxHEIGHT")
+    parser.add_argument("--views", default=None,
+                        help="views for --render, comma-separated (default: those of phyrogen render)")
     args = parser.parse_args(arguments)
+
+    from blender_addon.render_worker import parse_size
+    from blender_addon.views import DEFAULT_VIEWS, parse_views
+
+    try:  # bad input is found before any work
+        size = parse_size(args.size)
+        views = DEFAULT_VIEWS if args.views is None else parse_views(args.views)
+    except ValueError as exc:
+        print(f"generate.py: error: {exc}", file=sys.stderr)
+        return 2
 
     from blender_addon.export import export_collection
     from blender_addon.scene import build_puzzle, read_chain
@@ -86,6 +108,27 @@ def main(argv: list[str]) -> int:
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
     print(f"generate.py: {folder} ({len(puzzle.objects)} objects, Blender {bpy.app.version_string}, "
           f"URDF from the scene equals the core's, {blend.name})")
+    if args.render:
+        return render(folder, args.engine.upper(), size, views)
+    return 0
+
+
+def render(folder: Path, engine: str, size: tuple[int, int], views: tuple[str, ...]) -> int:
+    """Render the puzzle folder in this Blender, as a ``phyrogen render`` worker does; the exit code."""
+    import time
+
+    from blender_addon.render_worker import render_folder
+    from phyrogen_core.folder import PuzzleFolder, PuzzleFormatError
+
+    started = time.perf_counter()
+    try:
+        render_folder(folder, engine, size, views)
+    except (PuzzleFormatError, OSError, ValueError, RuntimeError) as exc:
+        print(f"generate.py: error: rendering {folder} failed: {exc}", file=sys.stderr)
+        return 1
+    images = sorted(p.name for p in PuzzleFolder.open(folder).images.iterdir())
+    print(f"generate.py: rendered {len(images)} files into {folder / 'images'} with {engine.lower()} "
+          f"in {time.perf_counter() - started:.1f} s")
     return 0
 
 
