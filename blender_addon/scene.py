@@ -345,8 +345,23 @@ def _normalized(obj: bpy.types.Object) -> tuple[np.ndarray, np.ndarray]:
 def _world(obj: bpy.types.Object) -> np.ndarray:
     # Computed from the parent chain: objects in hidden collections are not
     # evaluated, so their ``matrix_world`` may be stale.
-    local = np.array(obj.matrix_parent_inverse, dtype=float) @ np.array(obj.matrix_basis, dtype=float)
+    local = np.array(obj.matrix_parent_inverse, dtype=float) @ _basis(obj)
     return local if obj.parent is None else _world(obj.parent) @ local
+
+
+def _basis(obj: bpy.types.Object) -> np.ndarray:
+    """The object's own transform; a link's delta transform is left out: it holds the joint's motion
+    when a solution is keyframed (:mod:`.animation`), so the puzzle reads the same at every frame."""
+    if phobostype(obj) != "link":
+        return np.array(obj.matrix_basis, dtype=float)
+    if obj.rotation_mode == "QUATERNION":
+        rotation = obj.rotation_quaternion.normalized().to_matrix()
+    elif obj.rotation_mode == "AXIS_ANGLE":
+        angle, *axis = obj.rotation_axis_angle
+        rotation = Matrix.Rotation(angle, 3, axis)
+    else:
+        rotation = obj.rotation_euler.to_matrix()
+    return np.array(Matrix.LocRotScale(obj.location, rotation, obj.scale), dtype=float)
 
 
 def _relative(parent: bpy.types.Object, child: bpy.types.Object) -> np.ndarray:

@@ -18,7 +18,8 @@ LAYERS = {"phyrogen_core": 1, "solver": 2, "blender_addon": 3, "manipulation": 3
 THIRD_PARTY = {
     "phyrogen_core": {"numpy"},
     "solver": {"numpy", "ompl", "numba", "tqdm", "matplotlib", "ray", "pyarrow", "duckdb"},
-    "blender_addon": {"numpy", "bpy", "mathutils", "addon_utils",
+    "blender_addon": {"numpy", "bpy", "mathutils", "addon_utils", "bpy_extras",
+                      "PIL",  # Pillow writes the solution animation (animated WebP) from Blender's frames
                       "phobos"},  # the Phobos add-on, imported only by Export with Phobos while it is enabled
     "manipulation": {"numpy", "numba", "pybullet", "pybullet_data", "imageio", "tqdm", "ompl"},
     "phyrogen": {"tqdm", "numpy", "gymnasium"},
