@@ -2,7 +2,10 @@
 
 Generators are columns (the paper's order first), seeds are rows; each cell
 shows the puzzle's oblique view and links its other views, URDF, puzzle.json
-and .blend. Paths are relative, so the folder can be moved or served as is.
+and .blend. Where the puzzle has a solution animation, it plays in place of
+the still while the pointer is over it, a click keeps it playing (or stops
+it), and ``index.html#play`` plays them all. Paths are relative, so the folder
+can be moved or served as is.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from pathlib import Path
 
 from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
 
-from .views import DEFAULT_VIEWS, GALLERY_VIEW, VIEWS, image_name
+from .views import DEFAULT_VIEWS, GALLERY_VIEW, VIEWS, animation_name, image_name
 
 
 def write_gallery(out_root: str | Path, views: tuple[str, ...] = DEFAULT_VIEWS) -> Path:
@@ -60,11 +63,22 @@ def _cell(root: Path, folder: PuzzleFolder, title: str, seed: int, views: tuple[
     images = [(VIEWS[v].title, relative(folder.images / image_name(name, i))) for i, v in enumerate(views)]
     present = [(t, p) for t, p in images if (root / p).is_file()]
     shown = dict(zip(views, images, strict=True)).get(GALLERY_VIEW, images[0] if images else None)
+    animation = relative(folder.images / animation_name(name))
+    has_animation = (root / animation).is_file()
     if shown is not None and (root / shown[1]).is_file():
-        picture = f'<a href="{html.escape(shown[1])}"><img src="{html.escape(shown[1])}" alt="{html.escape(name)}"></a>'
+        still = f'<img class="still" src="{html.escape(shown[1])}" alt="{html.escape(name)}">'
+        if has_animation:
+            picture = (f'<div class="picture" data-animation="{html.escape(animation)}" tabindex="0" '
+                       f'title="hover or click: the solution">{still}'
+                       f'<img class="solution" alt="{html.escape(name)}: solution" hidden>'
+                       '<span class="badge">&#9654; solution</span></div>')
+        else:
+            picture = f'<a href="{html.escape(shown[1])}">{still}</a>'
     else:
         picture = '<div class="missing">not rendered</div>'
     links = [f'<a href="{html.escape(p)}">{html.escape(t)}</a>' for t, p in present]
+    if has_animation:
+        links.append(f'<a href="{html.escape(animation)}">solution</a>')
     links.append(f'<a href="{html.escape(relative(folder.urdf))}">URDF</a>')
     links.append(f'<a href="{html.escape(relative(folder.metadata))}">metadata</a>')
     if folder.blend.is_file():
@@ -92,6 +106,12 @@ th.seed {{ writing-mode: vertical-rl; transform: rotate(180deg); white-space: no
 td {{ padding: 4px; vertical-align: top; }}
 figure {{ margin: 0; text-align: center; }}
 img {{ width: 240px; height: auto; display: block; border: 1px solid #ccc; }}
+.picture {{ position: relative; cursor: pointer; }}
+.picture img.solution {{ position: absolute; left: 0; top: 0; }}
+.picture img.solution[hidden] {{ display: none; }}
+.badge {{ position: absolute; right: 4px; bottom: 4px; font-size: 11px; padding: 1px 5px; border-radius: 3px;
+          background: rgba(0, 0, 0, 0.55); color: #fff; pointer-events: none; }}
+.picture.playing .badge {{ background: rgba(30, 120, 40, 0.85); }}
 figcaption {{ font-size: 12px; margin-top: 2px; }}
 .missing {{ width: 240px; height: 180px; line-height: 180px; background: #eee; color: #888; }}
 </style>
@@ -99,11 +119,39 @@ figcaption {{ font-size: 12px; margin-top: 2px; }}
 <body>
 <h1>PhyRoGen puzzles</h1>
 <p>{count} puzzles. Generators as columns, seeds as rows (as in the paper's Fig. 3). The goal of each
-green target is shown as a translucent green copy.</p>
+green target is shown as a translucent green copy. Point at a puzzle to watch its solution, click to keep it
+playing; <a href="#play" onclick="setTimeout(() => location.reload())">play all</a>.</p>
 <table>
 <tr><th></th>{header}</tr>
 {rows}
 </table>
+<script>
+function play(picture, on) {{
+  const solution = picture.querySelector("img.solution");
+  if (on && !solution.getAttribute("src")) solution.src = picture.dataset.animation;  // from its first frame
+  if (!on) solution.removeAttribute("src");
+  solution.hidden = !on;
+  picture.classList.toggle("playing", on);
+}}
+const pictures = document.querySelectorAll(".picture[data-animation]");
+for (const picture of pictures) {{
+  picture.addEventListener("mouseenter", () => play(picture, true));
+  picture.addEventListener("mouseleave", () => play(picture, picture.classList.contains("pinned")));
+  picture.addEventListener("click", () => play(picture, picture.classList.toggle("pinned")));
+  picture.addEventListener("keydown", (e) => {{
+    if (e.key === "Enter" || e.key === " ") {{ e.preventDefault(); picture.click(); }}
+  }});
+}}
+if (location.hash === "#play") {{
+  for (const picture of pictures) {{ picture.classList.add("pinned"); play(picture, true); }}
+}}
+window.addEventListener("load", () => {{
+  // How many animations the browser decoded: tests read it from the page.
+  const shown = [...document.querySelectorAll("img.solution")].filter((i) => !i.hidden && i.naturalWidth > 0);
+  document.body.dataset.animationsShown = String(shown.length);
+  document.body.dataset.animations = String(pictures.length);
+}});
+</script>
 </body>
 </html>
 """

@@ -17,7 +17,7 @@ import numpy as np
 from mathutils import Euler, Vector
 
 from .scene import phobostype
-from .views import DEFAULT_VIEWS, VIEWS, View, image_name
+from .views import DEFAULT_VIEWS, GALLERY_VIEW, VIEWS, View, image_name
 
 STAGE = "phyrogen_stage"
 FLOOR_COLOR = (1.0, 1.0, 1.0, 1.0)
@@ -120,9 +120,10 @@ def _floor(stage: bpy.types.Collection, centre: np.ndarray, size: float, z: floa
     stage.objects.link(floor)
 
 
-def add_camera(scene: bpy.types.Scene, collection: bpy.types.Collection, view: View) -> bpy.types.Object:
-    """A camera looking along ``view`` that frames the puzzle's visual bounding box."""
-    low, high = visual_bounds(collection)
+def add_camera(scene: bpy.types.Scene, collection: bpy.types.Collection, view: View,
+               bounds: tuple[np.ndarray, np.ndarray] | None = None) -> bpy.types.Object:
+    """A camera looking along ``view`` that frames ``bounds`` (default: the puzzle's visual bounding box)."""
+    low, high = bounds if bounds is not None else visual_bounds(collection)
     centre = (low + high) / 2
     radius = float(np.linalg.norm(high - low) / 2)
     stage = bpy.data.collections[STAGE]
@@ -180,3 +181,68 @@ def render_views(scene: bpy.types.Scene, collection: bpy.types.Collection, folde
         bpy.ops.render.render(write_still=True, scene=scene.name)
         paths.append(path)
     return paths
+
+
+ANIMATION_SIZE = (320, 240)
+ANIMATION_FPS = 12
+ANIMATION_SECONDS = 4.0
+"""The solution animation's moving part lasts about this long (each action at least 4 frames)."""
+ANIMATION_HOLD_SECONDS = 1.0
+"""The solved puzzle is held this long before the animation loops."""
+WEBP_QUALITY = 75
+ANIMATION_WORKBENCH_AA = "FXAA"
+ANIMATION_CYCLES_SAMPLES = 4
+
+
+def render_animation(scene: bpy.types.Scene, collection: bpy.types.Collection, path: Path,
+                     frame_range: tuple[int, int], fps: int, keyed_frames: Sequence[float] = (),
+                     view: str = GALLERY_VIEW, size: tuple[int, int] = ANIMATION_SIZE) -> Path:
+    """Render frames ``frame_range`` (inclusive) of the keyframed scene from ``view`` into an animated WebP.
+
+    The camera frames every place the puzzle's objects pass through (sampled at
+    ``keyed_frames`` and both ends of the range). The render settings of the
+    stills are restored afterwards.
+    """
+    import tempfile
+
+    first, last = frame_range
+    lows, highs = [], []
+    for frame in sorted({float(first), float(last), *map(float, keyed_frames)}):
+        scene.frame_set(int(math.floor(frame)), subframe=frame - math.floor(frame))
+        low, high = visual_bounds(collection)
+        lows.append(low)
+        highs.append(high)
+    camera = add_camera(scene, collection, VIEWS[view], (np.min(lows, axis=0), np.max(highs, axis=0)))
+    render = scene.render
+    saved = (render.resolution_x, render.resolution_y, render.filepath, scene.camera, scene.frame_start,
+             scene.frame_end, scene.frame_current, scene.display.render_aa, scene.cycles.samples)
+    render.resolution_x, render.resolution_y = size
+    # Small moving frames need less smoothing than stills: a third of the time, the same look.
+    scene.display.render_aa = ANIMATION_WORKBENCH_AA
+    scene.cycles.samples = ANIMATION_CYCLES_SAMPLES
+    scene.camera = camera
+    scene.frame_start, scene.frame_end = first, last
+    try:
+        with tempfile.TemporaryDirectory(prefix="phyrogen-frames-") as folder:
+            render.filepath = str(Path(folder) / "frame_####")
+            bpy.ops.render.render(animation=True, scene=scene.name)
+            frames = sorted(Path(folder).glob("frame_*.png"))
+            if len(frames) != last - first + 1:
+                raise RuntimeError(f"rendering frames {first}..{last} wrote {len(frames)} images")
+            write_webp(frames, path, fps)
+    finally:
+        render.resolution_x, render.resolution_y, render.filepath, scene.camera = saved[:4]
+        scene.frame_start, scene.frame_end = saved[4:6]
+        scene.frame_set(saved[6])
+        scene.display.render_aa, scene.cycles.samples = saved[7:]
+    return Path(path)
+
+
+def write_webp(frames: Sequence[Path], path: Path, fps: int, quality: int = WEBP_QUALITY) -> Path:
+    """An endlessly looping animated WebP of the images ``frames`` at ``fps`` (lossy, deterministic)."""
+    from PIL import Image
+
+    images = [Image.open(frame).convert("RGB") for frame in frames]
+    images[0].save(path, format="WEBP", save_all=True, append_images=images[1:], duration=round(1000 / fps),
+                   loop=0, quality=quality, method=4, minimize_size=False, allow_mixed=False)
+    return Path(path)

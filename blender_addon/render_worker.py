@@ -2,8 +2,9 @@
 
 Started by :func:`blender_addon.rendering.render_puzzles` in a subprocess,
 because Workbench aborts the process when no OpenGL context can be made.
-For every folder it prints ``RENDERED <folder> <seconds> <images>`` once the
-images (``images/``, replaced atomically) and ``<name>.blend`` are in place.
+For every folder it prints ``RENDERED <folder> <seconds> <images> <animation seconds or ->``
+once the images and the solution animation (``images/``, replaced atomically)
+and ``<name>.blend`` are in place.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import argparse
 import os
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from phyrogen_core.folder import PuzzleFormatError
@@ -19,22 +21,53 @@ from phyrogen_core.folder import PuzzleFormatError
 from .views import DEFAULT_VIEWS, parse_views
 
 
-def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple[str, ...]) -> int:
-    """Build, render and save one puzzle folder (the render stage's entries); returns the number of images."""
+@dataclass(frozen=True)
+class FolderRender:
+    images: int
+    animation_seconds: float | None
+    """How long the solution animation took; None when none was made."""
+
+
+def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple[str, ...],
+                  animation: bool = True) -> FolderRender:
+    """Build, render and save one puzzle folder (the render stage's entries).
+
+    With ``animation``, the certificate also becomes a short animated WebP
+    beside the images (:func:`~blender_addon.render.render_animation`), and the
+    saved scene carries it as keyframes (one second per action; press play).
+    """
     import bpy
 
+    from phyrogen_core.export import read_puzzle_dir
     from phyrogen_core.folder import PuzzleFolder, atomic_directory
 
-    from .render import render_views, setup_stage
+    from . import render
+    from .animation import frames_per_action_for, keyframe_solution
     from .scene import build_puzzle_folder
+    from .views import animation_name
 
     place = PuzzleFolder.open(folder)
+    loaded = read_puzzle_dir(place.path)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     built = build_puzzle_folder(place.path, scene)
-    setup_stage(scene, built.collection, engine, size)
+    render.setup_stage(scene, built.collection, engine, size)
+    # An edited puzzle keeps its old certificate, marked unverified: it may not fit the puzzle any more.
+    animation = animation and len(loaded.certificate) >= 2 and loaded.metadata.get("certificate_verified", True)
+    animation_seconds = None
     with atomic_directory(place.images) as images:
-        paths = render_views(scene, built.collection, images, place.name, views)
+        paths = render.render_views(scene, built.collection, images, place.name, views)
+        if animation:
+            started = time.perf_counter()
+            timing = keyframe_solution(built, loaded.certificate, loaded.chain, fps=render.ANIMATION_FPS,
+                                       hold_frames=round(render.ANIMATION_HOLD_SECONDS * render.ANIMATION_FPS),
+                                       frames_per_action=frames_per_action_for(
+                                           _actions(loaded), render.ANIMATION_SECONDS, render.ANIMATION_FPS))
+            render.render_animation(scene, built.collection, images / animation_name(place.name),
+                             (timing.frame_start, timing.frame_end), timing.fps, timing.frames)
+            animation_seconds = time.perf_counter() - started
+    if animation:
+        keyframe_solution(built, loaded.certificate, loaded.chain)  # for Blender: 24 fps, a second per action
     temporary = place.path / f".{place.name}.tmp.blend"
     try:
         bpy.ops.wm.save_as_mainfile(filepath=str(temporary), copy=True, compress=False)
@@ -42,7 +75,13 @@ def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple
     except BaseException:  # a stop (SIGINT) while saving: no half-written scene stays behind
         temporary.unlink(missing_ok=True)
         raise
-    return len(paths)
+    return FolderRender(len(paths), animation_seconds)
+
+
+def _actions(loaded) -> int:
+    from phyrogen_core.actions import count_actions
+
+    return count_actions(loaded.certificate, loaded.chain.factors)
 
 
 MIN_IMAGE_SIDE = 16
@@ -67,18 +106,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--engine", choices=("WORKBENCH", "CYCLES"), default="WORKBENCH")
     parser.add_argument("--size", default="480x360")
     parser.add_argument("--views", default=",".join(DEFAULT_VIEWS))
+    parser.add_argument("--no-animation", action="store_true", help="no solution animation")
     parser.add_argument("folders", nargs="+")
     args = parser.parse_args(argv)
     size, views = parse_size(args.size), parse_views(args.views)
     for folder in args.folders:
         started = time.perf_counter()
         try:
-            count = render_folder(Path(folder), args.engine, size, views)
+            done = render_folder(Path(folder), args.engine, size, views, animation=not args.no_animation)
         except (PuzzleFormatError, FileNotFoundError) as exc:
             # A folder broken after render_puzzles checked it: one line naming it, not a traceback.
             print(f"render_worker: {exc}", file=sys.stderr)
             return 2
-        print(f"RENDERED {folder} {time.perf_counter() - started:.3f} {count}", flush=True)
+        animation = "-" if done.animation_seconds is None else f"{done.animation_seconds:.3f}"
+        print(f"RENDERED {folder} {time.perf_counter() - started:.3f} {done.images} {animation}", flush=True)
     return 0
 
 

@@ -37,6 +37,8 @@ class RenderedPuzzle:
     engine: str
     seconds: float
     images: int
+    animation_seconds: float | None = None
+    """The share of ``seconds`` spent on the solution animation; None when none was made."""
 
 
 @dataclass(frozen=True)
@@ -53,11 +55,24 @@ class RenderReport:
     def seconds_per_image(self) -> float:
         return self.seconds / self.images if self.images else 0.0
 
+    @property
+    def animations(self) -> int:
+        return sum(r.animation_seconds is not None for r in self.rendered)
+
+    @property
+    def animation_seconds(self) -> float:
+        """Worker time spent on solution animations, summed over puzzles."""
+        return sum(r.animation_seconds or 0.0 for r in self.rendered)
+
 
 def render_puzzles(puzzle_dirs: Sequence[str | Path], engine: str = "auto", size: tuple[int, int] = (480, 360),
                    views: Sequence[str] = DEFAULT_VIEWS, workers: int = 1,
-                   on_done: Callable[[RenderedPuzzle], None] | None = None) -> RenderReport:
+                   on_done: Callable[[RenderedPuzzle], None] | None = None, animation: bool = True) -> RenderReport:
     """Render every folder: ``images/<name>_NN.png`` (one per view) and ``<name>.blend``.
+
+    With ``animation`` (the default), also ``images/<name>_solution.webp``: the
+    certificate played in a few seconds (see :mod:`.animation`), keyframed in
+    the ``.blend`` too.
 
     ``engine`` is ``auto`` (Workbench, Cycles where Workbench cannot run),
     ``workbench`` or ``cycles``. Folders are split over ``workers``
@@ -77,7 +92,7 @@ def render_puzzles(puzzle_dirs: Sequence[str | Path], engine: str = "auto", size
     for engine_name in engines:
         if not remaining:
             break
-        done, failures = _run_workers(remaining, engine_name, size, views, workers, on_done)
+        done, failures = _run_workers(remaining, engine_name, size, views, workers, on_done, animation)
         rendered += done
         finished = {r.folder for r in done}
         remaining = [f for f in remaining if f not in finished]
@@ -113,7 +128,8 @@ def check_render_folders(puzzle_dirs: Sequence[str | Path], writable: bool = Tru
 
 
 def _run_workers(folders: list[Path], engine: str, size: tuple[int, int], views: Sequence[str], workers: int,
-                 on_done: Callable[[RenderedPuzzle], None] | None) -> tuple[list[RenderedPuzzle], list[str]]:
+                 on_done: Callable[[RenderedPuzzle], None] | None,
+                 animation: bool = True) -> tuple[list[RenderedPuzzle], list[str]]:
     shares = [folders[i::workers] for i in range(min(workers, len(folders)))]
     with tempfile.TemporaryDirectory(prefix="phyrogen-render-") as home:
         environment = dict(os.environ)
@@ -126,7 +142,8 @@ def _run_workers(folders: list[Path], engine: str, size: tuple[int, int], views:
         try:
             for share in shares:
                 command = [worker_python(), "-m", "blender_addon.render_worker", "--engine", engine,
-                           "--size", f"{size[0]}x{size[1]}", "--views", ",".join(views), *map(str, share)]
+                           "--size", f"{size[0]}x{size[1]}", "--views", ",".join(views),
+                           *([] if animation else ["--no-animation"]), *map(str, share)]
                 log = tempfile.TemporaryFile(mode="w+", dir=home)
                 with deferred_signals():  # interrupted between fork and return, a worker would go unknown
                     processes.append((subprocess.Popen(command, stdout=subprocess.PIPE, stderr=log, text=True,
@@ -138,8 +155,9 @@ def _run_workers(folders: list[Path], engine: str, size: tuple[int, int], views:
                 assert process.stdout is not None
                 for line in process.stdout:
                     if line.startswith("RENDERED "):
-                        folder, seconds, images = line[len("RENDERED "):].rsplit(" ", 2)
-                        result = RenderedPuzzle(Path(folder), engine.lower(), float(seconds), int(images))
+                        folder, seconds, images, animated = line[len("RENDERED "):].rstrip("\n").rsplit(" ", 3)
+                        result = RenderedPuzzle(Path(folder), engine.lower(), float(seconds), int(images),
+                                                None if animated == "-" else float(animated))
                         done.append(result)
                         if on_done is not None:
                             on_done(result)

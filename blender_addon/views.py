@@ -45,3 +45,8 @@ def parse_views(text: str) -> tuple[str, ...]:
 def image_name(puzzle_name: str, index: int) -> str:
     """The file name of a puzzle's ``index``-th rendered view."""
     return f"{puzzle_name}_{index:02d}.png"
+
+
+def animation_name(puzzle_name: str) -> str:
+    """The file name of a puzzle's solution animation (beside its images)."""
+    return f"{puzzle_name}_solution.webp"

@@ -391,7 +391,7 @@ def cmd_render(args) -> int:
         progress = _progress(len(folders), args.quiet)
         try:
             report = render_puzzles(folders, args.engine, size, views, args.workers,
-                                    on_done=lambda _: progress.update(1))
+                                    on_done=lambda _: progress.update(1), animation=not args.no_animation)
         except RenderError as exc:
             print(f"phyrogen: render failed: {exc}", file=sys.stderr)
             return 1
@@ -400,6 +400,9 @@ def cmd_render(args) -> int:
         engines = sorted({r.engine for r in report.rendered})
         print(f"{len(report.rendered)} puzzles, {report.images} images ({size[0]}x{size[1]}, {', '.join(engines)}) "
               f"in {report.seconds:.1f} s: {report.seconds_per_image:.2f} s per image, with {args.workers} workers")
+        if report.animations:
+            print(f"{report.animations} solution animations, {report.animation_seconds / report.animations:.1f} s "
+                  "each (worker time, included above)")
     print(f"gallery: {write_gallery(Path(args.out), views)}")
     return 0
 
@@ -659,6 +662,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="comma-separated views: top, oblique, oblique_back, side")
     render.add_argument("--workers", type=workers_option, default=1,
                         help="render processes (default 1; at most 4 per usable core)")
+    render.add_argument("--no-animation", action="store_true",
+                        help="no solution animation (images/<name>_solution.webp, about 3-4 s per puzzle)")
     render.add_argument("--gallery-only", action="store_true", help="only (re)write index.html")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.set_defaults(func=cmd_render)
