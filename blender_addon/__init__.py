@@ -21,13 +21,24 @@ bl_info = {
 def register() -> None:
     from .environment import ensure_project_importable
 
-    ensure_project_importable()
+    try:
+        ensure_project_importable()
+    except ImportError as exc:  # the tab says what is missing and what to do
+        from . import missing_dependencies
+
+        missing_dependencies.register(str(exc))
+        return
     from . import ui
 
     ui.register()
 
 
 def unregister() -> None:
-    from . import ui
+    import sys
 
-    ui.unregister()
+    missing = sys.modules.get(f"{__name__}.missing_dependencies")
+    if missing is not None:
+        missing.unregister()
+    ui = sys.modules.get(f"{__name__}.ui")
+    if ui is not None:
+        ui.unregister()

@@ -76,16 +76,22 @@ def ensure_project_importable() -> None:
 
         import phyrogen_core  # noqa: F401
     except ImportError as exc:
-        tried = ", ".join(str(p) for p in candidate_environments())
-        version = f"{sys.version_info.major}.{sys.version_info.minor}"
-        extension = ("Install the extension zip that bundles them (scripts/build_addon.py builds it, for "
-                     f"Linux x86-64 and Python {version}); or " if (__package__ or "").startswith("bl_ext.") else "")
-        raise ImportError(
-            f"PhyRoGen's Python environment was not found ({exc}); tried {tried}. {extension}Create it with "
-            f"'python{version} -m venv .venv && .venv/bin/pip install -e .' in a PhyRoGen checkout, and set "
-            f"{ENVIRONMENT_VARIABLE} to it (any Python {version} environment where PhyRoGen is installed)"
-        ) from None
+        raise ImportError(missing_message(str(exc), extension=(__package__ or "").startswith("bl_ext."))) from None
     share_with_workers()
+
+
+def missing_message(problem: str, extension: bool) -> str:
+    """What to do when PhyRoGen's packages cannot be imported (``problem``: the ImportError's text);
+    ``extension``: this runs as a Blender extension, which can bundle them."""
+    version = f"{sys.version_info.major}.{sys.version_info.minor}"
+    ways = [f"install the PhyRoGen extension zip that bundles them (scripts/build_addon.py builds it, for "
+            f"Linux x86-64 and Python {version})"] if extension else []
+    checkout = "a PhyRoGen checkout" if extension else str(REPOSITORY)
+    ways.append(f"set {ENVIRONMENT_VARIABLE} to a Python {version} environment where PhyRoGen is installed "
+                f"('python{version} -m venv .venv && .venv/bin/pip install -e .' in {checkout}) and start again")
+    tried = ", ".join(str(p) for p in candidate_environments())
+    return (f"PhyRoGen's Python packages were not found ({problem}). To fix it, " + "; or ".join(ways)
+            + f". Environments tried: {tried}.")
 
 
 WORKER_MODULES = ("phyrogen_core", "solver", "ompl", "numba", "llvmlite", "tqdm")
@@ -110,11 +116,11 @@ def share_with_workers() -> None:
     Without a virtual environment the workers run this interpreter (Blender's own
     Python), which finds the extension's bundled wheels only because Blender added
     their folder to *this* process's ``sys.path``. Those folders go first on
-    ``PYTHONPATH`` in ``os.environ``, which subprocesses inherit; folders a fresh
-    process of this interpreter finds by itself (its site-packages, an editable
-    install's finder) are left out. (The top-level ``phyrogen`` package sits beside
-    ``phyrogen_core`` in the bundle; it is not looked up by name, as a legacy add-on
-    installed as ``phyrogen`` has that name too.)
+    ``PYTHONPATH`` in ``os.environ``, which subprocesses inherit. Only such added
+    ``site-packages`` folders: never this interpreter's own, nor a checkout that
+    is on ``sys.path`` (a folder holding a ``phyrogen`` package would shadow a
+    legacy add-on of that name in any Blender started later). The top-level
+    ``phyrogen`` package sits beside ``phyrogen_core`` in the bundle.
     """
     if find_environment() is not None:
         return
@@ -122,7 +128,8 @@ def share_with_workers() -> None:
     folders: list[str] = []
     for name in WORKER_MODULES:
         folder = module_search_path(name)
-        if folder is not None and folder in sys.path and folder not in own and folder not in folders:
+        if (folder is not None and Path(folder).name == "site-packages" and folder in sys.path
+                and folder not in own and folder not in folders):
             folders.append(folder)
     existing = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and p not in folders]
     if folders:

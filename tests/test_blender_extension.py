@@ -52,6 +52,35 @@ def test_manifest_gets_platforms_and_wheels_before_its_tables():
     assert {k: v for k, v in parsed.items() if k not in ("wheels", "platforms")} == tomllib.loads(manifest)
 
 
+@pytest.fixture
+def no_environment(monkeypatch, tmp_path):
+    """As in an installed extension: no virtual environment found, so workers run this interpreter."""
+    from blender_addon import environment
+
+    for variable in ("PHYROGEN_VENV", "VIRTUAL_ENV"):
+        monkeypatch.delenv(variable, raising=False)
+    monkeypatch.setattr(environment, "REPOSITORY", tmp_path / "extensions")
+    monkeypatch.setenv("PYTHONPATH", "elsewhere")
+    return environment
+
+
+def test_workers_get_the_site_packages_added_at_run_time(no_environment, monkeypatch, tmp_path):
+    added = tmp_path / "extensions" / ".local" / "lib" / "python3.11" / "site-packages"
+    (added / "bundled_dependency").mkdir(parents=True)
+    (added / "bundled_dependency" / "__init__.py").write_text("")
+    monkeypatch.syspath_prepend(str(added))
+    monkeypatch.setattr(no_environment, "WORKER_MODULES", ("bundled_dependency", *no_environment.WORKER_MODULES))
+    no_environment.share_with_workers()
+    assert os.environ["PYTHONPATH"].split(os.pathsep) == [str(added), "elsewhere"]
+
+
+def test_workers_do_not_get_a_checkout_on_their_path(no_environment, monkeypatch):
+    # A checkout holds a package named phyrogen, which would shadow a legacy add-on of that name.
+    monkeypatch.syspath_prepend(str(REPOSITORY))
+    no_environment.share_with_workers()
+    assert os.environ["PYTHONPATH"] == "elsewhere"
+
+
 # The fresh Blender's script: install the zip with the extensions API, press Generate and Validate.
 FRESH_BLENDER_SCRIPT = r'''
 import importlib.util, json, os, sys, traceback
@@ -112,13 +141,36 @@ def fresh_blender_python(root: Path) -> Path:
     return root / "bin" / "python"
 
 
+def run_fresh_blender(python: Path, script: str, arguments: list[str], tmp_path: Path) -> dict:
+    """Run ``script`` in ``python`` with an empty Blender user folder, an empty working folder and no
+    PYTHONPATH, PHYROGEN_VENV or VIRTUAL_ENV; the JSON it writes to the path given as its last argument."""
+    home, work, result_path = tmp_path / "home", tmp_path / "cwd", tmp_path / "result.json"
+    work.mkdir()
+    script_path = tmp_path / "fresh_blender.py"
+    script_path.write_text(script, encoding="utf-8")
+    environment = {k: v for k, v in os.environ.items()
+                   if k not in ("PYTHONPATH", "PHYROGEN_VENV", "VIRTUAL_ENV", "PYTHONHOME")
+                   and not k.startswith("BLENDER_")}
+    environment.update(HOME=str(home), BLENDER_USER_RESOURCES=str(home / "resources"))
+    run = subprocess.run([str(python), str(script_path), *arguments, str(result_path)],
+                         capture_output=True, text=True, timeout=600, cwd=work, env=environment)
+    assert result_path.is_file(), run.stdout[-3000:] + run.stderr[-3000:]
+    result = json.loads(result_path.read_text())
+    assert "error" not in result, result["error"] + run.stderr[-3000:]
+    return result
+
+
+def _build_zip(out: Path, *options: str) -> Path:
+    result = subprocess.run([sys.executable, str(BUILD_ADDON), "--out", str(out), *options],
+                            capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    return Path(result.stdout.strip())
+
+
 @pytest.fixture(scope="module")
 def bundled_zip(tmp_path_factory):
     pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
-    out = tmp_path_factory.mktemp("dist")
-    result = subprocess.run([sys.executable, str(BUILD_ADDON), "--out", str(out)], capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr
-    return Path(result.stdout.strip())
+    return _build_zip(tmp_path_factory.mktemp("dist"))
 
 
 @pytest.mark.blender
@@ -145,20 +197,8 @@ def test_fresh_blender_with_only_the_zip_generates(bundled_zip, tmp_path):
     from solver.problem import verify_certificate
 
     python = fresh_blender_python(tmp_path / "blender-python")
-    home, work, out = tmp_path / "home", tmp_path / "cwd", tmp_path / "out"
-    work.mkdir()
-    script = tmp_path / "fresh_blender.py"
-    script.write_text(FRESH_BLENDER_SCRIPT, encoding="utf-8")
-    environment = {k: v for k, v in os.environ.items()
-                   if k not in ("PYTHONPATH", "PHYROGEN_VENV", "VIRTUAL_ENV", "PYTHONHOME")
-                   and not k.startswith("BLENDER_")}
-    environment.update(HOME=str(home), BLENDER_USER_RESOURCES=str(home / "resources"))
-    run = subprocess.run([str(python), str(script), str(bundled_zip), str(out), str(tmp_path / "result.json")],
-                         capture_output=True, text=True, timeout=600, cwd=work, env=environment)
-    result_path = tmp_path / "result.json"
-    assert result_path.is_file(), run.stdout[-3000:] + run.stderr[-3000:]
-    result = json.loads(result_path.read_text())
-    assert "error" not in result, result["error"] + run.stderr[-3000:]
+    home, out = tmp_path / "home", tmp_path / "out"
+    result = run_fresh_blender(python, FRESH_BLENDER_SCRIPT, [str(bundled_zip), str(out)], tmp_path)
     assert result["importable_before"] == []  # nothing of PhyRoGen's, before the zip is installed
     assert result["blender"].startswith("4.5")
     assert result["install"] == ["FINISHED"]
@@ -183,3 +223,45 @@ def test_fresh_blender_with_only_the_zip_generates(bundled_zip, tmp_path):
     made = reference / "simple_slider" / "simple_slider_2"
     for name in ("urdf/simple_slider_2.urdf", "srdf/simple_slider_2.srdf", "puzzle.json"):
         assert (folder / name).read_bytes() == (made / name).read_bytes(), name
+
+
+THIN_ZIP_SCRIPT = r'''
+import json, sys, traceback
+
+zip_path, result_path = sys.argv[1:3]
+result = {}
+try:
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    result["install"] = sorted(bpy.ops.extensions.package_install_files(
+        filepath=zip_path, repo="user_default", enable_on_install=True))
+    module = sys.modules["bl_ext.user_default.phyrogen"]
+    result["panels"] = sorted(n for n in dir(bpy.types) if n.startswith("PHYROGEN_"))
+    missing = module.missing_dependencies
+    result["lines"] = missing.panel_lines(missing._message)
+    bpy.ops.preferences.addon_disable(module="bl_ext.user_default.phyrogen")
+    result["panels_after_disable"] = sorted(n for n in dir(bpy.types) if n.startswith("PHYROGEN_"))
+except Exception:
+    result["error"] = traceback.format_exc()
+with open(result_path, "w") as f:
+    json.dump(result, f)
+'''
+
+
+@pytest.mark.blender
+@pytest.mark.slow
+def test_without_the_wheels_the_panel_says_what_to_do(tmp_path):
+    pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
+    thin = _build_zip(tmp_path / "dist", "--no-wheels")
+    assert not [n for n in zipfile.ZipFile(thin).namelist() if n.endswith(".whl")]
+    python = fresh_blender_python(tmp_path / "blender-python")
+    result = run_fresh_blender(python, THIN_ZIP_SCRIPT, [str(thin)], tmp_path)
+    assert result["install"] == ["FINISHED"]
+    # The add-on enables, and its tab, in place of the generator's, names what is missing and the ways out.
+    assert result["panels"] == ["PHYROGEN_PT_missing_dependencies"]
+    text = " ".join(result["lines"])
+    assert result["lines"][0] == "PhyRoGen cannot generate here:"
+    assert "No module named" in text and "scripts/build_addon.py" in text and "PHYROGEN_VENV" in text
+    assert all(len(line) <= 48 for line in result["lines"][1:])
+    assert result["panels_after_disable"] == []
