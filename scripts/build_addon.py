@@ -9,7 +9,7 @@ The zip is self-contained: it bundles, as the manifest's ``wheels``, what
 Generate and Re-plan need for Blender 4.2+'s Python 3.11 on Linux x86-64:
 PhyRoGen itself (a wheel built from this repository) and OMPL, numba with
 llvmlite, and tqdm, at the versions ``pyproject.toml`` pins. numpy is not
-bundled: Blender ships it (1.26 in 4.2 to 4.5), and a second copy would shadow
+bundled: Blender ships it (1.x in 4.2 to 4.5), and a second copy would shadow
 Blender's own for every add-on (extensions' wheels come first on sys.path).
 Wheels are downloaded once into ``build/wheels`` (git-ignored; ``--wheels DIR``
 for another cache); later builds work offline. ``--no-wheels`` builds the thin
@@ -36,7 +36,7 @@ BUNDLED = ("ompl", "numba", "tqdm")
 PROVIDED_BY_BLENDER = ("numpy",)
 """Resolved with the bundle (numba needs a compatible one) but not bundled: Blender ships them."""
 NOT_BUNDLED = {
-    "numpy": "Blender ships numpy (1.26 in Blender 4.2 to 4.5); a bundled copy would shadow it",
+    "numpy": "Blender ships numpy (1.x in Blender 4.2 to 4.5); a bundled copy would shadow Blender's own",
     "pybullet": "only manipulation and audit use it, not the panel",
     "matplotlib": "only benchmark plots use it, not the panel",
 }
