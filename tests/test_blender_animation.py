@@ -11,9 +11,11 @@ from blender_support import every_shape_puzzle, private_blender_home
 private_blender_home()
 bpy = pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
 
-from blender_addon.animation import clear_solution, keyframe_solution  # noqa: E402
+from blender_addon.animation import clear_solution, keyframe_solution, planner_solution  # noqa: E402
 from blender_addon.scene import build_chain, build_puzzle, read_chain  # noqa: E402
 from phyrogen_core.actions import count_actions  # noqa: E402
+from phyrogen_core.export import write_puzzle  # noqa: E402
+from phyrogen_core.folder import PuzzleFormatError  # noqa: E402
 from phyrogen_core.registry import all_generators  # noqa: E402
 
 pytestmark = pytest.mark.blender
@@ -134,3 +136,23 @@ def test_a_path_of_the_wrong_width_is_refused():
     built = build_puzzle(puzzle)
     with pytest.raises(ValueError, match="obj_00, obj_01"):
         keyframe_solution(built, [[0.0, 0.0]], puzzle.chain)
+
+
+def test_a_planner_solution_plays_in_the_puzzles_joint_order(generated, tmp_path):
+    import json
+
+    puzzle = generated("rooms")
+    folder = write_puzzle(puzzle, tmp_path)
+    assert planner_solution(folder, puzzle.joint_order) is None
+    order = list(reversed(puzzle.joint_order))  # a solution file may list the joints in another order
+    path = np.asarray(puzzle.certificate)[:, ::-1]
+    (folder / "solutions").mkdir()
+    file = folder / "solutions" / "la_rrt_best.json"
+    file.write_text(json.dumps({"joint_order": order, "path": path.tolist()}))
+    solution = planner_solution(folder, puzzle.joint_order)
+    built = build_puzzle(puzzle)
+    keyframe_solution(built, solution, puzzle.chain)
+    assert_scene_shows(built, puzzle.chain, puzzle.certificate[-1], bpy.context.scene.frame_end)
+    file.write_text(json.dumps({"joint_order": order[1:], "path": path.tolist()}))
+    with pytest.raises(PuzzleFormatError, match="joint_order"):
+        planner_solution(folder, puzzle.joint_order)
