@@ -15,9 +15,6 @@ from .execution import ExecutionSettings, ManipulationReport, execute_puzzle
 from .outputs import summary_table, write_outputs
 from .solution import load_solution
 
-OMPL_SEED = 1
-"""The seed of OMPL's seed generator, from which BIT* draws, set once per batch."""
-
 
 def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = True, table: Path | None = None,
                        gui: bool = False, quiet: bool = False,
@@ -28,11 +25,8 @@ def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = Tr
     """
     from tqdm import tqdm
 
-    from .reaching import seed_reaching
-
     check_inputs(folders, out_root, table)
     settings = settings or ExecutionSettings()
-    seed_reaching(OMPL_SEED)
     reports = []
     for folder in folders:
         with tqdm(total=1, desc=Path(folder).name, unit="action", disable=quiet, file=sys.stderr,

@@ -30,7 +30,7 @@ from .following import FollowSettings, Stop, drive_along, follow, step_physics, 
 from .grasp import GraspPoint, grasp_point
 from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
 from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value_scale, link_pose, scale_chain
-from .reaching import ReachingError, plan_motion
+from .reaching import REACH_BUDGET, ReachingError, plan_motion, seed_reaching
 from .robot import ARM_REST, RobotSpec
 from .scene import COLLISION_MARGIN, World, temporary_folder, write_scene_files
 from .solution import load_solution
@@ -58,7 +58,8 @@ class ExecutionSettings:
     robot: RobotSpec = RobotSpec()
     follow: FollowSettings = FollowSettings()
     ik: IkSettings = IkSettings()
-    reach_time_limit: float = 5.0
+    reach_budget: int = REACH_BUDGET
+    """Validity checks BIT* may spend on one motion (a count, not seconds: the same answer on any machine)."""
     max_regrasps_per_action: int = 12
     record_every: int = 8
     """Record the scene for frames and video every this many physics steps."""
@@ -233,7 +234,7 @@ class _Run:
         start = self.sim.robot_state()
         try:
             lift = self.lift_off(start)
-            path = plan_motion(self.planner, lift[-1], solution.q, self.settings.reach_time_limit)
+            path = plan_motion(self.planner, lift[-1], solution.q, self.settings.reach_budget)
             path = np.vstack([lift[:-1], path])
         except ReachingError as exc:
             raise ExecutionError(f"reaching the grasp on {grasp.link}: {exc}") from None
@@ -274,16 +275,24 @@ class _Run:
         return constraint
 
 
+def puzzle_identity(loaded: LoadedPuzzle, folder: Path) -> tuple[str, str, int]:
+    """(generator, name, seed) from ``puzzle.json``: what the puzzle's random draws are seeded from."""
+    meta = loaded.metadata
+    return str(meta.get("generator", "")), str(meta.get("name", folder.name)), int(meta.get("seed", 0))
+
+
 def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings(), gui: bool = False,
                    progress: Callable[[int, int], None] | None = None) -> tuple[ManipulationReport, Recording,
                                                                                  SceneSetup]:
     """Execute the puzzle in ``folder``; returns the report, the recording and the scene setup.
 
     Execution failures are reported (``success`` False, ``message``), not raised;
-    a malformed puzzle folder raises.
+    a malformed puzzle folder raises. Every random draw (BIT*'s) is seeded from the
+    puzzle's own identity, so the outcome is the same alone or in a batch, in any order.
     """
     folder = Path(folder)
     loaded = read_puzzle_dir(folder)
+    seed_reaching(*puzzle_identity(loaded, folder))
     chain = loaded.chain
     solution = load_solution(folder, loaded.joint_order, loaded.certificate)
     factors = {name: cols for name, cols in chain.factors.items() if name != "goal"}

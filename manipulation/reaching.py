@@ -4,6 +4,12 @@ Validity is a PyBullet query in the planning world (robot against the
 puzzle as it stands now, and against itself). The planner stops at its
 first solution, which is then shortened; BIT*'s informed search already
 makes that first path direct in open space.
+
+Deterministic: BIT* and the path simplifier draw from OMPL's seed
+generator, which :func:`seed_reaching` reseeds for each puzzle (and each
+solution tried), and a search that finds nothing ends after a budget of
+validity checks, not of seconds, so that the answer does not depend on the
+machine's load or on what ran before in the process.
 """
 
 from __future__ import annotations
@@ -24,23 +30,27 @@ BASE_MARGIN = 0.8
 """Metres the base may drive beyond the box spanned by start, goal and the puzzle's square."""
 CHECK_STEP = 0.02
 """Radians (or metres) between collision-checked states along a motion."""
+REACH_BUDGET = 30_000
+"""Validity checks BIT* may spend on one motion before giving up (about 5 s at BIT*'s 6k checks/s)."""
 
 
-def seed_reaching(seed: int) -> None:
-    """Seed the OMPL seed generator BIT* draws from (:func:`solver.validation.seed_ompl`)."""
-    seed_ompl(stable_seed("ompl", "manipulation", seed))
+def seed_reaching(*parts: object) -> None:
+    """Seed the OMPL seed generator BIT* draws from (:func:`solver.validation.seed_ompl`) from a
+    stable hash of ``parts`` (say the puzzle's generator, name and seed)."""
+    seed_ompl(stable_seed("ompl", "manipulation", *parts))
 
 
 class ReachingError(RuntimeError):
-    """BIT* found no collision-free robot motion within its time limit."""
+    """BIT* found no collision-free robot motion within its budget."""
 
 
-def plan_motion(world: World, start: np.ndarray, goal: np.ndarray, time_limit: float = 5.0,
+def plan_motion(world: World, start: np.ndarray, goal: np.ndarray, budget: int = REACH_BUDGET,
                 area: float = 1.2) -> np.ndarray:
     """A collision-free joint path from ``start`` to ``goal`` (rows of 10 values).
 
-    ``area`` is the half-width of the square (around the origin) the base may
-    use beyond the start and goal positions.
+    ``budget``: validity checks BIT* may spend. ``area`` is the half-width of
+    the square (around the origin) the base may use beyond the start and goal
+    positions.
     """
     ou.setLogLevel(ou.LogLevel.LOG_NONE)
     dimension = len(start)
@@ -58,7 +68,11 @@ def plan_motion(world: World, start: np.ndarray, goal: np.ndarray, time_limit: f
     space.setBounds(bounds)
     si = ob.SpaceInformation(space)
 
+    checks = 0
+
     def valid(state) -> bool:
+        nonlocal checks
+        checks += 1
         world.set_robot([state[i] for i in range(dimension)])
         return not world.in_collision()
 
@@ -84,9 +98,9 @@ def plan_motion(world: World, start: np.ndarray, goal: np.ndarray, time_limit: f
     planner = og.BITstar(si)
     planner.setProblemDefinition(pdef)
     planner.setup()
-    planner.solve(ob.timedPlannerTerminationCondition(time_limit))
+    planner.solve(ob.PlannerTerminationCondition(lambda: checks >= budget))
     if not pdef.hasExactSolution():
-        raise ReachingError(f"BIT* found no robot motion in {time_limit} s")
+        raise ReachingError(f"BIT* found no robot motion in {budget} validity checks")
     path = pdef.getSolutionPath()
     og.PathSimplifier(si).reduceVertices(path, 0, 0, 0.33)
     return np.array([[path.getState(k)[i] for i in range(dimension)] for k in range(path.getStateCount())])
