@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from phyrogen_core.export import read_puzzle_dir
@@ -13,19 +13,22 @@ from solver.pool import deferred_signals
 
 from .execution import ExecutionSettings, ManipulationReport, execute_puzzle
 from .outputs import summary_table, write_outputs
-from .solution import load_solution
+from .solution import BenchmarkRun, candidate_solutions
 
 
 def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = True, table: Path | None = None,
-                       gui: bool = False, quiet: bool = False,
-                       settings: ExecutionSettings | None = None) -> list[ManipulationReport]:
+                       gui: bool = False, quiet: bool = False, settings: ExecutionSettings | None = None,
+                       runs: Mapping[Path, Sequence[BenchmarkRun]] | None = None) -> list[ManipulationReport]:
     """Execute each puzzle folder, write its outputs under ``out_root``, print one line per puzzle.
 
+    ``runs``: per folder, the benchmark's solved LA-RRT runs on that puzzle; the
+    least-costly are tried before the certificate (:func:`~manipulation.solution.candidate_solutions`).
     Raises, before any simulation, :func:`check_inputs`' errors.
     """
     from tqdm import tqdm
 
-    check_inputs(folders, out_root, table)
+    runs = runs or {}
+    check_inputs(folders, out_root, table, runs)
     settings = settings or ExecutionSettings()
     reports = []
     for folder in folders:
@@ -37,7 +40,8 @@ def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = Tr
                 bar.n = done
                 bar.refresh()
 
-            report, recording, setup = execute_puzzle(Path(folder), settings, gui=gui, progress=progress)
+            report, recording, setup = execute_puzzle(Path(folder), settings, gui, progress,
+                                                      runs.get(Path(folder), ()))
         # Ctrl-C or SIGTERM while a simulated puzzle's outputs are written takes effect once they
         # are, and reported (seconds): an interrupted write would feed ffmpeg a torn frame, which
         # it reports on stderr, and lose a finished simulation.
@@ -47,22 +51,24 @@ def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = Tr
             status = "ok" if report.success else "FAILED: " + report.message
             print(f"{report.puzzle:22s} actions {report.actions:3d} regrasps {report.regrasps:2d} "
                   f"planning {report.planning_seconds:6.1f} s execution {report.execution_seconds:6.1f} s "
-                  f"{status}  -> {bar_output}", flush=True)
+                  f"{report.solution} ({report.solutions_tried} tried) {status}  -> {bar_output}", flush=True)
     if table is not None:
         table.parent.mkdir(parents=True, exist_ok=True)
         table.write_text(summary_table(reports), encoding="utf-8")
     return reports
 
 
-def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = None) -> None:
+def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = None,
+                 runs: Mapping[Path, Sequence[BenchmarkRun]] | None = None) -> None:
     """Everything a run reads and writes, checked before the first simulation: a bad folder or
     output path found after an hour of simulating others is bad input found too late.
 
-    Every folder must read (puzzle and solution); ``out_root``, the folder of
+    Every folder must read (puzzle and solutions, ``runs`` included); ``out_root``, the folder of
     ``table`` and ``<out_root>/<puzzle>`` must be writable as folders
     (``table`` as a file). Raises :class:`~phyrogen_core.folder.PuzzleFormatError`
     or :class:`~phyrogen_core.folder.OutputError`, one line naming the path.
     """
+    runs = runs or {}
     out_root = require_writable_dir(out_root, "manipulation output folder")
     if table is not None:
         table = Path(table)
@@ -73,7 +79,7 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
         require_writable_dir(table.parent, f"folder of the summary table {table}:")
     for folder in folders:
         loaded = read_puzzle_dir(folder)
-        load_solution(Path(folder), loaded.joint_order, loaded.certificate)
+        candidate_solutions(Path(folder), loaded, runs.get(Path(folder), ()))
         target = out_root / str(loaded.metadata.get("name", Path(folder).name))
         if os.path.lexists(target) and not target.is_dir():
             raise OutputError(f"{target} is not a folder; the outputs of puzzle {target.name} go there")

@@ -13,7 +13,7 @@ have penetrated the puzzle.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -33,7 +33,7 @@ from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value
 from .reaching import REACH_BUDGET, ReachingError, plan_motion, seed_reaching
 from .robot import ARM_REST, RobotSpec
 from .scene import COLLISION_MARGIN, World, temporary_folder, write_scene_files
-from .solution import load_solution
+from .solution import BenchmarkRun, Solution, candidate_solutions
 from .transforms import inverse, matrix, quaternion
 
 PENETRATION_TOLERANCE = 0.002
@@ -75,12 +75,12 @@ class ActionReport:
 
 
 @dataclass(frozen=True)
-class ManipulationReport:
-    puzzle: str
-    generator: str
-    seed: int
+class AttemptReport:
+    """One solution executed from the puzzle's start, in fresh worlds."""
+
+    solution: str
+    """Which solution ran (:attr:`~manipulation.solution.Solution.label`)."""
     scale: float
-    solution_source: str
     actions: int
     regrasps: int
     planning_seconds: float
@@ -91,6 +91,43 @@ class ManipulationReport:
     max_penetration: float
     message: str
     action_reports: tuple[ActionReport, ...] = ()
+
+
+@dataclass(frozen=True)
+class ManipulationReport:
+    """The puzzle's outcome: the numbers of the solution that ran last (the one that succeeded, or
+    the last one tried), with wall times summed over every attempt, and each attempt's report."""
+
+    puzzle: str
+    generator: str
+    seed: int
+    scale: float
+    solution: str
+    """Which solution the numbers are of: ``certificate`` or ``benchmark...: <planner> run <n>``."""
+    solutions_tried: int
+    actions: int
+    regrasps: int
+    planning_seconds: float
+    execution_seconds: float
+    simulated_seconds: float
+    success: bool
+    target_at_goal: bool
+    max_penetration: float
+    message: str
+    action_reports: tuple[ActionReport, ...] = ()
+    attempts: tuple[AttemptReport, ...] = ()
+
+    @classmethod
+    def of_attempts(cls, puzzle: str, generator: str, seed: int,
+                    attempts: Sequence[AttemptReport]) -> ManipulationReport:
+        last = attempts[-1]
+        message = last.message
+        if not last.success and len(attempts) > 1:
+            message = f"none of {len(attempts)} solutions executed; the last, {last.solution}: {message}"
+        return cls(puzzle, generator, seed, last.scale, last.solution, len(attempts), last.actions, last.regrasps,
+                   sum(a.planning_seconds for a in attempts), sum(a.execution_seconds for a in attempts),
+                   last.simulated_seconds, last.success, last.target_at_goal, last.max_penetration, message,
+                   last.action_reports, tuple(attempts))
 
 
 @dataclass
@@ -282,26 +319,41 @@ def puzzle_identity(loaded: LoadedPuzzle, folder: Path) -> tuple[str, str, int]:
 
 
 def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings(), gui: bool = False,
-                   progress: Callable[[int, int], None] | None = None) -> tuple[ManipulationReport, Recording,
-                                                                                 SceneSetup]:
+                   progress: Callable[[int, int], None] | None = None,
+                   runs: Sequence[BenchmarkRun] = ()) -> tuple[ManipulationReport, Recording, SceneSetup]:
     """Execute the puzzle in ``folder``; returns the report, the recording and the scene setup.
 
+    The solutions of :func:`~manipulation.solution.candidate_solutions` (with the
+    benchmark journal's ``runs``) are tried in order, each from the puzzle's start,
+    until one succeeds; the recording and scene are those of the last one tried.
     Execution failures are reported (``success`` False, ``message``), not raised;
-    a malformed puzzle folder raises. Every random draw (BIT*'s) is seeded from the
-    puzzle's own identity, so the outcome is the same alone or in a batch, in any order.
+    a malformed puzzle folder raises.
     """
     folder = Path(folder)
     loaded = read_puzzle_dir(folder)
-    seed_reaching(*puzzle_identity(loaded, folder))
+    generator, name, seed = puzzle_identity(loaded, folder)
+    attempts: list[AttemptReport] = []
+    for solution in candidate_solutions(folder, loaded, runs):
+        # Seeded per solution too: an attempt's outcome does not depend on the attempts before it.
+        seed_reaching(generator, name, seed, solution.label)
+        attempt, recording, setup = execute_solution(loaded, solution, settings, gui, progress)
+        attempts.append(attempt)
+        if attempt.success:
+            break
+    return ManipulationReport.of_attempts(name, generator, seed, attempts), recording, setup
+
+
+def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: ExecutionSettings, gui: bool = False,
+                     progress: Callable[[int, int], None] | None = None) -> tuple[AttemptReport, Recording,
+                                                                                   SceneSetup]:
+    """Execute one solution path of the puzzle from its start, in fresh worlds."""
     chain = loaded.chain
-    solution = load_solution(folder, loaded.joint_order, loaded.certificate)
     factors = {name: cols for name, cols in chain.factors.items() if name != "goal"}
     actions = split_actions(solution.path, factors)
     placement = fit_placement(chain, solution.path, settings.max_extent)
     scaled = scale_chain(chain, placement.scale)
     value_scale = joint_value_scale(chain, placement.scale)
     setup = SceneSetup(scaled, placement, settings.robot)
-    name = loaded.metadata.get("name", folder.name)
     with temporary_folder() as tmp:
         files = write_scene_files(Path(tmp), scaled, settings.robot)
         sim = World(files, scaled, placement, gui=gui)
@@ -334,9 +386,7 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings
         finally:
             sim.close()
             planner.close()
-    report = ManipulationReport(
-        name, str(loaded.metadata.get("generator", "")), int(loaded.metadata.get("seed", 0)), placement.scale,
-        "la_rrt_best" if solution.source != "certificate" else "certificate", len(actions),
-        sum(r.regrasps for r in reports), run.planning, run.execution, run.steps / 240.0,
-        message == "ok", at_goal, run.max_penetration, message, tuple(reports))
-    return report, run.recording, setup
+    attempt = AttemptReport(solution.label, placement.scale, len(actions), sum(r.regrasps for r in reports),
+                            run.planning, run.execution, run.steps / 240.0, message == "ok", at_goal,
+                            run.max_penetration, message, tuple(reports))
+    return attempt, run.recording, setup

@@ -39,7 +39,8 @@ def summary_table(reports: Sequence[ManipulationReport]) -> str:
     for r in reports:
         total = r.planning_seconds + r.execution_seconds
         result = "success" if r.success else "FAILED: " + r.message.replace("|", "/")
-        lines.append(f"| {r.puzzle} | {r.solution_source} | {r.scale:.3f} | {r.actions} | {r.regrasps} | "
+        solution = r.solution if r.solutions_tried == 1 else f"{r.solution} ({r.solutions_tried} tried)"
+        lines.append(f"| {r.puzzle} | {solution} | {r.scale:.3f} | {r.actions} | {r.regrasps} | "
                      f"{r.planning_seconds:.1f} | {r.execution_seconds:.1f} | {total:.1f} | "
                      f"{r.simulated_seconds:.1f} | {r.max_penetration * 1000:.2f} | {result} |")
     if reports:

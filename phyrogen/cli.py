@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import json
 import math
 import os
 import signal
@@ -249,6 +250,37 @@ def cmd_check(args) -> int:
     return 0
 
 
+def cmd_replan(args) -> int:
+    from phyrogen_core.export import read_puzzle_dir
+    from phyrogen_core.folder import require_writable_dir
+    from solver.replanning import REPLAN_BUDGET, replan, write_replanned
+
+    folder = Path(args.puzzle_dir)
+    loaded = read_puzzle_dir(folder)  # bad input is found before any work
+    require_writable_dir(folder, "puzzle folder")
+    name = loaded.metadata["name"]
+    result = replan(loaded, REPLAN_BUDGET if args.budget is None else args.budget, args.seed)
+    if not result.solved:
+        print(f"phyrogen: error: {name}: not solved by RRT-Connect nor LA-RRT within {result.budget} collision "
+              f"queries each (seed {args.seed}); the folder is unchanged (a larger --budget may solve it)",
+              file=sys.stderr)
+        return 1
+    notices: list[str] = []
+    write_replanned(folder, loaded, result, notices)
+    for notice in notices:
+        print(f"phyrogen: note: {notice}", file=sys.stderr)
+    planner = {"rrt_connect": "RRT-Connect", "la_rrt_push": "LA-RRT+push"}[result.planner]
+    print(f"{name}: new certificate by {planner} in {result.queries} collision queries: "
+          f"{len(result.certificate)} states, {len(result.dependencies)} dependencies")
+    return 0
+
+
+def replan_budget_option(text: str) -> int:
+    from solver.replanning import MAX_REPLAN_BUDGET
+
+    return _whole_number(text, 1, MAX_REPLAN_BUDGET, " collision queries")
+
+
 def cmd_export(args) -> int:
     from phyrogen_core.export import chain_to_mjcf, read_puzzle_dir, write_mjcf
     from phyrogen_core.folder import require_writable_dir
@@ -363,9 +395,37 @@ def cmd_manipulate(args) -> int:
     from manipulation.batch import manipulate_folders
 
     folders = [f.path if isinstance(f, PuzzleFolder) else f for f in find_in_paths(args.puzzle_dirs)]
+    runs = benchmark_runs(Path(args.benchmark), folders) if args.benchmark else None
     reports = manipulate_folders(folders, Path(args.out), video=not args.no_video,
-                                 table=Path(args.table) if args.table else None, gui=args.gui, quiet=args.quiet)
+                                 table=Path(args.table) if args.table else None, gui=args.gui, quiet=args.quiet,
+                                 runs=runs)
     return 0 if all(r.success for r in reports) else 1
+
+
+def benchmark_runs(benchmark: Path, folders: list[Path]) -> dict[Path, list]:
+    """Per puzzle folder, the solved LA-RRT runs of ``benchmark``'s journal on that very puzzle (its
+    name and the digest of its files), for the manipulation stage. Glue here, at the top: the
+    journal's reader lives in the solver beside OMPL, which manipulation may not import."""
+    from manipulation.solution import BenchmarkRun
+    from phyrogen_core.export import read_puzzle_dir
+    from phyrogen_core.folder import OutputError
+    from solver.benchmark import JOURNAL, puzzle_digest, read_journal
+    from solver.planners import LA_RRT_PLANNERS
+
+    journal = benchmark / JOURNAL
+    if not os.path.lexists(journal):
+        raise OutputError(f"benchmark folder {benchmark} has no {JOURNAL}; name the folder a benchmark wrote "
+                          "(its --out)")
+    records = [(json.loads(key), record) for key, record in read_journal(journal).items()]
+    out: dict[Path, list] = {}
+    for folder in folders:
+        name = str(read_puzzle_dir(folder).metadata.get("name", Path(folder).name))
+        digest = puzzle_digest(PuzzleFolder(Path(folder), name))
+        out[Path(folder)] = [BenchmarkRun(r.planner, r.run, tuple(r.joint_order), tuple(r.path))
+                             for key, r in records
+                             if key.get("planner") in LA_RRT_PLANNERS and r.solved and len(r.path) >= 2
+                             and r.puzzle == name and key.get("puzzle_sha256") == digest]
+    return out
 
 
 def cmd_render(args) -> int:
@@ -586,6 +646,14 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="re-validate an exported puzzle folder")
     check.add_argument("puzzle_dir")
     check.set_defaults(func=cmd_check)
+    replan = sub.add_parser("replan", help="find a new certificate for a puzzle folder as it is now (e.g. edited "
+                                           "in Blender) with OMPL's RRT-Connect (else LA-RRT) and store it in "
+                                           "puzzle.json")
+    replan.add_argument("puzzle_dir")
+    replan.add_argument("--budget", type=replan_budget_option,
+                        help="collision queries each planner may spend (default 100000)")
+    replan.add_argument("--seed", type=benchmark_seed_option, default=0, help="seed of the search (default 0)")
+    replan.set_defaults(func=cmd_replan)
     export = sub.add_parser("export", help="write other formats into puzzle folders: mjcf -> <folder>/mjcf/<name>.xml")
     export.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR",
                         help="puzzle folder(s), or a folder of generated puzzles (all of them)")
@@ -638,6 +706,10 @@ def build_parser() -> argparse.ArgumentParser:
     manipulate.add_argument("--table", metavar="FILE", help="also write a Markdown summary table here")
     manipulate.add_argument("--gui", action="store_true", help="show the simulation in a PyBullet window")
     manipulate.add_argument("--quiet", action="store_true", help="no progress bar")
+    manipulate.add_argument("--benchmark", metavar="DIR",
+                            help="a benchmark's output folder: every least-cost LA-RRT solution in its journal is "
+                                 "tried, then the certificate (default: the puzzle's best solution, then the "
+                                 "certificate)")
     manipulate.set_defaults(func=cmd_manipulate)
     audit = sub.add_parser("audit", help="re-check exported puzzles: certificate replayed in PyBullet, every "
                                          "object tried as superfluous with a large budget")
