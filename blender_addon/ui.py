@@ -1,16 +1,22 @@
-"""The sidebar panel, its settings and the operators Generate, Validate, Export URDF, Render
-(and Export with Phobos, shown while the Phobos add-on is enabled).
+"""The sidebar panel, its settings and the operators Generate, Re-plan, Benchmark, Manipulate,
+Validate, Export URDF, Render (and Export with Phobos, shown while the Phobos add-on is enabled).
 
 The parameter fields are made from the registry: one property group per
 generator, one property per field of its parameter dataclass, so a new
 generator appears in the panel without touching this file.
+
+Generate, Re-plan, Benchmark and Manipulate run ``phyrogen`` in a subprocess
+(:mod:`.jobs`): pressed in the UI, a modal operator polls it from a timer, shows
+its progress in the status bar and stops it on Esc, a right-click or Cancel,
+so Blender never freezes; run from a script (``bpy.ops.phyrogen.generate()``)
+they wait for it. Their outcome is stored on the scene's settings and drawn
+in the panel. One such job runs at a time.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import subprocess
 import typing
 from collections.abc import Callable
 from pathlib import Path
@@ -20,7 +26,7 @@ import bpy
 from phyrogen_core.folder import PuzzleFolder, name_problem
 from phyrogen_core.registry import ParameterError, all_generators
 
-from .environment import worker_python
+from .jobs import Job, JobResult, benchmark_summary, manipulation_summary, one_line_error, phyrogen_command
 from .phobos import PHOBOS_FOLDER, ensure_phobostype, phobos_enabled, remove_phobostype
 
 _PROPERTY_OF_TYPE = {bool: bpy.props.BoolProperty, int: bpy.props.IntProperty, float: bpy.props.FloatProperty,
@@ -54,6 +60,18 @@ def _settings_class(groups: dict[str, type]) -> type:
         "engine": bpy.props.EnumProperty(name="Engine", items=[("WORKBENCH", "Workbench", "fast"),
                                                                ("CYCLES", "Cycles", "CPU path tracing")]),
         "puzzle": bpy.props.StringProperty(name="Puzzle", description="Collection of the current puzzle"),
+        "job_status": bpy.props.StringProperty(name="Job", description="Progress of the running job"),
+        "result_label": bpy.props.StringProperty(name="Last run", description="The last job that ended"),
+        "result_state": bpy.props.EnumProperty(
+            name="Outcome", items=[("NONE", "None", "no job has ended"), ("DONE", "Done", "finished"),
+                                   ("FAILED", "Failed", "the command failed"),
+                                   ("CANCELLED", "Cancelled", "stopped by the user")]),
+        "result_message": bpy.props.StringProperty(name="Message", description="What the last job said"),
+        "result_details": bpy.props.StringProperty(name="Details", description="The last job's summary, "
+                                                                               "one line per entry"),
+        "manipulation_output": bpy.props.StringProperty(
+            name="Manipulation output", subtype="DIR_PATH",
+            description="The last manipulation run's folder: frames/, the video, report.json"),
         "phobos_output": bpy.props.StringProperty(
             name="Phobos output", default="", subtype="DIR_PATH",
             description="Folder for Export with Phobos (the puzzle goes to <folder>/<puzzle>); "
@@ -120,46 +138,350 @@ def run_reported(operator: bpy.types.Operator, work: Callable[[], str]) -> set[s
     return {"FINISHED"}
 
 
-class PHYROGEN_OT_generate(bpy.types.Operator):  # noqa: N801 (Blender's naming)
-    """Generate and certify the puzzle, then build it in the scene"""
+# -- jobs: work in a subprocess, watched by a modal operator -------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class Operation:
+    """A panel operation run as a job: ``start`` does the quick work in Blender and starts the command,
+    ``finish`` reads its outcome into the scene (on success) and returns the message and details."""
+
+    label: str
+    start: Callable[[bpy.types.Context], Job]
+    finish: Callable[[bpy.types.Context, JobResult], tuple[str, list[str]]]
+
+
+OPERATIONS: dict[str, Operation] = {}
+"""Filled below: ``generate``, ``replan``, ``benchmark``, ``manipulate``."""
+_running: list[tuple[str, Job]] = []  # at most one job at a time
+
+
+def running_job() -> Job | None:
+    """The job that runs now, or None."""
+    return _running[0][1] if _running else None
+
+
+def begin(context, operation: str) -> Job:
+    """Start ``operation``'s job (bad input raises before any process starts)."""
+    if _running:
+        raise RuntimeError(f"{_running[0][1].label} is still running; wait for it or cancel it")
+    settings = context.scene.phyrogen
+    job = OPERATIONS[operation].start(context)
+    _running.append((operation, job))
+    settings.job_status = f"{job.label}: starting"
+    return job
+
+
+def advance(context) -> tuple[bool, str] | None:
+    """Poll the running job: None while it runs (its progress then in the settings' ``job_status``),
+    else whether it succeeded and its message, once :func:`conclude` has stored its outcome."""
+    if not _running:
+        return None
+    operation, job = _running[0]
+    result = job.poll()
+    if result is None:
+        context.scene.phyrogen.job_status = job.status_text()
+        return None
+    return conclude(context, operation, job, result)
+
+
+def cancel_running() -> bool:
+    """Ask the running job to stop; False when none runs."""
+    job = running_job()
+    if job is None:
+        return False
+    job.cancel()
+    return True
+
+
+def conclude(context, operation: str, job: Job, result: JobResult) -> tuple[bool, str]:
+    """Store the outcome of ``job`` on the scene's settings: finished (after ``finish`` read it into the
+    scene), failed (with the command's error line) or cancelled."""
+    settings = context.scene.phyrogen
+    _running.clear()
+    settings.job_status = ""
+    settings.result_label = job.label
+    details: list[str] = []
+    if result.ok:
+        try:
+            message, details = OPERATIONS[operation].finish(context, result)
+            state = "DONE"
+        except (ParameterError, ValueError, KeyError, OSError, RuntimeError) as exc:
+            message, state = f"{job.label} failed: {exc}", "FAILED"
+    else:
+        message, state = one_line_error(result, job.label), "CANCELLED" if result.cancelled else "FAILED"
+    settings.result_state = state
+    settings.result_message = message
+    settings.result_details = "\n".join(details)
+    return state == "DONE", message
+
+
+class _JobOperator:
+    """An operator whose work is a job: modal when pressed in the UI, blocking from a script."""
+
+    operation = ""
+    bl_options = {"REGISTER"}
+
+    @classmethod
+    def poll(cls, context):
+        return running_job() is None
+
+    def execute(self, context):
+        def work() -> str:
+            begin(context, self.operation)
+            _, job = _running[0]
+            ok, message = conclude(context, self.operation, job, job.wait())
+            if not ok:
+                raise RuntimeError(message)
+            return message
+
+        return run_reported(self, work)
+
+    def invoke(self, context, event):
+        if context.window is None:  # no window to watch it from (background mode)
+            return self.execute(context)
+        try:
+            job = begin(context, self.operation)
+        except (ParameterError, ValueError, KeyError, OSError, RuntimeError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self._timer = context.window_manager.event_timer_add(0.25, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        _show_status(context, job.status_text())
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        job = running_job()
+        if job is not None and event.type in {"ESC", "RIGHTMOUSE"} and event.value == "PRESS":
+            job.cancel()
+            _show_status(context, job.status_text())
+            return {"RUNNING_MODAL"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}  # the UI stays usable while the job runs
+        outcome = advance(context)
+        if outcome is None and job is not None:
+            _show_status(context, job.status_text())
+            return {"PASS_THROUGH"}
+        context.window_manager.event_timer_remove(self._timer)
+        _show_status(context, None)
+        ok, message = outcome if outcome is not None else (False, "the job was lost")
+        self.report({"INFO"} if ok else {"WARNING"} if "cancelled" in message else {"ERROR"}, message)
+        return {"FINISHED"} if ok else {"CANCELLED"}
+
+
+def _show_status(context, text: str | None) -> None:
+    if context.workspace is not None:
+        context.workspace.status_text_set(text)
+    for window in context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
+class PHYROGEN_OT_generate(_JobOperator, bpy.types.Operator):  # noqa: N801 (Blender's naming)
+    """Generate and certify the puzzle (phyrogen generate, in a subprocess), then build it in the scene"""
 
     bl_idname = "phyrogen.generate"
     bl_label = "Generate"
     bl_options = {"REGISTER", "UNDO"}
-
-    def execute(self, context):
-        return run_reported(self, lambda: self.generate(context))
-
-    @staticmethod
-    def generate(context) -> str:
-        from .scene import build_puzzle_folder
-
-        settings = context.scene.phyrogen
-        spec, params = chosen_params(settings)
-        spec.check(settings.seed, params)
-        folder = generate_folder(spec.name, settings.seed, params, _output(settings))
-        old = bpy.data.collections.get(folder.name)
-        if old is not None:
-            _remove_collection(old)
-        built = build_puzzle_folder(folder, context.scene)
-        settings.puzzle = built.collection.name
-        return f"{folder.name}: written to {folder}"
+    operation = "generate"
 
 
-def generate_folder(generator: str, seed: int, params, out: Path) -> Path:
-    """Generate and certify a puzzle with ``phyrogen generate`` in the project's Python; its folder.
+def _start_generate(context) -> Job:
+    settings = context.scene.phyrogen
+    spec, params = chosen_params(settings)
+    spec.check(settings.seed, params)
+    return Job(f"Generate {spec.name}_{settings.seed}",
+               generate_command(spec.name, settings.seed, params, _output(settings)))
+
+
+def _finish_generate(context, result: JobResult) -> tuple[str, list[str]]:
+    from .scene import build_puzzle_folder
+
+    settings = context.scene.phyrogen
+    spec, _ = chosen_params(settings)
+    folder = PuzzleFolder.at(_output(settings), spec.name, f"{spec.name}_{settings.seed}").path
+    old = bpy.data.collections.get(folder.name)
+    if old is not None:
+        _remove_collection(old)
+    built = build_puzzle_folder(folder, context.scene)
+    settings.puzzle = built.collection.name
+    return f"{folder.name}: written to {folder}", _table_rows(result.stdout)
+
+
+def _table_rows(stdout: str) -> list[str]:
+    return [" ".join(line.split()) for line in stdout.splitlines() if line.strip()][:4]
+
+
+def generate_command(generator: str, seed: int, params, out: Path) -> list[str]:
+    """``phyrogen generate`` of one puzzle with the panel's parameters, in the project's Python.
 
     A separate process keeps generation deterministic (OMPL is seeded once per
     process) and works inside a Blender binary, whose own Python lacks our dependencies.
     """
     overrides = [f"--set={f.name}={getattr(params, f.name)!r}" for f in dataclasses.fields(params)]
-    command = [worker_python(), "-m", "phyrogen", "generate", "--generator", generator, "--seeds", str(seed),
-               "--out", str(out), "--workers", "1", "--quiet", *overrides]
-    result = subprocess.run(command, capture_output=True, text=True)
-    if result.returncode != 0:
-        lines = [line for line in (result.stderr + result.stdout).splitlines() if "error" in line or "FAILED" in line]
-        raise RuntimeError(lines[-1] if lines else f"generation failed with exit code {result.returncode}")
+    return phyrogen_command("generate", "--generator", generator, "--seeds", str(seed), "--out", str(out),
+                            "--workers", "1", *overrides)
+
+
+def generate_folder(generator: str, seed: int, params, out: Path) -> Path:
+    """Generate and certify a puzzle with ``phyrogen generate`` in the project's Python (waiting for it);
+    its folder."""
+    result = Job(f"Generate {generator}_{seed}", generate_command(generator, seed, params, out)).wait()
+    if not result.ok:
+        raise RuntimeError(one_line_error(result, "generation"))
     return PuzzleFolder.at(out, generator, f"{generator}_{seed}").path
+
+
+class PHYROGEN_OT_replan(_JobOperator, bpy.types.Operator):  # noqa: N801
+    """Export the puzzle as it is now (edited or not) and find a new certificate with OMPL's RRT-Connect
+    (phyrogen replan, in a subprocess); the scene is rebuilt from the re-planned folder"""
+
+    bl_idname = "phyrogen.replan"
+    bl_label = "Re-plan"
+    bl_options = {"REGISTER", "UNDO"}
+    operation = "replan"
+
+
+def _start_replan(context) -> Job:
+    from .export import export_collection
+
+    settings = context.scene.phyrogen
+    collection = current_collection(context)
+    folder = puzzle_folder(settings, collection).path
+    export_collection(collection, folder)
+    return Job(f"Re-plan {collection.name}", phyrogen_command("replan", str(folder)))
+
+
+def _finish_replan(context, result: JobResult) -> tuple[str, list[str]]:
+    from .scene import build_puzzle_folder
+
+    settings = context.scene.phyrogen
+    collection = current_collection(context)
+    folder = puzzle_folder(settings, collection).path
+    name = collection.name
+    _remove_collection(collection)
+    built = build_puzzle_folder(folder, context.scene)
+    settings.puzzle = built.collection.name
+    lines = [line for line in result.stdout.splitlines() if line.strip()]
+    return (lines[-1] if lines else f"{name}: re-planned"), []
+
+
+class PHYROGEN_OT_benchmark(_JobOperator, bpy.types.Operator):  # noqa: N801
+    """A quick benchmark of every planner on this puzzle (phyrogen benchmark --profile quick --until first,
+    in a subprocess) into <output>/benchmark/<puzzle>; its summary is shown in the panel"""
+
+    bl_idname = "phyrogen.benchmark"
+    bl_label = "Benchmark"
+    operation = "benchmark"
+
+
+def benchmark_folder(settings, collection) -> Path:
+    """Where the panel's Benchmark writes: ``<output>/benchmark/<puzzle>``."""
+    return _output(settings) / "benchmark" / collection.name
+
+
+def _start_benchmark(context) -> Job:
+    settings = context.scene.phyrogen
+    collection = current_collection(context)
+    folder = puzzle_folder(settings, collection)
+    if not folder.metadata.is_file():
+        raise ValueError(f"{folder.path} holds no puzzle; press Generate or Export URDF first")
+    return Job(f"Benchmark {collection.name}",
+               phyrogen_command("benchmark", "--puzzles", str(folder.path), "--profile", "quick", "--until", "first",
+                                "--out", str(benchmark_folder(settings, collection))))
+
+
+def _finish_benchmark(context, result: JobResult) -> tuple[str, list[str]]:
+    collection = current_collection(context)
+    out = benchmark_folder(context.scene.phyrogen, collection)
+    return f"{collection.name}: quick benchmark in {out}", benchmark_summary(result.stdout)
+
+
+class PHYROGEN_OT_manipulate(_JobOperator, bpy.types.Operator):  # noqa: N801
+    """A KUKA iiwa executes the puzzle's best solution in PyBullet (phyrogen manipulate, DIRECT mode, in a
+    subprocess) into <output>/manipulation/<puzzle>: frames, video, report"""
+
+    bl_idname = "phyrogen.manipulate"
+    bl_label = "Manipulate"
+    operation = "manipulate"
+
+
+def manipulation_root(settings) -> Path:
+    """Where the panel's Manipulate writes: ``<output>/manipulation`` (one folder per puzzle)."""
+    return _output(settings) / "manipulation"
+
+
+def _start_manipulate(context) -> Job:
+    settings = context.scene.phyrogen
+    collection = current_collection(context)
+    folder = puzzle_folder(settings, collection)
+    if not folder.metadata.is_file():
+        raise ValueError(f"{folder.path} holds no puzzle; press Generate or Export URDF first")
+    return Job(f"Manipulate {collection.name}",
+               phyrogen_command("manipulate", str(folder.path), "--out", str(manipulation_root(settings))))
+
+
+def _finish_manipulate(context, result: JobResult) -> tuple[str, list[str]]:
+    settings = context.scene.phyrogen
+    collection = current_collection(context)
+    out = manipulation_root(settings) / collection.name
+    report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    settings.manipulation_output = str(out)
+    seconds = {key: float(report.get(f"{key}_seconds", 0.0)) for key in ("planning", "execution", "simulated")}
+    details = [f"planning {seconds['planning']:.1f} s, execution {seconds['execution']:.1f} s "
+               f"({seconds['simulated']:.1f} s simulated)", f"report: {out / 'report.json'}"]
+    return manipulation_summary(report), details
+
+
+OPERATIONS.update({
+    "generate": Operation("Generate", _start_generate, _finish_generate),
+    "replan": Operation("Re-plan", _start_replan, _finish_replan),
+    "benchmark": Operation("Benchmark", _start_benchmark, _finish_benchmark),
+    "manipulate": Operation("Manipulate", _start_manipulate, _finish_manipulate),
+})
+
+
+class PHYROGEN_OT_cancel_job(bpy.types.Operator):  # noqa: N801
+    """Stop the running job (its whole process group); what it finished is kept, nothing half-written"""
+
+    bl_idname = "phyrogen.cancel_job"
+    bl_label = "Cancel"
+
+    @classmethod
+    def poll(cls, context):
+        return running_job() is not None
+
+    def execute(self, context):
+        cancel_running()
+        return {"FINISHED"}
+
+
+class PHYROGEN_OT_open_manipulation(bpy.types.Operator):  # noqa: N801
+    """Open the last manipulation run's video, or its frames folder, with the system's viewer"""
+
+    bl_idname = "phyrogen.open_manipulation"
+    bl_label = "Open"
+
+    what: bpy.props.EnumProperty(items=[("VIDEO", "Video", "the run's MP4"),
+                                        ("FRAMES", "Frames", "the folder of the run's frames")])
+
+    @classmethod
+    def poll(cls, context):
+        return bool(context.scene.phyrogen.manipulation_output)
+
+    def execute(self, context):
+        path = manipulation_path(context.scene.phyrogen, self.what)
+        if not path.exists():
+            self.report({"ERROR"}, f"{path} does not exist (run Manipulate again)")
+            return {"CANCELLED"}
+        return bpy.ops.wm.path_open(filepath=str(path))
+
+
+def manipulation_path(settings, what: str) -> Path:
+    """The last manipulation run's video (``VIDEO``) or frames folder (``FRAMES``)."""
+    out = Path(settings.manipulation_output)
+    return out / f"{out.name}.mp4" if what == "VIDEO" else out / "frames"
 
 
 def _remove_collection(collection: bpy.types.Collection) -> None:
@@ -294,9 +616,15 @@ def draw_panel(layout, settings, phobos: bool | None = None) -> None:
     row.scale_y = 1.6
     row.operator("phyrogen.generate", icon="MOD_BUILD")
     row = layout.row(align=True)
+    row.scale_y = 1.2
+    row.operator("phyrogen.replan", icon="FILE_REFRESH")
+    row.operator("phyrogen.benchmark", icon="TIME")
+    row.operator("phyrogen.manipulate", icon="ARMATURE_DATA")
+    row = layout.row(align=True)
     row.operator("phyrogen.validate", icon="CHECKMARK")
     row.operator("phyrogen.export_urdf", icon="EXPORT")
     row.operator("phyrogen.render", icon="RENDER_STILL")
+    draw_job(layout, settings)
     spec = all_generators()[settings.generator]
     box = layout.box()
     box.label(text=f"{spec.title} parameters")
@@ -312,7 +640,31 @@ def draw_panel(layout, settings, phobos: bool | None = None) -> None:
         box.prop(settings, "phobos_output")
 
 
-_OPERATORS = (PHYROGEN_OT_generate, PHYROGEN_OT_validate, PHYROGEN_OT_export_urdf, PHYROGEN_OT_export_phobos,
+def draw_job(layout, settings) -> None:
+    """The running job's progress and a Cancel button, else the last job's outcome."""
+    if running_job() is not None:
+        box = layout.box()
+        box.label(text=settings.job_status or "running", icon="SORTTIME")
+        box.operator("phyrogen.cancel_job", icon="CANCEL")
+        return
+    if settings.result_state == "NONE":
+        return
+    box = layout.box()
+    icon = {"DONE": "CHECKMARK", "FAILED": "ERROR", "CANCELLED": "CANCEL"}[settings.result_state]
+    state = {"DONE": "done", "FAILED": "failed", "CANCELLED": "cancelled"}[settings.result_state]
+    box.label(text=f"{settings.result_label}: {state}", icon=icon)
+    for line in [settings.result_message, *settings.result_details.splitlines()]:
+        if line:
+            box.label(text=line)
+    if settings.result_label.startswith("Manipulate") and settings.manipulation_output:
+        row = box.row(align=True)
+        row.operator("phyrogen.open_manipulation", text="Video", icon="FILE_MOVIE").what = "VIDEO"
+        row.operator("phyrogen.open_manipulation", text="Frames", icon="FILE_FOLDER").what = "FRAMES"
+
+
+_OPERATORS = (PHYROGEN_OT_generate, PHYROGEN_OT_replan, PHYROGEN_OT_benchmark, PHYROGEN_OT_manipulate,
+              PHYROGEN_OT_cancel_job, PHYROGEN_OT_open_manipulation, PHYROGEN_OT_validate, PHYROGEN_OT_export_urdf,
+              PHYROGEN_OT_export_phobos,
               PHYROGEN_OT_render, PHYROGEN_PT_panel)
 _registered: list[type] = []
 
@@ -328,6 +680,7 @@ def register() -> None:
 
 
 def unregister() -> None:
+    cancel_running()
     if hasattr(bpy.types.Scene, "phyrogen"):
         del bpy.types.Scene.phyrogen
     while _registered:

@@ -80,7 +80,8 @@ def test_panel_shows_generator_seed_parameters_and_operators(installed):
         assert shown[:2] == ["generator", "seed"]
         assert [f.name for f in installed.ui.editable_fields(spec.params)] == shown[2:-2]
         assert [n for kind, n in log if kind == "operator"] == [
-            "phyrogen.generate", "phyrogen.validate", "phyrogen.export_urdf", "phyrogen.render"]
+            "phyrogen.generate", "phyrogen.replan", "phyrogen.benchmark", "phyrogen.manipulate",
+            "phyrogen.validate", "phyrogen.export_urdf", "phyrogen.render"]
 
 
 def test_export_with_phobos_is_offered_only_while_phobos_is_enabled(installed):
