@@ -266,8 +266,14 @@ def dependency_graph(objects: Sequence[PuzzleObject], certificate, resolution: f
     ``shrink`` every shape is shrunk first (:func:`shrunk_tolerance`), so a
     pair that only grazes by less than the interlock margin is no edge.
     """
-    chain = build_chain(objects)
-    model = CollisionModel(chain, tolerance=shrunk_tolerance(shrink))
+    return chain_dependency_graph(build_chain(objects), certificate, resolution, shrunk_tolerance(shrink))
+
+
+def chain_dependency_graph(chain: KinematicChain, certificate, resolution: float = DEFAULT_RESOLUTION,
+                           tolerance: float = DEFAULT_TOLERANCE) -> tuple[tuple[str, str], ...]:
+    """:func:`dependency_graph` for a chain (one read from a puzzle folder has no generator
+    objects), with the collision model's ``tolerance``."""
+    model = CollisionModel(chain, tolerance=tolerance)
     states = densify(certificate, model.motion_steps(resolution))
     edges: set[tuple[str, str]] = set()
     for blocker, columns in chain.factors.items():

@@ -23,16 +23,14 @@ from typing import Any
 import numpy as np
 
 from phyrogen_core.actions import count_actions
-from phyrogen_core.chain import KinematicChain
 from phyrogen_core.dependencies import dependency_shape
 from phyrogen_core.export.reader import LoadedPuzzle
 from phyrogen_core.folder import METADATA_FILE, PuzzleFolder, Stage, stage_directory, stage_entries
 
-from .collision import CollisionModel
 from .defragment import defragment_certificate
 from .la_rrt import la_rrt_within
 from .pool import stable_seed
-from .problem import DEFAULT_RESOLUTION, FINE_RESOLUTION, chain_path, densify, problem_for_chain, verify_certificate
+from .problem import FINE_RESOLUTION, chain_dependency_graph, chain_path, problem_for_chain, verify_certificate
 from .validation import rrt_connect, seed_ompl
 
 REPLAN_BUDGET = 100_000
@@ -92,22 +90,7 @@ def replan(loaded: LoadedPuzzle, budget: int = REPLAN_BUDGET, seed: int = 0) -> 
         return Replan((), (), queries, budget, run_seed)
     certificate = tuple(tuple(float(v) for v in state)
                         for state in defragment_certificate(chain, loaded.goal, path))
-    return Replan(certificate, chain_dependencies(chain, certificate), queries, budget, run_seed, planner)
-
-
-def chain_dependencies(chain: KinematicChain, certificate, resolution: float = DEFAULT_RESOLUTION
-                       ) -> tuple[tuple[str, str], ...]:
-    """(blocker, blocked) pairs read off a certificate, as :func:`solver.problem.dependency_graph` does,
-    for a chain read from a folder (no generator objects): B blocks A when A's motion along the
-    certificate would run into B had B stayed at its start pose."""
-    model = CollisionModel(chain)
-    states = densify(certificate, model.motion_steps(resolution))
-    edges: set[tuple[str, str]] = set()
-    for blocker, columns in chain.factors.items():
-        frozen = states.copy()
-        frozen[:, list(columns)] = 0.0
-        edges |= {(blocker, a if b == blocker else b) for a, b in model.colliding_objects(frozen) if blocker in (a, b)}
-    return tuple(sorted(edges))
+    return Replan(certificate, chain_dependency_graph(chain, certificate), queries, budget, run_seed, planner)
 
 
 def replanned_metadata(loaded: LoadedPuzzle, result: Replan) -> str:
