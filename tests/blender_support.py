@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
 import tempfile
+from pathlib import Path
 
 from phyrogen_core.chain import BLACK, GREEN, RED, Geometry, Role
 from phyrogen_core.geometry import Box, Cylinder, Pose, slot_disc
@@ -46,3 +48,14 @@ def every_shape_puzzle() -> Puzzle:
 
 def tool(name: str) -> str | None:
     return shutil.which(name)
+
+
+def blender_environment(tmp_path: Path) -> dict[str, str]:
+    """The environment for a Blender subprocess with an empty user folder under ``tmp_path``
+    that runs PhyRoGen's work in this virtual environment."""
+    environment = dict(os.environ)
+    environment["BLENDER_USER_CONFIG"] = str(tmp_path / "config")
+    environment["BLENDER_USER_SCRIPTS"] = str(tmp_path / "scripts")
+    environment["BLENDER_USER_RESOURCES"] = str(tmp_path / "resources")
+    environment["PHYROGEN_VENV"] = str(Path(sys.prefix))
+    return environment

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from blender_support import tool
+from blender_support import blender_environment, tool
 
 REPOSITORY = Path(__file__).resolve().parent.parent
 BLENDER = tool("blender")
@@ -19,21 +18,13 @@ needs_blender = pytest.mark.skipif(BLENDER is None,
                                    reason="the blender binary is not installed (apt-get install blender)")
 
 
-def _environment(tmp_path: Path) -> dict[str, str]:
-    environment = dict(os.environ)
-    environment["BLENDER_USER_CONFIG"] = str(tmp_path / "config")
-    environment["BLENDER_USER_SCRIPTS"] = str(tmp_path / "scripts")
-    environment["PHYROGEN_VENV"] = str(Path(sys.prefix))
-    return environment
-
-
 @needs_blender
 def test_generate_script_in_blender_background(tmp_path):
     result = subprocess.run(
         [BLENDER, "--background", "--factory-startup", "--python-exit-code", "1", "--python",
          str(REPOSITORY / "scripts" / "generate.py"), "--", "--generator", "simple_slider", "--seed", "2",
          "--out", str(tmp_path / "out")],
-        capture_output=True, text=True, timeout=300, env=_environment(tmp_path))
+        capture_output=True, text=True, timeout=300, env=blender_environment(tmp_path))
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     folder = tmp_path / "out" / "simple_slider" / "simple_slider_2"
     assert "URDF from the scene equals the core's" in result.stdout
@@ -45,14 +36,14 @@ def test_generate_script_started_wrongly_says_what_to_do(tmp_path):
     result = subprocess.run(
         [BLENDER, "--background", "--factory-startup", "--python-exit-code", "1", "--python",
          str(REPOSITORY / "scripts" / "generate.py"), "--generator", "simple_slider"],
-        capture_output=True, text=True, timeout=120, env=_environment(tmp_path))
+        capture_output=True, text=True, timeout=120, env=blender_environment(tmp_path))
     assert result.returncode != 0
     assert "must follow '--'" in result.stdout + result.stderr
 
 
 def test_generate_script_under_plain_python(tmp_path):
     pytest.importorskip("bpy", reason="the bpy wheel is not installed")
-    environment = _environment(tmp_path)
+    environment = blender_environment(tmp_path)
     environment["BLENDER_USER_RESOURCES"] = str(tmp_path / "resources")
     result = subprocess.run([sys.executable, str(REPOSITORY / "scripts" / "generate.py"), "--generator",
                              "move_n_times", "--seed", "1", "--out", str(tmp_path / "out")],
@@ -64,14 +55,14 @@ def test_generate_script_under_plain_python(tmp_path):
 @needs_blender
 @pytest.mark.skipif(tool("xvfb-run") is None or tool("xdotool") is None,
                     reason="xvfb-run and xdotool are needed for the UI check (apt-get install xvfb xauth xdotool)")
-def test_panel_generate_click_in_the_real_ui(tmp_path):
+def test_panel_generate_replan_manipulate_clicks_in_the_real_ui(tmp_path):
     addon = tmp_path / "scripts" / "addons" / "phyrogen"
     shutil.copytree(REPOSITORY / "blender_addon", addon, ignore=shutil.ignore_patterns("__pycache__"))
     result_path, screenshot = tmp_path / "result.json", tmp_path / "panel.png"
     run = subprocess.run(
         ["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", BLENDER, "--factory-startup", "--python",
          str(REPOSITORY / "tests" / "blender_gui_check.py"), "--", str(result_path), str(screenshot)],
-        capture_output=True, text=True, timeout=400, env=_environment(tmp_path), cwd=tmp_path)
+        capture_output=True, text=True, timeout=400, env=blender_environment(tmp_path), cwd=tmp_path)
     assert result_path.is_file(), run.stdout[-3000:] + run.stderr[-3000:]
     result = json.loads(result_path.read_text())
     assert result["ok"], result

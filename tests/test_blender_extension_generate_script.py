@@ -3,13 +3,12 @@ binary (``blender --background --python scripts/generate.py -- ... --render``) a
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from blender_support import tool
+from blender_support import blender_environment, tool
 
 from blender_addon.views import DEFAULT_VIEWS, image_name
 
@@ -19,15 +18,6 @@ BLENDER = tool("blender")
 pytestmark = pytest.mark.blender
 needs_blender = pytest.mark.skipif(BLENDER is None,
                                    reason="the blender binary is not installed (apt-get install blender)")
-
-
-def _environment(tmp_path: Path) -> dict[str, str]:
-    environment = dict(os.environ)
-    environment["BLENDER_USER_CONFIG"] = str(tmp_path / "config")
-    environment["BLENDER_USER_SCRIPTS"] = str(tmp_path / "scripts")
-    environment["BLENDER_USER_RESOURCES"] = str(tmp_path / "resources")
-    environment["PHYROGEN_VENV"] = str(Path(sys.prefix))
-    return environment
 
 
 def _coloured_pixels(path: Path) -> tuple[int, int]:
@@ -45,7 +35,7 @@ def test_generate_script_renders_in_blender_background(tmp_path):
     result = subprocess.run(
         [BLENDER, "--background", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT), "--",
          "--generator", "simple_slider", "--seed", "2", "--out", str(tmp_path / "out"), "--render"],
-        capture_output=True, text=True, timeout=300, env=_environment(tmp_path))
+        capture_output=True, text=True, timeout=300, env=blender_environment(tmp_path))
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     folder = tmp_path / "out" / "simple_slider" / "simple_slider_2"
     assert "URDF from the scene equals the core's" in result.stdout and "rendered" in result.stdout
@@ -65,7 +55,7 @@ def test_generate_script_renders_under_plain_python_with_cycles(tmp_path):
     result = subprocess.run([sys.executable, str(SCRIPT), "--generator", "move_n_times", "--seed", "1",
                              "--out", str(tmp_path / "out"), "--render", "--engine", "cycles", "--views", "oblique",
                              "--size", "160x120"],
-                            capture_output=True, text=True, timeout=300, env=_environment(tmp_path))
+                            capture_output=True, text=True, timeout=300, env=blender_environment(tmp_path))
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     image = tmp_path / "out" / "move_n_times" / "move_n_times_1" / "images" / image_name("move_n_times_1", 0)
     from PIL import Image
@@ -79,7 +69,7 @@ def test_generate_script_refuses_bad_render_options_before_any_work(tmp_path, ba
     pytest.importorskip("bpy", reason="the bpy wheel is not installed")
     result = subprocess.run([sys.executable, str(SCRIPT), "--generator", "simple_slider", "--seed", "2",
                              "--out", str(tmp_path / "out"), "--render", *bad],
-                            capture_output=True, text=True, timeout=120, env=_environment(tmp_path))
+                            capture_output=True, text=True, timeout=120, env=blender_environment(tmp_path))
     assert result.returncode == 2
     assert "generate.py: error:" in result.stderr and bad[1] in result.stderr
     assert not (tmp_path / "out").exists()
