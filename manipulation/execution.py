@@ -32,7 +32,7 @@ from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
 from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value_scale, link_pose, scale_chain
 from .reaching import REACH_BUDGET, ReachingError, plan_motion, seed_reaching
 from .robot import ARM_REST, RobotSpec
-from .scene import COLLISION_MARGIN, World, temporary_folder, write_scene_files
+from .scene import COLLISION_MARGIN, World, open_worlds, temporary_folder, write_scene_files
 from .solution import BenchmarkRun, Solution, candidate_solutions
 from .transforms import inverse, matrix, quaternion
 
@@ -211,7 +211,7 @@ class _Run:
             started = time.perf_counter()
             result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
                             self.settings.follow, self.on_step, object_done, self.sim.puzzle_state,
-                            self.sim.clearance)
+                            self.sim.clearance, self.sim.touches_itself)
             self.execution += time.perf_counter() - started
             pb.removeConstraint(constraint, physicsClientId=self.sim.client)
             stop = result.stop.value
@@ -356,8 +356,7 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
     setup = SceneSetup(scaled, placement, settings.robot)
     with temporary_folder() as tmp:
         files = write_scene_files(Path(tmp), scaled, settings.robot)
-        sim = World(files, scaled, placement, gui=gui)
-        planner = World(files, scaled, placement, self_collision=True)
+        sim, planner = open_worlds(files, scaled, placement, gui)
         run = _Run(loaded, scaled, placement, sim, planner, value_scale, settings)
         try:
             home = np.array([*HOME_BASE, *ARM_REST])

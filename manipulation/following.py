@@ -7,8 +7,9 @@ proportional correction, and the joint motors track it. The puzzle joints
 are never set: the object moves because the grasp constraint pulls it.
 
 A monitor watches for joint flips (an arm joint jumping), low arm
-manipulability and arm joints at their limits; any of them stops the
-motion so the caller can regrasp.
+manipulability, arm joints at their limits, the puzzle coming too close and
+the robot touching itself; any of them stops the motion so the caller can
+regrasp.
 """
 
 from __future__ import annotations
@@ -65,6 +66,7 @@ class Stop(StrEnum):
     SINGULAR = "low manipulability"
     LIMIT = "joint limit"
     CONTACT = "near contact"
+    SELF_CONTACT = "self contact"
 
 
 @dataclass(frozen=True)
@@ -109,7 +111,8 @@ def time_trajectory(states: np.ndarray, grasp_positions: np.ndarray, revolute_co
 def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndarray], np.ndarray],
            start_time: float, settings: FollowSettings, on_step: Callable[[], None],
            object_done: Callable[[], bool], object_state: Callable[[], np.ndarray],
-           clearance_now: Callable[[float], float] = lambda up_to: up_to) -> FollowResult:
+           clearance_now: Callable[[float], float] = lambda up_to: up_to,
+           touches_itself: Callable[[], bool] = lambda: False) -> FollowResult:
     """Track ``tool_pose_at(trajectory.state_at(t))`` from ``start_time`` to the end, stepping physics.
 
     ``on_step`` runs after every physics step (recording, contact checks);
@@ -119,7 +122,9 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     ``clearance_now(up_to)`` the robot's distance to the puzzle, capped at ``up_to``:
     the motion stops when it falls below ``settings.clearance``, or below half of
     what it was at the start when the grasp began closer than that (the base,
-    held still, may stand a few millimetres from a wall).
+    held still, may stand a few millimetres from a wall);
+    ``touches_itself()`` whether the robot touched itself in the last step: it stops the
+    motion too, since the planner cannot start from a robot in self-collision.
     Every stop ends with the robot held still for ``hold_steps``.
     """
     c = world.client
@@ -164,6 +169,8 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
             stop = Stop.SINGULAR
         elif clearance_now(settings.clearance) < stop_distance:
             stop = Stop.CONTACT
+        elif touches_itself():
+            stop = Stop.SELF_CONTACT
         elif t >= trajectory.duration and object_done():
             stop = Stop.DONE
         q = q_new

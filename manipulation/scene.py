@@ -5,6 +5,12 @@ physics only (the robot by its joint motors, puzzle objects only when the
 robot pulls them through a grasp constraint), and a *planning* copy, where
 IK and collision queries may set joint values freely without disturbing the
 simulation.
+
+Both are built the same way, robot self-collision included: the planner
+refuses a robot that touches itself, so the simulation must not let the robot
+pass through itself either. (It once did: Move N Times 4's follower folded
+the arm 2-5 cm into its own base, and the released robot could not be
+planned from; see docs/manipulation/README.md.)
 """
 
 from __future__ import annotations
@@ -58,8 +64,7 @@ def write_scene_files(folder: Path, chain: KinematicChain, spec: RobotSpec) -> S
 class World:
     """One PyBullet client with the robot, the puzzle and a floor (visual only)."""
 
-    def __init__(self, files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False,
-                 self_collision: bool = False):
+    def __init__(self, files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False):
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         self.chain = chain
         self.placement = placement
@@ -67,9 +72,7 @@ class World:
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
         pb.setTimeStep(1 / 240, physicsClientId=c)
         self.floor = _floor(c)
-        flags = pb.URDF_USE_INERTIA_FROM_FILE
-        if self_collision:
-            flags |= pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
+        flags = pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
         self.robot = pb.loadURDF(str(files.robot_urdf), useFixedBase=True, physicsClientId=c, flags=flags)
         ox, oy = placement.offset
         self.puzzle = pb.loadURDF(str(files.puzzle_urdf), basePosition=(ox, oy, 0.0), useFixedBase=True,
@@ -86,8 +89,7 @@ class World:
         for j in self.puzzle_joints:
             pb.setJointMotorControl2(self.puzzle, j, pb.VELOCITY_CONTROL, targetVelocity=0.0,
                                      force=PUZZLE_JOINT_FRICTION, physicsClientId=c)
-        if self_collision:
-            _ignore_near_links(self.robot, c)
+        _ignore_near_links(self.robot, c)
 
     def close(self) -> None:
         if pb.isConnected(self.client):
@@ -125,7 +127,7 @@ class World:
     def in_collision(self, margin: float = COLLISION_MARGIN) -> bool:
         """Robot against puzzle (closer than ``margin``) or against itself, at the current joint values.
 
-        One broad-phase pass answers both (self contacts need a world made with ``self_collision``).
+        One broad-phase pass answers both.
         """
         c = self.client
         pb.performCollisionDetection(physicsClientId=c)
@@ -134,6 +136,12 @@ class World:
             if (other == self.puzzle and distance < margin) or (other == self.robot and distance < 0.0):
                 return True
         return False
+
+    def touches_itself(self) -> bool:
+        """Whether the robot touched itself in the last physics step (the self part of
+        :meth:`in_collision`, from the contacts the step already found)."""
+        points = pb.getContactPoints(self.robot, self.robot, physicsClientId=self.client)
+        return any(p[8] < 0.0 for p in points)
 
     def clearance(self, up_to: float) -> float:
         """Smallest robot-puzzle distance (negative: penetration), or ``up_to`` if nothing is closer."""
@@ -151,6 +159,14 @@ class World:
         linear, angular = pb.calculateJacobian(self.robot, self.tool, (0.0, 0.0, 0.0), list(map(float, q)),
                                                zeros, zeros, physicsClientId=self.client)
         return np.vstack([np.asarray(linear), np.asarray(angular)])
+
+
+def open_worlds(files: SceneFiles, chain: KinematicChain, placement: Placement,
+                gui: bool = False) -> tuple[World, World]:
+    """The simulation (in a window when ``gui``) and the planning world of one run, built alike:
+    the same files, the same collision filters, so the same joint values collide the same way."""
+    simulation = World(files, chain, placement, gui=gui)
+    return simulation, World(files, chain, placement)
 
 
 def _floor(client: int) -> int:
