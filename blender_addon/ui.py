@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import textwrap
 import typing
 from collections.abc import Callable
 from pathlib import Path
@@ -430,7 +431,8 @@ def _finish_manipulate(context, result: JobResult) -> tuple[str, list[str]]:
     settings.manipulation_output = str(out)
     seconds = {key: float(report.get(f"{key}_seconds", 0.0)) for key in ("planning", "execution", "simulated")}
     details = [f"planning {seconds['planning']:.1f} s, execution {seconds['execution']:.1f} s "
-               f"({seconds['simulated']:.1f} s simulated)", f"report: {out / 'report.json'}"]
+               f"({seconds['simulated']:.1f} s simulated)",
+               f"video, frames, report.json in {out.relative_to(_output(settings))}"]
     return manipulation_summary(report), details
 
 
@@ -604,12 +606,15 @@ class PHYROGEN_PT_panel(bpy.types.Panel):  # noqa: N801
     bl_category = "PhyRoGen"
 
     def draw(self, context):
-        draw_panel(self.layout, context.scene.phyrogen)
+        # Labels do not wrap: the job's lines are wrapped to about as many characters as fit.
+        characters = int(context.region.width / (7 * context.preferences.system.ui_scale)) - 4
+        draw_panel(self.layout, context.scene.phyrogen, width=max(characters, 20))
 
 
-def draw_panel(layout, settings, phobos: bool | None = None) -> None:
+def draw_panel(layout, settings, phobos: bool | None = None, width: int = 60) -> None:
     """The panel's content (a function of the settings, so a test can draw it into a fake layout);
-    ``phobos``: whether to show Export with Phobos, by default while the Phobos add-on is enabled."""
+    ``phobos``: whether to show Export with Phobos, by default while the Phobos add-on is enabled;
+    ``width``: characters per line of the job's outcome."""
     layout.prop(settings, "generator")
     layout.prop(settings, "seed")
     row = layout.row()
@@ -624,7 +629,7 @@ def draw_panel(layout, settings, phobos: bool | None = None) -> None:
     row.operator("phyrogen.validate", icon="CHECKMARK")
     row.operator("phyrogen.export_urdf", icon="EXPORT")
     row.operator("phyrogen.render", icon="RENDER_STILL")
-    draw_job(layout, settings)
+    draw_job(layout, settings, width)
     spec = all_generators()[settings.generator]
     box = layout.box()
     box.label(text=f"{spec.title} parameters")
@@ -640,8 +645,9 @@ def draw_panel(layout, settings, phobos: bool | None = None) -> None:
         box.prop(settings, "phobos_output")
 
 
-def draw_job(layout, settings) -> None:
-    """The running job's progress and a Cancel button, else the last job's outcome."""
+def draw_job(layout, settings, width: int = 60) -> None:
+    """The running job's progress and a Cancel button, else the last job's outcome (lines wrapped at
+    ``width`` characters)."""
     if running_job() is not None:
         box = layout.box()
         box.label(text=settings.job_status or "running", icon="SORTTIME")
@@ -652,10 +658,10 @@ def draw_job(layout, settings) -> None:
     box = layout.box()
     icon = {"DONE": "CHECKMARK", "FAILED": "ERROR", "CANCELLED": "CANCEL"}[settings.result_state]
     state = {"DONE": "done", "FAILED": "failed", "CANCELLED": "cancelled"}[settings.result_state]
-    box.label(text=f"{settings.result_label}: {state}", icon=icon)
+    box.label(text=f"{settings.result_label.split(' ')[0]}: {state}", icon=icon)  # the message names the puzzle
     for line in [settings.result_message, *settings.result_details.splitlines()]:
-        if line:
-            box.label(text=line)
+        for part in textwrap.wrap(line, width, subsequent_indent="  ", break_on_hyphens=False):
+            box.label(text=part)
     if settings.result_label.startswith("Manipulate") and settings.manipulation_output:
         row = box.row(align=True)
         row.operator("phyrogen.open_manipulation", text="Video", icon="FILE_MOVIE").what = "VIDEO"

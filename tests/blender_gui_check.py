@@ -1,4 +1,5 @@
-"""Runs inside the real Blender UI (under Xvfb): clicks the panel's Generate with xdotool.
+"""Runs inside the real Blender UI (under Xvfb): clicks the panel's Generate, then (after an edit of
+the scene) Re-plan, then Manipulate with xdotool, each a job in a subprocess watched by a modal operator.
 
     blender --factory-startup --python tests/blender_gui_check.py -- RESULT.json SCREENSHOT.png
 
@@ -17,7 +18,31 @@ import bpy
 
 RESULT, SCREENSHOT = sys.argv[sys.argv.index("--") + 1:][:2]
 PUZZLE = "simple_slider_1"
-state = {"clicks": [], "tab_clicks": [], "started": time.monotonic(), "errors": [], "drawn": False}
+state = {"clicks": [], "tab_clicks": [], "started": time.monotonic(), "errors": [], "drawn": False, "steps": [],
+         "step": 0, "attempt": 0, "clicked_at": None, "running_ticks": 0, "statuses": []}
+
+
+class Step:
+    """One button of the panel: where to click it (the share of the panel's width, candidate offsets in
+    unscaled pixels below the sidebar's top edge) and what its job's label starts with."""
+
+    def __init__(self, label, x_share, offsets, before=None):
+        self.label, self.x_share, self.offsets, self.before = label, x_share, offsets, before
+
+
+def edit_scene():
+    """A user's edit before Re-plan: a blocker moves along y (still clear of the others at the start)."""
+    bpy.data.objects["obj_01"].location.y += 0.25
+
+
+# The Generate row is the third of the panel, below the header, generator and seed rows; the row of
+# Re-plan, Benchmark and Manipulate follows it. The first candidate that starts a job is the button;
+# a miss lands on the panel's background or on Validate (harmless).
+STEPS = (Step("Generate", 0.5, (96, 88, 104)),
+         Step("Re-plan", 1 / 6, (130, 124, 136), before=edit_scene),
+         Step("Manipulate", 5 / 6, (130, 124, 136)))
+ATTEMPT_SECONDS = 6.0
+STEP_SECONDS = 180.0
 
 
 def view3d():
@@ -34,35 +59,40 @@ def finish(ok):
     with bpy.context.temp_override(window=window, area=area, region=main_region):
         if ok:
             bpy.ops.view3d.view_all()
-    bpy.app.timers.register(lambda: screenshot_and_quit(ok), first_interval=1.0)
+    subprocess.Popen(["xdotool", "mousemove", str(window.x + 40), str(window.height // 2)])  # off the buttons
+    bpy.app.timers.register(lambda: screenshot_and_quit(ok), first_interval=1.5)
 
 
 def screenshot_and_quit(ok):
     window, area, _ = view3d()
     with bpy.context.temp_override(window=window, area=area):
-        bpy.ops.screen.screenshot(filepath=SCREENSHOT)
+        bpy.ops.screen.screenshot_area(filepath=SCREENSHOT)  # the 3D view with the panel
     collection = bpy.data.collections.get(PUZZLE)
     objects = sorted(o.name for o in collection.all_objects) if collection else []
+    settings = bpy.context.scene.phyrogen
     with open(RESULT, "w") as stream:
         json.dump({"ok": ok, "objects": objects, "clicks": state["clicks"], "tab_clicks": state["tab_clicks"],
-                   "errors": state["errors"],
+                   "errors": state["errors"], "steps": state["steps"],
+                   "manipulation_output": settings.manipulation_output, "output": settings.output,
+                   "panel": [settings.result_label, settings.result_state, settings.result_message,
+                             *settings.result_details.splitlines()],
                    "blender": bpy.app.version_string}, stream)
     bpy.ops.wm.quit_blender()
 
 
-def click_generate():
+def click_step(step):
     window, area, region = view3d()
     scale = bpy.context.preferences.system.ui_scale
-    # Window coordinates grow upwards, the screen's downwards. The Generate button is the
-    # third row of the panel, below the header, generator and seed rows.
-    x = region.x + region.width // 2
-    y = window.height - (region.y + region.height) + int(round(state["offset"] * scale))
+    # Window coordinates grow upwards, the screen's downwards; the tab column is the region's last 20 px.
+    x = region.x + int((region.width - 20 * scale) * step.x_share)
+    y = window.height - (region.y + region.height) + int(round(step.offsets[state["attempt"]] * scale))
     click(x, y)
-    state["clicks"].append([x, y])
+    state["clicks"].append([step.label, x, y])
 
 
 def click(x, y):
-    subprocess.Popen(["xdotool", "mousemove", "--sync", str(x), str(y), "click", "1"])
+    # The pause lets Blender see the pointer over the button (it highlights it) before the click.
+    subprocess.Popen(["xdotool", "mousemove", "--sync", str(x), str(y), "sleep", "0.3", "click", "1"])
 
 
 def find_tab():
@@ -84,25 +114,50 @@ def find_tab():
 
 
 def poll():
-    collection = bpy.data.collections.get(PUZZLE)
-    if collection is not None and len(collection.all_objects) > 0:
-        bpy.app.timers.register(lambda: finish(True), first_interval=1.0)
-        return None
-    elapsed = time.monotonic() - state["started"]
-    if elapsed > 120:
-        state["errors"].append("no puzzle after 120 s")
+    """Click the current step's button, watch its job (the UI keeps running this timer meanwhile: it is
+    not frozen) and go on to the next step when its outcome is in the panel."""
+    settings = bpy.context.scene.phyrogen
+    now = time.monotonic()
+    if now - state["started"] > 600:
+        state["errors"].append("the check took over 600 s")
         finish(False)
         return None
-    if not state["clicks"] or (len(state["clicks"]) < len(OFFSETS) and elapsed > state["next_click"]):
-        state["offset"] = OFFSETS[len(state["clicks"])]
-        click_generate()
-        state["next_click"] = elapsed + 8.0
-    return 0.5
-
-
-# Candidate offsets (unscaled pixels from the top of the sidebar) of the Generate row; the
-# first hit generates, later ones are never clicked.
-OFFSETS = (96, 88, 104)
+    step = STEPS[state["step"]]
+    if state["clicked_at"] is None:
+        if step.before is not None and state["attempt"] == 0:
+            step.before()
+        if state["attempt"] == 0:
+            state["before"] = (settings.result_label, settings.result_message)
+        click_step(step)
+        state["clicked_at"] = now
+        return 0.25
+    if settings.job_status:
+        state["running_ticks"] += 1
+        if not state["statuses"] or state["statuses"][-1] != settings.job_status:
+            state["statuses"].append(settings.job_status)
+        return 0.25
+    outcome = (settings.result_label, settings.result_message)
+    if settings.result_label.startswith(step.label) and outcome != state["before"]:
+        state["steps"].append({"step": step.label, "state": settings.result_state,
+                               "message": settings.result_message, "statuses": state["statuses"],
+                               "ticks_while_running": state["running_ticks"], "offset": step.offsets[state["attempt"]],
+                               "seconds": round(now - state["clicked_at"], 1)})
+        if settings.result_state != "DONE":
+            state["errors"].append(f"{step.label}: {settings.result_message}")
+            finish(False)
+            return None
+        state.update(step=state["step"] + 1, attempt=0, clicked_at=None, running_ticks=0, statuses=[])
+        if state["step"] == len(STEPS):
+            bpy.app.timers.register(lambda: finish(True), first_interval=1.0)
+            return None
+        return 1.0
+    if now - state["clicked_at"] > (STEP_SECONDS if state["running_ticks"] else ATTEMPT_SECONDS):
+        if state["attempt"] + 1 >= len(step.offsets):
+            state["errors"].append(f"no {step.label} job after clicking at every candidate offset")
+            finish(False)
+            return None
+        state.update(attempt=state["attempt"] + 1, clicked_at=None)
+    return 0.25
 
 
 def start():
@@ -112,9 +167,10 @@ def start():
         settings.generator = "simple_slider"
         settings.seed = 1
         settings.output = os.path.join(os.path.dirname(os.path.abspath(RESULT)), "output")
-        cube = bpy.data.objects.get("Cube")
-        if cube is not None:
-            bpy.data.objects.remove(cube)
+        for name in ("Cube", "Camera", "Light"):  # so that View All frames the puzzle
+            obj = bpy.data.objects.get(name)
+            if obj is not None:
+                bpy.data.objects.remove(obj)
         window, area, region = view3d()
         area.spaces[0].show_region_ui = True
         area.tag_redraw()
@@ -130,7 +186,6 @@ def start():
         state["errors"].append(repr(exc))
         finish(False)
         return None
-    state["next_click"] = 0.0
     bpy.app.timers.register(find_tab, first_interval=2.0)
     return None
 

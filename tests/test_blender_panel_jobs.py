@@ -165,7 +165,7 @@ def test_panel_generate_edit_replan_benchmark_manipulate(panel, tmp_path):
     assert len(list(ui.manipulation_path(settings, "FRAMES").glob("*.png"))) == 4
     log = []
     ui.draw_panel(FakeLayout(log), settings, phobos=False)
-    assert ("operator", "phyrogen.open_manipulation") in log and ("label", "Manipulate simple_slider_2: done") in log
+    assert ("operator", "phyrogen.open_manipulation") in log and ("label", "Manipulate: done") in log
 
 
 @pytest.mark.blender
