@@ -121,8 +121,11 @@ class Job:
             if self._cancelled_at is not None and time.monotonic() - self._cancelled_at > KILL_AFTER:
                 _signal_group(self.pid, signal.SIGKILL)
             return None
-        if self._cancelled_at is not None:
-            _signal_group(self.pid, signal.SIGKILL)  # workers that outlived the leader
+        if self._cancelled_at is not None:  # workers that outlived the leader: killed, and gone (briefly waited for)
+            _signal_group(self.pid, signal.SIGKILL)
+            deadline = time.monotonic() + 2.0
+            while group_alive(self.pid) and time.monotonic() < deadline:
+                time.sleep(0.01)
         stdout = self._stdout_path.read_text(encoding="utf-8", errors="replace")
         last = _error_line(_tail(self._stderr_path) + "\n" + stdout)
         self._result = JobResult(returncode, stdout, last, self._cancelled_at is not None)
