@@ -620,15 +620,16 @@ def draw_panel(layout, settings, phobos: bool | None = None, width: int = 60) ->
     row = layout.row()
     row.scale_y = 1.6
     row.operator("phyrogen.generate", icon="MOD_BUILD")
-    row = layout.row(align=True)
-    row.scale_y = 1.2
-    row.operator("phyrogen.replan", icon="FILE_REFRESH")
-    row.operator("phyrogen.benchmark", icon="TIME")
-    row.operator("phyrogen.manipulate", icon="ARMATURE_DATA")
-    row = layout.row(align=True)
-    row.operator("phyrogen.validate", icon="CHECKMARK")
-    row.operator("phyrogen.export_urdf", icon="EXPORT")
-    row.operator("phyrogen.render", icon="RENDER_STILL")
+    # One operator a row: the sidebar is narrow by default, and three a row cut every label short.
+    column = layout.column(align=True)
+    column.scale_y = 1.2
+    column.operator("phyrogen.replan", icon="FILE_REFRESH")
+    column.operator("phyrogen.benchmark", icon="TIME")
+    column.operator("phyrogen.manipulate", icon="ARMATURE_DATA")
+    column = layout.column(align=True)
+    column.operator("phyrogen.validate", icon="CHECKMARK")
+    column.operator("phyrogen.export_urdf", icon="EXPORT")
+    column.operator("phyrogen.render", icon="RENDER_STILL")
     draw_job(layout, settings, width)
     spec = all_generators()[settings.generator]
     box = layout.box()

@@ -35,12 +35,13 @@ def edit_scene():
     bpy.data.objects["obj_01"].location.y += 0.25
 
 
-# The Generate row is the third of the panel, below the header, generator and seed rows; the row of
-# Re-plan, Benchmark and Manipulate follows it. The first candidate that starts a job is the button;
-# a miss lands on the panel's background or on Validate (harmless).
+# The Generate row is the third of the panel, below the header, generator and seed rows; Re-plan,
+# Benchmark and Manipulate follow it, one a row (about 29 px each). The first candidate that starts a
+# job is the button; a miss lands on the panel's background, or on a neighbour whose job runs and
+# does not count (its outcome has the wrong label).
 STEPS = (Step("Generate", 0.5, (96, 88, 104)),
-         Step("Re-plan", 1 / 6, (130, 124, 136), before=edit_scene),
-         Step("Manipulate", 5 / 6, (130, 124, 136)))
+         Step("Re-plan", 0.5, (130, 124, 136), before=edit_scene),
+         Step("Manipulate", 0.5, (188, 182, 194)))
 ATTEMPT_SECONDS = 6.0
 STEP_SECONDS = 180.0
 
