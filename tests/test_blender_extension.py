@@ -1,5 +1,5 @@
 """The self-contained extension: the zip bundles what Generate needs, and a fresh Blender with only the zip
-installed generates a certified puzzle.
+installed generates a certified puzzle and re-plans it.
 
 "Fresh Blender" is the bpy 4.5 wheel in a Python that holds nothing else: a new virtual environment whose
 site-packages links bpy and the distributions bpy requires (what a Blender binary ships: numpy, requests,
@@ -102,6 +102,10 @@ try:
     settings.output = out
     result["generate"] = sorted(bpy.ops.phyrogen.generate())
     result["validate"] = sorted(bpy.ops.phyrogen.validate())
+    folder = os.path.join(out, "simple_slider", "simple_slider_2")
+    with open(os.path.join(folder, "puzzle.json"), "rb") as generated:
+        result["generated_metadata"] = generated.read().decode()
+    result["replan"] = sorted(bpy.ops.phyrogen.replan())  # OMPL in a worker of Blender's own Python
     result["objects"] = sorted(o.name for o in bpy.data.objects)
     result["origins"] = {m: getattr(importlib.util.find_spec(m), "origin", None) for m in modules}
     result["pythonpath"] = os.environ.get("PYTHONPATH", "")
@@ -192,7 +196,7 @@ def test_zip_bundles_the_wheels_its_manifest_lists(bundled_zip):
 
 @pytest.mark.blender
 @pytest.mark.slow
-def test_fresh_blender_with_only_the_zip_generates(bundled_zip, tmp_path):
+def test_fresh_blender_with_only_the_zip_generates_and_replans(bundled_zip, tmp_path):
     from phyrogen_core.export import read_puzzle_dir
     from solver.problem import verify_certificate
 
@@ -203,6 +207,7 @@ def test_fresh_blender_with_only_the_zip_generates(bundled_zip, tmp_path):
     assert result["blender"].startswith("4.5")
     assert result["install"] == ["FINISHED"]
     assert result["generate"] == ["FINISHED"] and result["validate"] == ["FINISHED"]
+    assert result["replan"] == ["FINISHED"], result
     assert {"base_link", "obj_00", "obj_01"} <= set(result["objects"])
     # PhyRoGen and its dependencies come from the wheels the extension installed, for Blender's
     # process and (on PYTHONPATH) for the generation worker that Generate started.
@@ -214,15 +219,16 @@ def test_fresh_blender_with_only_the_zip_generates(bundled_zip, tmp_path):
     folder = out / "simple_slider" / "simple_slider_2"
     assert (folder / "urdf" / "simple_slider_2.urdf").is_file() and (folder / "srdf" / "simple_slider_2.srdf").is_file()
     loaded = read_puzzle_dir(folder)  # strictly: metadata agrees with the URDF
-    assert len(loaded.metadata["certificate"]) >= 2
+    assert len(loaded.metadata["certificate"]) >= 2 and "replanned_by" in loaded.metadata
     assert verify_certificate(loaded.chain, loaded.certificate, loaded.goal) == []
     # The same puzzle as PhyRoGen's own environment makes.
     reference = tmp_path / "reference"
     subprocess.run([sys.executable, "-m", "phyrogen", "generate", "--generator", "simple_slider", "--seeds", "2",
                     "--out", str(reference), "--quiet"], check=True, capture_output=True, cwd=REPOSITORY)
     made = reference / "simple_slider" / "simple_slider_2"
-    for name in ("urdf/simple_slider_2.urdf", "srdf/simple_slider_2.srdf", "puzzle.json"):
+    for name in ("urdf/simple_slider_2.urdf", "srdf/simple_slider_2.srdf"):
         assert (folder / name).read_bytes() == (made / name).read_bytes(), name
+    assert result["generated_metadata"] == (made / "puzzle.json").read_text()  # as generated, before Re-plan
 
 
 THIN_ZIP_SCRIPT = r'''
