@@ -6,6 +6,7 @@ import os
 import shutil
 import sys
 import tempfile
+import types
 from pathlib import Path
 
 from phyrogen_core.chain import BLACK, GREEN, RED, Geometry, Role
@@ -59,3 +60,30 @@ def blender_environment(tmp_path: Path) -> dict[str, str]:
     environment["BLENDER_USER_RESOURCES"] = str(tmp_path / "resources")
     environment["PHYROGEN_VENV"] = str(Path(sys.prefix))
     return environment
+
+
+class FakeLayout:
+    """Records what a panel draws (``("prop", name)``, ``("operator", idname)``, ``("label", text)``),
+    standing in for Blender's UILayout so that drawing can be tested without a window."""
+
+    def __init__(self, log: list):
+        self.log = log
+        self.scale_y = 1.0
+
+    def prop(self, data, name, **_):
+        self.log.append(("prop", name))
+
+    def operator(self, idname, **_):
+        self.log.append(("operator", idname))
+        return types.SimpleNamespace()
+
+    def label(self, text="", **_):
+        self.log.append(("label", text))
+
+    def row(self, **_):
+        return self
+
+    column = row
+
+    def box(self):
+        return self

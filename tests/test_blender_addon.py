@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from blender_support import private_blender_home
+from blender_support import FakeLayout, private_blender_home
 
 private_blender_home()
 bpy = pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
@@ -45,29 +45,6 @@ def test_extension_zip_holds_manifest_and_package(extension_zip):
     names = set(zipfile.ZipFile(extension_zip).namelist())
     assert {"blender_manifest.toml", "__init__.py", "ui.py", "scene.py"} <= names
     assert not [n for n in names if "__pycache__" in n]
-
-
-class FakeLayout:
-    """Records what a panel draws."""
-
-    def __init__(self, log):
-        self.log = log
-        self.scale_y = 1.0
-
-    def prop(self, data, name, **_):
-        self.log.append(("prop", name))
-
-    def operator(self, idname, **_):
-        self.log.append(("operator", idname))
-
-    def label(self, text="", **_):
-        self.log.append(("label", text))
-
-    def row(self, **_):
-        return FakeLayout(self.log)
-
-    def box(self):
-        return FakeLayout(self.log)
 
 
 def test_panel_shows_generator_seed_parameters_and_operators(installed):

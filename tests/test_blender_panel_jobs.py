@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import json
 import time
-import types
 from pathlib import Path
 
 import pytest
-from blender_support import private_blender_home
+from blender_support import FakeLayout, private_blender_home
 
 from blender_addon.jobs import Job, group_alive, phyrogen_command
 from phyrogen_core.export import read_puzzle_dir
@@ -67,30 +66,6 @@ def test_failed_job_reports_the_commands_error_line(tmp_path):
     result = Job("Re-plan", phyrogen_command("replan", str(tmp_path / "nowhere"))).wait()
     assert result.returncode == 2 and not result.cancelled
     assert "no such puzzle folder" in result.last_line
-
-
-class FakeLayout:
-    """Records what a panel draws."""
-
-    def __init__(self, log):
-        self.log = log
-        self.scale_y = 1.0
-
-    def prop(self, data, name, **_):
-        self.log.append(("prop", name))
-
-    def operator(self, idname, **_):
-        self.log.append(("operator", idname))
-        return types.SimpleNamespace()
-
-    def label(self, text="", **_):
-        self.log.append(("label", text))
-
-    def row(self, **_):
-        return self
-
-    def box(self):
-        return self
 
 
 @pytest.fixture(scope="module")
