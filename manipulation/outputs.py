@@ -10,7 +10,7 @@ from pathlib import Path
 from phyrogen_core.export import atomic_directory
 
 from .execution import ManipulationReport, Recording, SceneSetup
-from .media import Renderer, figure_indices, write_frames, write_video
+from .media import Renderer, write_frames, write_video
 
 
 def write_outputs(out_root: Path, report: ManipulationReport, recording: Recording, setup: SceneSetup,
@@ -18,7 +18,7 @@ def write_outputs(out_root: Path, report: ManipulationReport, recording: Recordi
     """``<out_root>/<puzzle>/``: frames/frame_1..4.png, <puzzle>.mp4, report.json (written atomically)."""
     final = Path(out_root) / report.puzzle
     with atomic_directory(final) as folder, Renderer(setup) as renderer:
-        write_frames(renderer, recording, folder / "frames", figure_indices(recording))
+        write_frames(renderer, recording, folder / "frames")
         if video:
             write_video(renderer, recording, folder / f"{report.puzzle}.mp4")
         (folder / "report.json").write_text(report_json(report), encoding="utf-8")

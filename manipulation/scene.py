@@ -170,7 +170,7 @@ def open_worlds(files: SceneFiles, chain: KinematicChain, placement: Placement,
 
 
 def _floor(client: int) -> int:
-    shape = pb.createVisualShape(pb.GEOM_BOX, halfExtents=(4, 4, 0.005), rgbaColor=(0.85, 0.85, 0.82, 1),
+    shape = pb.createVisualShape(pb.GEOM_BOX, halfExtents=(20, 20, 0.005), rgbaColor=(0.85, 0.85, 0.82, 1),
                                  physicsClientId=client)
     # Visual only: the puzzle and the robot stand on their own fixed roots.
     return pb.createMultiBody(0, -1, shape, (0, 0, -0.006), physicsClientId=client)
