@@ -4,12 +4,13 @@ Rendering replays the recorded joint values in a separate, render-only
 PyBullet world with the TinyRenderer (no GPU needed), so it never touches
 the simulation or its timings.
 
-The camera is framed on the robot and the puzzle together: it aims at the
-centre of the axis-aligned box around every link of both bodies and stands
-back just far enough for that box to fit the image, with a margin, from a
-fixed oblique direction (:data:`CAMERA_YAW`, :data:`CAMERA_PITCH`). The four
+The camera is framed on the robot and the puzzle together: from a fixed
+oblique direction (:data:`CAMERA_YAW`, :data:`CAMERA_PITCH`) it aims at the
+middle of the corners of the axis-aligned boxes of every link of both bodies
+(collision and visual shapes), as seen across and up the image, and stands
+back just far enough for all of them to fit the image, with a margin. The four
 figure frames are framed each on its own moment; the video's camera is
-framed on the box around a window of moments and smoothed over time, so it
+framed on a window of moments and smoothed over time, so it
 neither jumps nor loses either body.
 """
 
@@ -93,37 +94,42 @@ def _axes(yaw: float = CAMERA_YAW, pitch: float = CAMERA_PITCH) -> tuple[np.ndar
     return rotation[0], rotation[1], -rotation[2]
 
 
-def fit(low: np.ndarray, high: np.ndarray, aspect: float, target: np.ndarray | None = None) -> Camera:
-    """The camera aimed at ``target`` (default: the box's centre) that sees the whole box
-    ``low``-``high`` with :data:`MARGIN`, from the fixed yaw and pitch."""
-    low, high = np.asarray(low, float), np.asarray(high, float)
-    target = (low + high) / 2 if target is None else np.asarray(target, float)
+def _box_corners(low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    return np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+
+
+def fit(points: np.ndarray, aspect: float, target: np.ndarray | None = None) -> Camera:
+    """The camera aimed at ``target`` that sees every point with :data:`MARGIN`, from the fixed yaw
+    and pitch. The default target centres the points' extent across and up the image."""
+    points = np.asarray(points, float)
     right, up, forward = _axes()
+    if target is None:
+        axes = np.stack([right, up, forward])
+        coords = points @ axes.T
+        target = ((coords.min(axis=0) + coords.max(axis=0)) / 2) @ axes
+    target = np.asarray(target, float)
     tan_v = math.tan(math.radians(FIELD_OF_VIEW) / 2) / MARGIN
     tan_h = tan_v * aspect
-    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1])
-                        for z in (low[2], high[2])]) - target
-    # A corner at depth d + c.forward is in view when |c.right| <= tan_h * depth and |c.up| <= tan_v * depth.
-    depth = corners @ forward
-    needed = np.maximum(np.abs(corners @ right) / tan_h, np.abs(corners @ up) / tan_v) - depth
+    relative = points - target
+    # A point at depth d + p.forward is in view when |p.right| <= tan_h * depth and |p.up| <= tan_v * depth.
+    needed = np.maximum(np.abs(relative @ right) / tan_h, np.abs(relative @ up) / tan_v) - relative @ forward
     return Camera(tuple(float(v) for v in target), float(max(needed.max(), 0.2)))
 
 
-def smooth_cameras(boxes: Sequence[tuple[np.ndarray, np.ndarray]], aspect: float, window: int) -> list[Camera]:
-    """Cameras for a sequence of bounding boxes that move smoothly and still see each box.
+def smooth_cameras(point_sets: Sequence[np.ndarray], aspect: float, window: int) -> list[Camera]:
+    """Cameras for a sequence of moments (each the corner points of its bodies' boxes) that move
+    smoothly and still see each moment whole.
 
-    Each moment is framed on the union of the boxes ``window`` moments either side; the target is
-    that union's centre averaged over the window, and the distance the average, over the window, of
+    Each moment is framed on the points of the ``window`` moments either side; the target is that
+    framing's target averaged over the window, and the distance the average, over the window, of
     the largest distance needed in a window: never less than what the moment itself needs.
     """
-    n = len(boxes)
-    lows = np.array([b[0] for b in boxes], float)
-    highs = np.array([b[1] for b in boxes], float)
+    n = len(point_sets)
     span = [range(max(0, i - window), min(n, i + window + 1)) for i in range(n)]
-    union = [(lows[list(s)].min(axis=0), highs[list(s)].max(axis=0)) for s in span]
-    centres = np.array([(lo + hi) / 2 for lo, hi in union])
+    union = [np.concatenate([point_sets[j] for j in s]) for s in span]
+    centres = np.array([fit(points, aspect).target for points in union])
     targets = [centres[list(s)].mean(axis=0) for s in span]
-    needed = np.array([fit(lo, hi, aspect, t).distance for (lo, hi), t in zip(union, targets, strict=True)])
+    needed = np.array([fit(points, aspect, t).distance for points, t in zip(union, targets, strict=True)])
     # needed[i] depends on targets[i]; the moving max then moving mean of the window keeps every
     # distance >= needed[i] (each max over a window holding i is).
     widest = np.array([needed[list(s)].max() for s in span])
@@ -151,8 +157,9 @@ class Renderer:
         self.world.set_robot(recording.robot[index])
         self.world.set_puzzle(recording.puzzle[index])
 
-    def bounds(self, recording: Recording, index: int) -> tuple[np.ndarray, np.ndarray]:
-        """The axis-aligned box around every link of the robot and of the puzzle at ``index``."""
+    def corners(self, recording: Recording, index: int) -> np.ndarray:
+        """The corners of the axis-aligned boxes of every link of the robot and of the puzzle at ``index``
+        (collision and visual shapes), one a row."""
         self.pose(recording, index)
         c = self.world.client
         boxes = [pb.getAABB(body, link, physicsClientId=c)
@@ -162,12 +169,11 @@ class Renderer:
         for body in (self.world.robot, self.world.puzzle):
             boxes += [box for shape in pb.getVisualShapeData(body, physicsClientId=c)
                       if (box := _visual_box(body, shape, c, self._mesh_bounds)) is not None]
-        return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+        return np.concatenate([_box_corners(np.asarray(lo), np.asarray(hi)) for lo, hi in boxes])
 
     def camera(self, recording: Recording, index: int, size: tuple[int, int]) -> Camera:
         """The camera framed on robot and puzzle at ``index`` alone."""
-        low, high = self.bounds(recording, index)
-        return fit(low, high, size[0] / size[1])
+        return fit(self.corners(recording, index), size[0] / size[1])
 
     def picture(self, recording: Recording, index: int, size: tuple[int, int], camera: Camera | None = None) -> Picture:
         camera = camera or self.camera(recording, index, size)
@@ -253,8 +259,8 @@ def write_frames(renderer: Renderer, recording: Recording, folder: Path,
 def video_cameras(renderer: Renderer, recording: Recording, indices: Sequence[int],
                   size: tuple[int, int] = VIDEO_SIZE) -> list[Camera]:
     """The smoothed cameras of the video frames at ``indices``."""
-    boxes = [renderer.bounds(recording, i) for i in indices]
-    return smooth_cameras(boxes, size[0] / size[1], max(1, round(VIDEO_WINDOW * VIDEO_FPS)))
+    points = [renderer.corners(recording, i) for i in indices]
+    return smooth_cameras(points, size[0] / size[1], max(1, round(VIDEO_WINDOW * VIDEO_FPS)))
 
 
 def write_video(renderer: Renderer, recording: Recording, path: Path, size: tuple[int, int] = VIDEO_SIZE) -> Path:
