@@ -26,12 +26,13 @@ from phyrogen_core.chain import JointType, KinematicChain
 from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
 from solver.problem import densify
 
+from .floor import FloorMap, floor_map
 from .following import FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory
 from .grasp import GraspPoint, grasp_point
 from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
-from .placement import DEFAULT_MAX_EXTENT, Placement, fit_placement, joint_value_scale, link_pose, scale_chain
+from .placement import Placement, centred_placement, joint_value_scale, link_pose, physical_scale, scale_chain
 from .reaching import REACH_BUDGET, ReachingError, plan_motion, seed_reaching
-from .robot import ARM_REST, RobotSpec
+from .robot import ARM_REST, ARM_TUCKED, RobotSpec
 from .scene import COLLISION_MARGIN, World, open_worlds, temporary_folder, write_scene_files
 from .solution import BenchmarkRun, Solution, candidate_solutions
 from .transforms import inverse, matrix, quaternion
@@ -44,8 +45,10 @@ SETTLE_STEPS = 60
 """Physics steps a released object is watched for drift before the next action."""
 LIFT_HEIGHTS = (0.03, 0.06, 0.1)
 """Metres the tool may rise straight up after a release, to clear the planning margin."""
-HOME_BASE = (-1.0, 0.0, 0.0)
-"""Where the base starts (x, y, yaw), outside the puzzle's square."""
+DIRECT_REACH = 1.0
+"""Metres: a base move up to this long is first tried as one BIT* search over all joints."""
+HOME_CLEARANCE = 0.8
+"""Metres between the base's centre at the start and the puzzle's floor area (on its -x side)."""
 
 
 class ExecutionError(RuntimeError):
@@ -54,7 +57,9 @@ class ExecutionError(RuntimeError):
 
 @dataclass(frozen=True)
 class ExecutionSettings:
-    max_extent: float = DEFAULT_MAX_EXTENT
+    scale: float | None = None
+    """Scene metres per puzzle unit; None: the generator's physical scale
+    (:data:`~manipulation.placement.PHYSICAL_SCALES`)."""
     robot: RobotSpec = RobotSpec()
     follow: FollowSettings = FollowSettings()
     ik: IkSettings = IkSettings()
@@ -256,13 +261,18 @@ class _Run:
             return [(self.link_world(grasp.link, s) @ offset, s) for s in futures]
 
         here = self.sim.robot_state()[:2]
+        floor = floor_map(self.planner, self.placement.half_extent, here, self.settings.robot)
+
+        def base_ok(xy: np.ndarray) -> bool:
+            return floor.nearest_reachable(xy) is not None
+
         solution = None
         # Shorter look-aheads, then a smaller clearance, only when nothing better exists.
         tiers = ((len(futures), failed_base, GRASP_CLEARANCE), (1, failed_base, GRASP_CLEARANCE),
                  (0, None, GRASP_CLEARANCE), (0, None, COLLISION_MARGIN))
         for count, exclude, clearance in tiers:
             solution = best_grasp_configuration(self.planner, point, lambda pose, n=count: lookahead(pose)[:n],
-                                                self.settings.ik, exclude, here, clearance)
+                                                self.settings.ik, exclude, here, clearance, base_ok)
             if solution is not None and solution.score > 0:
                 break
         if solution is None:
@@ -271,8 +281,7 @@ class _Run:
         start = self.sim.robot_state()
         try:
             lift = self.lift_off(start)
-            path = plan_motion(self.planner, lift[-1], solution.q, self.settings.reach_budget)
-            path = np.vstack([lift[:-1], path])
+            path = np.vstack([lift[:-1], self.reach(lift[-1], solution.q, floor)])
         except ReachingError as exc:
             raise ExecutionError(f"reaching the grasp on {grasp.link}: {exc}") from None
         self.planning += time.perf_counter() - started
@@ -281,6 +290,26 @@ class _Run:
         self.execution += time.perf_counter() - started
         tool = matrix(*self.sim.tool_pose())
         return inverse(self.link_world(grasp.link, self.sim.puzzle_state())) @ tool
+
+    def reach(self, start: np.ndarray, goal: np.ndarray, floor: FloorMap) -> np.ndarray:
+        """A collision-free robot path from ``start`` to the grasp ``goal``: one BIT* search when
+        the base moves little, else (or when that fails) tuck the arm, drive over the free floor,
+        untuck."""
+        budget, area = self.settings.reach_budget, self.placement.half_extent
+        if np.linalg.norm(goal[:2] - start[:2]) <= DIRECT_REACH:
+            try:
+                return plan_motion(self.planner, start, goal, budget, area)
+            except ReachingError:
+                pass
+        there = floor.nearest_reachable(goal[:2])
+        if floor.start is None or there is None:
+            raise ReachingError("the base cannot drive from where it stands to the grasp")
+        route = floor.route(floor.start, there)
+        tucked_here = np.array([*route[0], start[2], *ARM_TUCKED])
+        drive = np.array([[*xy, start[2], *ARM_TUCKED] for xy in route] + [[*route[-1], goal[2], *ARM_TUCKED]])
+        tuck = plan_motion(self.planner, start, tucked_here, budget, area)
+        untuck = plan_motion(self.planner, drive[-1], goal, budget, area)
+        return np.vstack([tuck, drive[1:], untuck[1:]])
 
     def lift_off(self, start: np.ndarray) -> np.ndarray:
         """A short straight path lifting the tool clear of the puzzle, when the released robot is
@@ -350,7 +379,9 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
     chain = loaded.chain
     factors = {name: cols for name, cols in chain.factors.items() if name != "goal"}
     actions = split_actions(solution.path, factors)
-    placement = fit_placement(chain, solution.path, settings.max_extent)
+    generator = str(loaded.metadata.get("generator", ""))
+    scale = settings.scale if settings.scale is not None else physical_scale(generator)
+    placement = centred_placement(chain, solution.path, scale)
     scaled = scale_chain(chain, placement.scale)
     value_scale = joint_value_scale(chain, placement.scale)
     setup = SceneSetup(scaled, placement, settings.robot)
@@ -359,7 +390,7 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
         sim, planner = open_worlds(files, scaled, placement, gui)
         run = _Run(loaded, scaled, placement, sim, planner, value_scale, settings)
         try:
-            home = np.array([*HOME_BASE, *ARM_REST])
+            home = np.array([-placement.half_extent[0] - HOME_CLEARANCE, 0.0, 0.0, *ARM_REST])
             sim.set_robot(home)
             pb.setJointMotorControlArray(sim.robot, sim.robot_joints, pb.POSITION_CONTROL,
                                          targetPositions=home.tolist(), physicsClientId=sim.client)

@@ -41,9 +41,15 @@ Future = tuple[np.ndarray, np.ndarray]
 
 @dataclass(frozen=True)
 class IkSettings:
-    distances: tuple[float, ...] = (0.45, 0.55, 0.65, 0.75, 0.85)
-    """Metres from the grasp point to the base centre in the candidate rest poses."""
-    directions: int = 16
+    nearest: float = 0.3
+    farthest: float = 0.85
+    """Metres from the grasp point to the base centre: the range searched in each direction."""
+    step: float = 0.05
+    per_direction: int = 3
+    """Base positions tried per direction: the nearest where the base clears the puzzle, then
+    every ``spacing`` metres farther out."""
+    spacing: float = 0.1
+    directions: int = 24
     """Candidate directions (evenly spaced) from the grasp point to the base."""
     iterations: int = 4
     good_enough: float = 0.06
@@ -125,12 +131,37 @@ def arm_quality(world: World, q: np.ndarray) -> float:
     return manipulability(np.ascontiguousarray(world.jacobian(q)[:, arm]))
 
 
+def base_positions(world: World, point: np.ndarray, settings: IkSettings,
+                   clearance: float) -> list[tuple[float, np.ndarray]]:
+    """(direction, base x, y) around ``point`` where the base, facing it, clears the puzzle: in each
+    direction the nearest such position and a few farther out (the nearest reach deepest into a
+    puzzle; the farther leave the arm room)."""
+    out = []
+    for k in range(settings.directions):
+        angle = 2 * math.pi * k / settings.directions
+        direction = np.array([math.cos(angle), math.sin(angle)])
+        heading = math.remainder(angle + math.pi, 2 * math.pi)
+        taken = 0
+        last = -math.inf
+        for distance in np.arange(settings.nearest, settings.farthest + 1e-9, settings.step):
+            base = point[:2] + distance * direction
+            if distance - last < settings.spacing - 1e-9 or not world.base_clear(base, heading, clearance):
+                continue
+            out.append((angle, base))
+            last = distance
+            taken += 1
+            if taken == settings.per_direction:
+                break
+    return out
+
+
 def best_grasp_configuration(world: World, point: np.ndarray,
                              lookahead: Callable[[np.ndarray], Sequence[Future]] = lambda pose: (),
                              settings: IkSettings = IkSettings(),
                              exclude_near: np.ndarray | None = None,
                              prefer_near: np.ndarray | None = None,
-                             clearance: float = GRASP_CLEARANCE) -> IkSolution | None:
+                             clearance: float = GRASP_CLEARANCE,
+                             base_ok: Callable[[np.ndarray], bool] = lambda xy: True) -> IkSolution | None:
     """The best collision-free IK answer for a tool-down grasp at ``point`` over candidate base poses.
 
     ``lookahead(pose)`` gives the tool poses a grasp at ``pose`` must reach
@@ -140,27 +171,24 @@ def best_grasp_configuration(world: World, point: np.ndarray,
     regrasp really changes the robot's posture.
     ``prefer_near``: the base (x, y) now; candidates closest to it come first.
     ``clearance``: metres every configuration keeps from the puzzle.
+    ``base_ok(xy)``: whether the base may stand at ``xy`` (say, the floor there is reachable).
     """
-    candidates = [(2 * math.pi * k / settings.directions, distance)
-                  for distance in settings.distances for k in range(settings.directions)]
-    bases = [point[:2] + d * np.array([math.cos(a), math.sin(a)]) for a, d in candidates]
-    order = list(range(len(candidates)))
+    candidates = [(angle, base) for angle, base in base_positions(world, point, settings, clearance)
+                  if base_ok(base)]
     if prefer_near is not None:
-        order.sort(key=lambda i: float(np.linalg.norm(bases[i] - prefer_near)))
+        candidates.sort(key=lambda c: float(np.linalg.norm(c[1] - prefer_near)))
     best: IkSolution | None = None
-    for i in order:
+    for angle, base in candidates:
         if best is not None and best.score >= settings.good_enough:
             break
-        angle, base = candidates[i][0], bases[i]
+        if exclude_near is not None and np.linalg.norm(base - exclude_near) < EXCLUDE_RADIUS:
+            continue
         heading = math.remainder(angle + math.pi, 2 * math.pi)  # face the grasp point
         # At the rest pose the tool's x axis points back at the base: tool yaw = heading + pi.
         pose = tool_down(point, heading + math.pi)
         seed = np.array([base[0], base[1], heading, *ARM_REST])
-        q = solve_at(world, pose, seed, settings.iterations)
+        q = solve_at(world, pose, seed, settings.iterations, fixed_base=True)
         if q is None or world.in_collision(clearance):
-            continue
-        # IK moves the base too: exclude by where it ended up.
-        if exclude_near is not None and np.linalg.norm(q[:2] - exclude_near) < EXCLUDE_RADIUS:
             continue
         score = arm_quality(world, q)
         current = q

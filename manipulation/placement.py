@@ -1,15 +1,18 @@
-"""Where the puzzle stands in the robot's world, and how large.
+"""Where the puzzle stands in the robot's world, and how large: a physical scale per generator.
 
-The generators build puzzles in their own units (a Rooms puzzle is 16 m
-across, a Simple Slider 1.6 m); a mobile iiwa reaches about 0.6 m past the
-edge of its base. Each puzzle is therefore scaled uniformly so that
-everything it occupies along the solution fits in a square of
-``max_extent`` metres, and centred on the world origin. The puzzle's own
-URDF is not touched: the scene loads a scaled copy derived from the chain.
+The generators build puzzles in their own units, and the same 5 x 5 x 20 cm
+knob sits on a 1 m Lockbox disc and on a 0.2 m Simple Slider. The scene
+scales each puzzle uniformly by its generator's :data:`PHYSICAL_SCALES`
+entry (the reasoning is in ``docs/manipulation/README.md#physical-scale``),
+stands it on the floor and centres it on the world origin; the mobile base
+drives around it, so a larger puzzle means longer drives, not a smaller
+puzzle. The puzzle's own URDF is not touched: the scene loads a scaled copy
+derived from the chain.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -19,8 +22,21 @@ from phyrogen_core.chain import Geometry, Joint, JointType, KinematicChain, join
 from phyrogen_core.export.urdf import collision_bounds
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 
-DEFAULT_MAX_EXTENT = 1.1
-"""Metres: the side of the square the scaled puzzle (over its whole solution) fits in."""
+PHYSICAL_SCALES: dict[str, float] = {
+    "continuous_space": 0.3,
+    "grid_world": 0.2,
+    "lockbox_random": 0.2,
+    "move_n_times": 0.25,
+    "rooms": 0.125,
+    "simple_slider": 0.5,
+}
+"""Scene metres per puzzle unit, by generator."""
+IMPORTED_SCALE = 1.0
+"""Puzzles from other generators (imported URDFs) are in metres already."""
+
+
+def physical_scale(generator: str) -> float:
+    return PHYSICAL_SCALES.get(generator, IMPORTED_SCALE)
 
 
 @dataclass(frozen=True)
@@ -29,10 +45,13 @@ class Placement:
 
     scale: float
     offset: tuple[float, float]
+    half_extent: tuple[float, float] = (0.0, 0.0)
+    """Metres: half the size (x, y) of the floor area the scaled puzzle covers over its solution,
+    which is centred on the origin."""
 
     def __post_init__(self) -> None:
-        if not self.scale > 0:
-            raise ValueError(f"placement scale must be positive, got {self.scale!r}")
+        if not (math.isfinite(self.scale) and self.scale > 0):
+            raise ValueError(f"the scene scale must be a positive number, got {self.scale!r}")
 
 
 def planar_bounds(chain: KinematicChain, states: Sequence[Sequence[float]]) -> tuple[np.ndarray, np.ndarray]:
@@ -54,16 +73,12 @@ def planar_bounds(chain: KinematicChain, states: Sequence[Sequence[float]]) -> t
     return np.min(lows, axis=0), np.max(highs, axis=0)
 
 
-def fit_placement(chain: KinematicChain, states: Sequence[Sequence[float]],
-                  max_extent: float = DEFAULT_MAX_EXTENT) -> Placement:
-    """Scale (never enlarging) so the puzzle fits ``max_extent``, centred on the origin."""
-    if not max_extent > 0:
-        raise ValueError(f"max_extent must be positive metres, got {max_extent!r}")
+def centred_placement(chain: KinematicChain, states: Sequence[Sequence[float]], scale: float) -> Placement:
+    """``scale`` times the puzzle, the floor area it covers over ``states`` centred on the origin."""
     low, high = planar_bounds(chain, states)
-    extent = float(np.max(high - low))
-    scale = min(1.0, max_extent / extent)
     centre = (low + high) / 2
-    return Placement(scale, (float(-scale * centre[0]), float(-scale * centre[1])))
+    half = scale * (high - low) / 2
+    return Placement(scale, (float(-scale * centre[0]), float(-scale * centre[1])), (float(half[0]), float(half[1])))
 
 
 def scale_chain(chain: KinematicChain, scale: float) -> KinematicChain:

@@ -27,7 +27,7 @@ from solver.validation import seed_ompl
 from .scene import World
 
 BASE_MARGIN = 0.8
-"""Metres the base may drive beyond the box spanned by start, goal and the puzzle's square."""
+"""Metres the base may drive beyond the box spanned by start, goal and the puzzle's floor area."""
 CHECK_STEP = 0.02
 """Radians (or metres) between collision-checked states along a motion."""
 REACH_BUDGET = 30_000
@@ -45,19 +45,19 @@ class ReachingError(RuntimeError):
 
 
 def plan_motion(world: World, start: np.ndarray, goal: np.ndarray, budget: int = REACH_BUDGET,
-                area: float = 1.2) -> np.ndarray:
+                area: tuple[float, float] = (0.6, 0.6)) -> np.ndarray:
     """A collision-free joint path from ``start`` to ``goal`` (rows of 10 values).
 
-    ``budget``: validity checks BIT* may spend. ``area`` is the half-width of
-    the square (around the origin) the base may use beyond the start and goal
-    positions.
+    ``budget``: validity checks BIT* may spend. ``area``: half the size (x, y) of
+    the rectangle around the origin (the puzzle's floor area) the base may use,
+    besides the start and goal positions, with :data:`BASE_MARGIN` around all.
     """
     ou.setLogLevel(ou.LogLevel.LOG_NONE)
     dimension = len(start)
     lower, upper = world.lower.copy(), world.upper.copy()
     for axis in (0, 1):
-        lower[axis] = max(lower[axis], min(start[axis], goal[axis], -area) - BASE_MARGIN)
-        upper[axis] = min(upper[axis], max(start[axis], goal[axis], area) + BASE_MARGIN)
+        lower[axis] = max(lower[axis], min(start[axis], goal[axis], -area[axis]) - BASE_MARGIN)
+        upper[axis] = min(upper[axis], max(start[axis], goal[axis], area[axis]) + BASE_MARGIN)
     lower[2] = max(lower[2], min(start[2], goal[2]) - math.pi)
     upper[2] = min(upper[2], max(start[2], goal[2]) + math.pi)
     space = ob.RealVectorStateSpace(dimension)

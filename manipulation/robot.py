@@ -21,6 +21,7 @@ BASE_JOINTS = ("base_x", "base_y", "base_yaw")
 ARM_JOINTS = tuple(f"lbr_iiwa_joint_{i}" for i in range(1, 8))
 ROBOT_JOINTS = BASE_JOINTS + ARM_JOINTS
 TOOL_LINK = "tool"
+BASE_LINK = "base_link"
 
 
 @dataclass(frozen=True)
@@ -29,7 +30,7 @@ class RobotSpec:
 
     base_size: tuple[float, float, float] = (0.42, 0.42, 0.3)
     """Footprint and height of the base box; the arm stands on its top."""
-    base_range: float = 6.0
+    base_range: float = 15.0
     """Half-width of the square the base may drive in (x and y limits), around the origin."""
     tool_offset: float = 0.07
     """Tool centre point beyond the flange frame (link 7 ends 0.048 past it)."""
@@ -39,6 +40,8 @@ class RobotSpec:
 
 ARM_REST = (0.0, 0.5, 0.0, -1.6, 0.0, 1.0, 0.0)
 """A comfortable arm pose (elbow up, tool down in front), used as IK rest pose and home."""
+ARM_TUCKED = (0.0,) * 7
+"""The arm straight up, inside the base's footprint: how the robot drives long ways."""
 
 
 def iiwa_urdf_path() -> Path:
@@ -66,7 +69,7 @@ def mobile_iiwa_urdf(spec: RobotSpec = RobotSpec()) -> str:
   <link name="world"/>
   <link name="base_x_link">{_inertial(0.1)}</link>
   <link name="base_y_link">{_inertial(0.1)}</link>
-  <link name="base_link">
+  <link name="{BASE_LINK}">
     {_inertial(20.0)}
     <visual><origin xyz="0 0 {sz / 2}"/><geometry><box size="{sx} {sy} {sz}"/></geometry>
       <material name="base_gray"/></visual>
@@ -76,9 +79,9 @@ def mobile_iiwa_urdf(spec: RobotSpec = RobotSpec()) -> str:
     <axis xyz="1 0 0"/><limit lower="{-r}" upper="{r}" effort="5000" velocity="2"/></joint>
   <joint name="base_y" type="prismatic"><parent link="base_x_link"/><child link="base_y_link"/>
     <axis xyz="0 1 0"/><limit lower="{-r}" upper="{r}" effort="5000" velocity="2"/></joint>
-  <joint name="base_yaw" type="revolute"><parent link="base_y_link"/><child link="base_link"/>
+  <joint name="base_yaw" type="revolute"><parent link="base_y_link"/><child link="{BASE_LINK}"/>
     <axis xyz="0 0 1"/><limit lower="{-2 * math.pi}" upper="{2 * math.pi}" effort="5000" velocity="2"/></joint>
-  <joint name="base_to_arm" type="fixed"><parent link="base_link"/><child link="lbr_iiwa_link_0"/>
+  <joint name="base_to_arm" type="fixed"><parent link="{BASE_LINK}"/><child link="lbr_iiwa_link_0"/>
     <origin xyz="0 0 {sz}"/></joint>
   <link name="{TOOL_LINK}">
     {_inertial(0.05)}

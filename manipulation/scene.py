@@ -27,13 +27,15 @@ from phyrogen_core.chain import KinematicChain
 from phyrogen_core.export.urdf import chain_to_urdf
 
 from .placement import Placement
-from .robot import ARM_JOINTS, ROBOT_JOINTS, TOOL_LINK, RobotSpec, mobile_iiwa_urdf
+from .robot import ARM_JOINTS, BASE_LINK, ROBOT_JOINTS, TOOL_LINK, RobotSpec, mobile_iiwa_urdf
 
 PUZZLE_JOINT_FRICTION = 2.0
 """Newtons (or N m) the puzzle joints resist with, so a released object stays where it was left."""
 COLLISION_MARGIN = 0.004
 """Metres: closer than this, robot and puzzle count as colliding while planning."""
 
+PROBE_HEIGHT = 2.0
+"""Metres: height of the floor probe (:meth:`World.floor_clear`), above the tucked robot."""
 SELF_COLLISION_SKIP = 2
 """Robot links this close along the chain touch by construction; their contacts are ignored."""
 
@@ -81,6 +83,7 @@ class World:
         self.robot_joints = [self.robot_link[_child_of(self.robot, name, c)] for name in ROBOT_JOINTS]
         self.arm_columns = [ROBOT_JOINTS.index(n) for n in ARM_JOINTS]
         self.tool = self.robot_link[TOOL_LINK]
+        self.base_link = self.robot_link[BASE_LINK]
         self.puzzle_link = _link_indices(self.puzzle, c)
         self.puzzle_joints = [self.puzzle_link[chain.joint(n).child] for n in chain.joint_order]
         info = [pb.getJointInfo(self.robot, j, physicsClientId=c) for j in self.robot_joints]
@@ -90,6 +93,7 @@ class World:
             pb.setJointMotorControl2(self.puzzle, j, pb.VELOCITY_CONTROL, targetVelocity=0.0,
                                      force=PUZZLE_JOINT_FRICTION, physicsClientId=c)
         _ignore_near_links(self.robot, c)
+        self._probes: dict[float, int] = {}
 
     def close(self) -> None:
         if pb.isConnected(self.client):
@@ -152,6 +156,28 @@ class World:
         """Deepest robot-puzzle penetration (metres, >= 0) among the last step's contacts."""
         points = pb.getContactPoints(self.robot, self.puzzle, physicsClientId=self.client)
         return max([0.0] + [-p[8] for p in points])
+
+    def base_clear(self, xy: np.ndarray, heading: float, margin: float = COLLISION_MARGIN) -> bool:
+        """Whether the base alone, at ``xy`` facing ``heading``, keeps ``margin`` from the puzzle
+        (moves the planning world's base there)."""
+        q = self.robot_state()
+        q[:3] = (xy[0], xy[1], heading)
+        self.set_robot(q)
+        return not pb.getClosestPoints(self.robot, self.puzzle, margin, linkIndexA=self.base_link,
+                                       physicsClientId=self.client)
+
+    def floor_clear(self, xy: np.ndarray, radius: float) -> bool:
+        """Whether a vertical cylinder of ``radius`` standing at ``xy``, as tall as the tucked
+        robot, clears the puzzle (planning world: the probe is a body of its own)."""
+        c = self.client
+        if radius not in self._probes:
+            shape = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=radius, height=PROBE_HEIGHT, physicsClientId=c)
+            self._probes[radius] = pb.createMultiBody(0, shape, -1, (0.0, 0.0, -2 * PROBE_HEIGHT),
+                                                      physicsClientId=c)
+        probe = self._probes[radius]
+        pb.resetBasePositionAndOrientation(probe, (float(xy[0]), float(xy[1]), PROBE_HEIGHT / 2), (0, 0, 0, 1),
+                                           physicsClientId=c)
+        return not pb.getClosestPoints(probe, self.puzzle, 0.0, physicsClientId=c)
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """6 x 10 tool Jacobian (linear rows first) at robot joints ``q``."""

@@ -1,0 +1,127 @@
+"""Where the mobile base can drive: a grid of free floor around the puzzle as it stands now.
+
+A cell is free when a vertical cylinder around the base, wide enough for the
+square base to turn on the spot with its arm tucked (straight up, inside the
+footprint), clears every puzzle part. The cells the base can reach from where
+it stands are one flood fill; a drive between two of them is a shortest
+8-connected path. Grasp configurations are kept to bases near reachable
+cells, so that the robot never picks a grasp inside a closed room or corridor
+of the puzzle, and long moves are planned as tuck, drive, untuck instead of
+one search over all ten joints.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .robot import RobotSpec
+from .scene import World
+
+CELL = 0.1
+"""Metres: side of a floor cell."""
+TURN_MARGIN = 0.03
+"""Metres the turning circle of the base keeps from the puzzle."""
+BORDER = 1.2
+"""Metres of floor mapped beyond the puzzle's floor area on each side."""
+NEAR = 0.45
+"""Metres: a base standing close to the puzzle (at a grasp) belongs to the free cell nearest to
+it when that is this near: tucking or untucking the arm moves it there or back. Less than the
+way around a puzzle wall (base half-width + wall + turning radius), so a base inside a closed
+room never counts as near a cell outside it."""
+NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
+
+
+def turning_radius(spec: RobotSpec) -> float:
+    """The circle the square base sweeps turning on the spot, plus :data:`TURN_MARGIN`."""
+    return math.hypot(spec.base_size[0], spec.base_size[1]) / 2 + TURN_MARGIN
+
+
+@dataclass(frozen=True)
+class FloorMap:
+    """Free cells (``free[i, j]`` at ``origin + (i, j) * CELL``) and those reachable from ``start``,
+    the free cell nearest the base (None, and nothing reachable, when none is near)."""
+
+    origin: np.ndarray
+    free: np.ndarray
+    reachable: np.ndarray
+    start: tuple[int, int] | None
+
+    def cell(self, xy: np.ndarray) -> tuple[int, int]:
+        i, j = np.round((np.asarray(xy, dtype=float) - self.origin) / CELL).astype(int)
+        return int(i), int(j)
+
+    def point(self, cell: tuple[int, int]) -> np.ndarray:
+        return self.origin + CELL * np.asarray(cell, dtype=float)
+
+    def nearest_reachable(self, xy: np.ndarray, within: float = NEAR) -> tuple[int, int] | None:
+        """The reachable cell nearest to ``xy`` if one is within ``within`` metres."""
+        cells = np.argwhere(self.reachable)
+        if len(cells) == 0:
+            return None
+        distances = np.linalg.norm(self.origin + CELL * cells - np.asarray(xy, dtype=float), axis=1)
+        best = int(np.argmin(distances))
+        return (int(cells[best][0]), int(cells[best][1])) if distances[best] <= within else None
+
+    def route(self, start: tuple[int, int], goal: tuple[int, int]) -> np.ndarray:
+        """Waypoints (x, y) of a shortest 8-connected path over reachable cells, corners only."""
+        came: dict[tuple[int, int], tuple[int, int] | None] = {start: None}
+        cost = {start: 0.0}
+        queue = [(0.0, start)]
+        while queue:
+            _, here = heapq.heappop(queue)
+            if here == goal:
+                break
+            for di, dj in NEIGHBOURS:
+                there = (here[0] + di, here[1] + dj)
+                if not (0 <= there[0] < self.free.shape[0] and 0 <= there[1] < self.free.shape[1]):
+                    continue
+                # A diagonal step needs both side cells free too, or it would cut a corner.
+                if not (self.reachable[there] and self.reachable[here[0] + di, here[1]]
+                        and self.reachable[here[0], here[1] + dj]):
+                    continue
+                new = cost[here] + math.hypot(di, dj)
+                if new < cost.get(there, math.inf):
+                    cost[there], came[there] = new, here
+                    heapq.heappush(queue, (new + math.dist(there, goal), there))
+        if goal not in came:
+            raise ValueError(f"floor cell {goal} is not reachable from {start}")
+        cells = [goal]
+        while (previous := came[cells[-1]]) is not None:
+            cells.append(previous)
+        cells.reverse()
+        corners = [cells[0]] + [b for a, b, c in zip(cells, cells[1:], cells[2:], strict=False)
+                                if (b[0] - a[0], b[1] - a[1]) != (c[0] - b[0], c[1] - b[1])] + [cells[-1]]
+        return np.array([self.point(c) for c in dict.fromkeys(corners)])
+
+
+def floor_map(world: World, half_extent: tuple[float, float], base_xy: np.ndarray, spec: RobotSpec) -> FloorMap:
+    """The free floor around the puzzle as it stands in ``world`` now, and what the base at
+    ``base_xy`` reaches of it."""
+    radius = turning_radius(spec)
+    span = np.array(half_extent) + BORDER
+    origin = -span
+    counts = np.floor(2 * span / CELL).astype(int) + 1
+    free = np.zeros(counts, dtype=bool)
+    for i in range(counts[0]):
+        for j in range(counts[1]):
+            free[i, j] = world.floor_clear(origin + CELL * np.array([i, j]), radius)
+    reachable = np.zeros_like(free)
+    cells = np.argwhere(free)
+    distances = np.linalg.norm(origin + CELL * cells - np.asarray(base_xy, dtype=float)[:2], axis=1)
+    if len(cells) == 0 or distances.min() > NEAR:
+        return FloorMap(origin, free, reachable, None)
+    start = (int(cells[np.argmin(distances)][0]), int(cells[np.argmin(distances)][1]))
+    stack = [start]
+    reachable[start] = True
+    while stack:
+        i, j = stack.pop()
+        for di, dj in NEIGHBOURS[:4]:
+            n = (i + di, j + dj)
+            if 0 <= n[0] < counts[0] and 0 <= n[1] < counts[1] and free[n] and not reachable[n]:
+                reachable[n] = True
+                stack.append(n)
+    return FloorMap(origin, free, reachable, start)
