@@ -11,7 +11,7 @@ import pytest
 
 from manipulation.grasp import grasp_point
 from manipulation.linalg import damped_least_squares, manipulability
-from manipulation.placement import fit_placement, joint_value_scale, link_pose, scale_chain
+from manipulation.placement import centred_placement, joint_value_scale, link_pose, scale_chain
 from manipulation.robot import ROBOT_JOINTS, RobotSpec, mobile_iiwa_urdf
 from manipulation.solution import load_solution
 from phyrogen_core.actions import count_actions, split_actions
@@ -64,8 +64,7 @@ def test_solution_file_is_preferred_and_reordered_by_joint_name(tmp_path):
 def test_scaled_chain_moves_points_by_the_scale():
     chain = _two_sliders()
     state = np.array([0.7, 0.3, -0.2, 0.5])
-    placement = fit_placement(chain, [np.zeros(4), state], max_extent=1.0)
-    assert 0 < placement.scale < 1
+    placement = centred_placement(chain, [np.zeros(4), state], 0.37)
     scaled = scale_chain(chain, placement.scale)
     scaled_state = state * joint_value_scale(chain, placement.scale)
     assert [j.type for j in scaled.active_joints].count(JointType.PRISMATIC) == 3

@@ -17,7 +17,7 @@ CONFIGURATIONS = 1500
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory):
     """A wall-heavy puzzle (Move N Times, fresh seed) scaled and written as the runner writes it."""
-    from manipulation.placement import fit_placement, joint_value_scale, scale_chain
+    from manipulation.placement import centred_placement, joint_value_scale, physical_scale, scale_chain
     from manipulation.robot import RobotSpec
     from manipulation.scene import write_scene_files
     from phyrogen_core.export import read_puzzle_dir, write_puzzle
@@ -25,7 +25,7 @@ def scene(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("worlds")
     loaded = read_puzzle_dir(write_puzzle(generate_puzzle("move_n_times", 731, {"n": 2}), out / "puzzles"))
-    placement = fit_placement(loaded.chain, loaded.certificate)
+    placement = centred_placement(loaded.chain, loaded.certificate, physical_scale("move_n_times"))
     chain = scale_chain(loaded.chain, placement.scale)
     states = np.asarray(loaded.certificate) * joint_value_scale(loaded.chain, placement.scale)
     (out / "scene").mkdir()
@@ -44,8 +44,9 @@ def worlds(scene):
 
 
 def _random_configuration(rng: np.random.Generator, world) -> np.ndarray:
-    """A base over or around the puzzle (its square is 1.1 m), any heading, any arm pose within limits."""
-    base = [*rng.uniform(-0.9, 0.9, size=2), rng.uniform(-np.pi, np.pi)]
+    """A base over or around the puzzle, any heading, any arm pose within limits."""
+    reach = np.array(world.placement.half_extent) + 0.4
+    base = [*rng.uniform(-reach, reach), rng.uniform(-np.pi, np.pi)]
     arm = rng.uniform(world.lower[3:], world.upper[3:])
     return np.array([*base, *arm])
 
