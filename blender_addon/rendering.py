@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import signal
 import subprocess
 import tempfile
@@ -139,6 +140,7 @@ def _run_workers(folders: list[Path], engine: str, size: tuple[int, int], views:
         environment["PYTHONPATH"] = os.pathsep.join([str(Path(__file__).resolve().parent.parent),
                                                     environment.get("PYTHONPATH", "")]).rstrip(os.pathsep)
         processes = []
+        before = _unfinished_outputs(folders)
         try:
             for share in shares:
                 command = [worker_python(), "-m", "blender_addon.render_worker", "--engine", engine,
@@ -170,12 +172,26 @@ def _run_workers(folders: list[Path], engine: str, size: tuple[int, int], views:
             return done, failures
         except BaseException:  # Ctrl-C, SIGTERM, a bug: no worker may outlive the command
             _stop_workers([process for process, _ in processes])
+            # A worker killed at the end of its grace (a long render on a busy machine) could not
+            # remove its unfinished output itself; only what appeared during this run is removed.
+            for path in _unfinished_outputs(folders) - before:
+                if path.is_dir():
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    path.unlink(missing_ok=True)
             raise
         finally:
             for process, log in processes:
                 log.close()
                 if process.stdout is not None:
                     process.stdout.close()
+
+
+def _unfinished_outputs(folders: Sequence[Path]) -> set[Path]:
+    """The render worker's temporary images folders and scenes in ``folders``
+    (:func:`~phyrogen_core.folder.atomic_directory`'s ``.images.*.tmp``, ``.<name>.tmp.blend``)."""
+    return {path for folder in folders for pattern in (".images.*.tmp", ".*.tmp.blend")
+            for path in folder.glob(pattern)}
 
 
 WORKER_GRACE_SECONDS = 5.0
