@@ -58,8 +58,8 @@ class ExecutionError(RuntimeError):
 @dataclass(frozen=True)
 class ExecutionSettings:
     scale: float | None = None
-    """Scene metres per puzzle unit; None: the generator's physical scale
-    (:data:`~manipulation.placement.PHYSICAL_SCALES`)."""
+    """Scene metres per puzzle metre; None: the generator's physical scale
+    (:func:`~manipulation.placement.physical_scale`)."""
     robot: RobotSpec = RobotSpec()
     follow: FollowSettings = FollowSettings()
     ik: IkSettings = IkSettings()

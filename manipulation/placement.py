@@ -2,8 +2,9 @@
 
 The generators build puzzles in their own units, and the same 5 x 5 x 20 cm
 knob sits on a 1 m Lockbox disc and on a 0.2 m Simple Slider. The scene
-scales each puzzle uniformly by its generator's :data:`PHYSICAL_SCALES`
-entry (the reasoning is in ``docs/manipulation/README.md#physical-scale``),
+scales each puzzle uniformly by its generator's physical scale (the
+registry's ``scene_scale``; the reasoning is in
+``docs/manipulation/README.md#physical-scale``),
 stands it on the floor and centres it on the world origin; the mobile base
 drives around it, so a larger puzzle means longer drives, not a smaller
 puzzle. The puzzle's own URDF is not touched: the scene loads a scaled copy
@@ -21,22 +22,14 @@ import numpy as np
 from phyrogen_core.chain import Geometry, Joint, JointType, KinematicChain, joint_motion, pose_matrix
 from phyrogen_core.export.urdf import collision_bounds
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder, Pose, Shape
-
-PHYSICAL_SCALES: dict[str, float] = {
-    "continuous_space": 0.3,
-    "grid_world": 0.2,
-    "lockbox_random": 0.2,
-    "move_n_times": 0.25,
-    "rooms": 0.125,
-    "simple_slider": 0.5,
-}
-"""Scene metres per puzzle unit, by generator."""
-IMPORTED_SCALE = 1.0
-"""Puzzles from other generators (imported URDFs) are in metres already."""
+from phyrogen_core.registry import all_generators
 
 
 def physical_scale(generator: str) -> float:
-    return PHYSICAL_SCALES.get(generator, IMPORTED_SCALE)
+    """The generator's physical scale (its registry entry's ``scene_scale``); 1 for puzzles of
+    other origins (imported URDFs are in metres already)."""
+    generators = all_generators()
+    return generators[generator].scene_scale if generator in generators else 1.0
 
 
 @dataclass(frozen=True)

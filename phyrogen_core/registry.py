@@ -75,7 +75,9 @@ class GeneratorSpec:
     for infeasible settings. ``paper_row`` is the generator's row in the
     paper's Table I (1-6), None for a generator the paper does not have.
     ``time_limits`` gives the benchmark's seconds per run in every profile of
-    :data:`BENCHMARK_PROFILES`.
+    :data:`BENCHMARK_PROFILES`. ``scene_scale`` is the physical scale of the
+    generator's puzzles: the metres a puzzle metre becomes where a robot
+    handles it (docs/manipulation/README.md#physical-scale).
     """
 
     name: str
@@ -85,6 +87,7 @@ class GeneratorSpec:
     doc: str = ""
     paper_row: int | None = None
     time_limits: Mapping[str, float] = field(default_factory=dict)
+    scene_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if not dataclasses.is_dataclass(self.params):
@@ -105,6 +108,9 @@ class GeneratorSpec:
             )
         if self.paper_row is not None and not 1 <= self.paper_row <= 6:
             raise ValueError(f"generator {self.name!r}: paper_row must be a row of Table I (1-6), got {self.paper_row}")
+        if not (math.isfinite(self.scene_scale) and self.scene_scale > 0):
+            raise ValueError(f"generator {self.name!r}: scene_scale must be a positive number, "
+                             f"got {self.scene_scale!r}")
 
     @property
     def paper(self) -> bool:
@@ -287,19 +293,20 @@ _current = _BUILTIN
 
 
 def register(name: str, title: str, params: type, *, time_limits: Mapping[str, float],
-             paper_row: int | None = None) -> Callable[[Build], Build]:
+             paper_row: int | None = None, scene_scale: float = 1.0) -> Callable[[Build], Build]:
     """Decorator: register ``build(seed, params) -> MakerInput`` under ``name``.
 
     ``time_limits``: benchmark seconds per run for every profile in
     :data:`BENCHMARK_PROFILES`; ``paper_row``: the row in the paper's Table I,
-    for the paper's six only. The docstring of ``build`` is the generator's
+    for the paper's six only; ``scene_scale``: the physical scale (metres per
+    puzzle metre) where a robot handles the puzzles. The docstring of ``build`` is the generator's
     documentation (sections Mechanism, Randomization, Goal, Difficulty
     parameters, Departures).
     """
 
     def wrap(build: Build) -> Build:
         _current.add(GeneratorSpec(name, title, build, params, (build.__doc__ or "").strip(), paper_row,
-                                   dict(time_limits)))
+                                   dict(time_limits), scene_scale))
         return build
 
     return wrap

@@ -163,7 +163,7 @@ def _attach_for(params: ContinuousSpaceParams):
 
 
 @register("continuous_space", "Continuous Space", ContinuousSpaceParams, paper_row=2,
-          time_limits={"paper": 20.0, "quick": 2.0})
+          time_limits={"paper": 20.0, "quick": 2.0}, scene_scale=0.4)
 def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
     """Continuous Space: revolute bars at continuous poses, each blocking the one before.
 

@@ -183,7 +183,7 @@ def _attach_for(params: GridWorldParams):
 
 
 @register("grid_world", "Grid World", GridWorldParams, paper_row=3,
-          time_limits={"paper": 40.0, "quick": 4.0})
+          time_limits={"paper": 40.0, "quick": 4.0}, scene_scale=0.25)
 def build(seed: int, params: GridWorldParams) -> MakerInput:
     """Grid World: boxes on a unit grid; each new box is parked in a cell an earlier one needs.
 

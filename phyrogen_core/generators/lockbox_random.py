@@ -155,7 +155,7 @@ def _attach_for(params: LockboxRandomParams):
 
 
 @register("lockbox_random", "Lockbox Random", LockboxRandomParams, paper_row=4,
-          time_limits={"paper": 600.0, "quick": 10.0})
+          time_limits={"paper": 600.0, "quick": 10.0}, scene_scale=0.2)
 def build(seed: int, params: LockboxRandomParams) -> MakerInput:
     """Lockbox Random: a chain of sliders and slot discs, each locking its neighbours.
 

@@ -216,7 +216,7 @@ def _goal(draft: Draft) -> Goal:
 
 @register("move_n_times", "Move N Times", MoveNTimesParams, paper_row=5,
           # The quick profile keeps the paper's 20 s: see docs/generators.md.
-          time_limits={"paper": 20.0, "quick": 20.0})
+          time_limits={"paper": 20.0, "quick": 20.0}, scene_scale=0.25)
 def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     """Move N Times: the target escapes nested corridors through one sliding door.
 

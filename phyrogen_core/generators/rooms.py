@@ -224,7 +224,8 @@ def _goal_for(params: RoomsParams):
     return goal
 
 
-@register("rooms", "Rooms", RoomsParams, paper_row=6, time_limits={"paper": 60.0, "quick": 6.0})
+@register("rooms", "Rooms", RoomsParams, paper_row=6, time_limits={"paper": 60.0, "quick": 6.0},
+          scene_scale=0.125)
 def build(seed: int, params: RoomsParams) -> MakerInput:
     """Rooms: a robot must get out of a chain of rooms, through doors it has to open.
 

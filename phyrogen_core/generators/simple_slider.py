@@ -128,7 +128,7 @@ def _attach_for(params: SimpleSliderParams, count: int):
 
 
 @register("simple_slider", "Simple Slider", SimpleSliderParams, paper_row=1,
-          time_limits={"paper": 40.0, "quick": 4.0})
+          time_limits={"paper": 40.0, "quick": 4.0}, scene_scale=0.5)
 def build(seed: int, params: SimpleSliderParams) -> MakerInput:
     """Simple Slider: a chain of T-shaped sliders laid out as a staircase.
 
