@@ -45,6 +45,8 @@ SETTLE_STEPS = 60
 """Physics steps a released object is watched for drift before the next action."""
 LIFT_HEIGHTS = (0.03, 0.06, 0.1)
 """Metres the tool may rise straight up after a release, to clear the planning margin."""
+REACH_TRIES = 3
+"""Grasp configurations tried, best first, before the robot gives up reaching an object."""
 DIRECT_REACH = 1.0
 """Metres: a base move up to this long is first tried as one BIT* search over all joints."""
 HOME_CLEARANCE = 0.8
@@ -266,24 +268,38 @@ class _Run:
         def base_ok(xy: np.ndarray) -> bool:
             return floor.nearest_reachable(xy) is not None
 
-        solution = None
-        # Shorter look-aheads, then a smaller clearance, only when nothing better exists.
-        tiers = ((len(futures), failed_base, GRASP_CLEARANCE), (1, failed_base, GRASP_CLEARANCE),
-                 (0, None, GRASP_CLEARANCE), (0, None, COLLISION_MARGIN))
-        for count, exclude, clearance in tiers:
-            solution = best_grasp_configuration(self.planner, point, lambda pose, n=count: lookahead(pose)[:n],
-                                                self.settings.ik, exclude, here, clearance, base_ok)
-            if solution is not None and solution.score > 0:
-                break
-        if solution is None:
-            raise ExecutionError(f"no collision-free IK solution at the grasp point of {grasp.link} "
-                                 f"({np.round(point, 3).tolist()})")
         start = self.sim.robot_state()
         try:
             lift = self.lift_off(start)
-            path = np.vstack([lift[:-1], self.reach(lift[-1], solution.q, floor)])
         except ReachingError as exc:
             raise ExecutionError(f"reaching the grasp on {grasp.link}: {exc}") from None
+        # A grasp whose base the robot cannot get to gives way to the next best, its base avoided.
+        unreachable: list[np.ndarray] = []
+        error: ReachingError | None = None
+        for _ in range(REACH_TRIES):
+            solution = None
+            # Shorter look-aheads, then a smaller clearance, only when nothing better exists.
+            failed = unreachable + ([] if failed_base is None else [failed_base])
+            tiers = ((len(futures), failed, GRASP_CLEARANCE), (1, failed, GRASP_CLEARANCE),
+                     (0, unreachable, GRASP_CLEARANCE), (0, unreachable, COLLISION_MARGIN))
+            for count, avoid, clearance in tiers:
+                solution = best_grasp_configuration(self.planner, point, lambda pose, n=count: lookahead(pose)[:n],
+                                                    self.settings.ik, avoid, here, clearance, base_ok)
+                if solution is not None and solution.score > 0:
+                    break
+            if solution is None and unreachable:
+                raise ExecutionError(f"reaching the grasp on {grasp.link}: {error}; no other grasp there")
+            if solution is None:
+                raise ExecutionError(f"no collision-free IK solution at the grasp point of {grasp.link} "
+                                     f"({np.round(point, 3).tolist()})")
+            try:
+                path = np.vstack([lift[:-1], self.reach(lift[-1], solution.q, floor)])
+                break
+            except ReachingError as exc:
+                error = exc
+                unreachable.append(solution.q[:2])
+        else:
+            raise ExecutionError(f"reaching the grasp on {grasp.link} ({REACH_TRIES} grasps tried): {error}")
         self.planning += time.perf_counter() - started
         started = time.perf_counter()
         drive_along(self.sim, path, self.on_step)
@@ -302,9 +318,9 @@ class _Run:
             except ReachingError:
                 pass
         there = floor.nearest_reachable(goal[:2])
-        if floor.start is None or there is None:
+        if there is None:
             raise ReachingError("the base cannot drive from where it stands to the grasp")
-        route = floor.route(floor.start, there)
+        route = floor.route(floor.start_towards(there), there)
         tucked_here = np.array([*route[0], start[2], *ARM_TUCKED])
         drive = np.array([[*xy, start[2], *ARM_TUCKED] for xy in route] + [[*route[-1], goal[2], *ARM_TUCKED]])
         tuck = plan_motion(self.planner, start, tucked_here, budget, area)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -27,11 +28,15 @@ TURN_MARGIN = 0.03
 """Metres the turning circle of the base keeps from the puzzle."""
 BORDER = 1.2
 """Metres of floor mapped beyond the puzzle's floor area on each side."""
-NEAR = 0.45
-"""Metres: a base standing close to the puzzle (at a grasp) belongs to the free cell nearest to
-it when that is this near: tucking or untucking the arm moves it there or back. Less than the
-way around a puzzle wall (base half-width + wall + turning radius), so a base inside a closed
-room never counts as near a cell outside it."""
+NEAR = 0.7
+"""Metres: a grasp's base, close to the puzzle, may belong to a reachable free cell this near
+(untucking the arm moves it from there), if a search over all joints finds the way: a base
+in a nook between puzzle parts is, one on the far side of a wall is not (the search fails, and
+the next grasp is tried)."""
+START_RANGE = 1.0
+"""Metres: the base standing where it let go of an object (in a nook of the puzzle, maybe) drives
+from a free cell this near; tucking the arm takes it there, if a search over all joints finds the
+way."""
 NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
 
 
@@ -42,17 +47,27 @@ def turning_radius(spec: RobotSpec) -> float:
 
 @dataclass(frozen=True)
 class FloorMap:
-    """Free cells (``free[i, j]`` at ``origin + (i, j) * CELL``) and those reachable from ``start``,
-    the free cell nearest the base (None, and nothing reachable, when none is near)."""
+    """Free cells (``free[i, j]`` at ``origin + (i, j) * CELL``), labelled by connected area
+    (``area``, -1 where not free), and the base's position ``base``. The base reaches every area
+    with a cell within :data:`START_RANGE` of it (tucking the arm takes it into one)."""
 
     origin: np.ndarray
     free: np.ndarray
-    reachable: np.ndarray
-    start: tuple[int, int] | None
+    area: np.ndarray
+    base: np.ndarray
 
-    def cell(self, xy: np.ndarray) -> tuple[int, int]:
-        i, j = np.round((np.asarray(xy, dtype=float) - self.origin) / CELL).astype(int)
-        return int(i), int(j)
+    @cached_property
+    def starts(self) -> list[tuple[int, int]]:
+        """Free cells within :data:`START_RANGE` of the base, nearest first."""
+        cells = np.argwhere(self.free)
+        distances = np.linalg.norm(self.origin + CELL * cells - self.base, axis=1)
+        order = np.argsort(distances, kind="stable")
+        return [(int(cells[k][0]), int(cells[k][1])) for k in order if distances[k] <= START_RANGE]
+
+    @cached_property
+    def reachable(self) -> np.ndarray:
+        areas = {int(self.area[c]) for c in self.starts}
+        return np.isin(self.area, list(areas)) & self.free
 
     def point(self, cell: tuple[int, int]) -> np.ndarray:
         return self.origin + CELL * np.asarray(cell, dtype=float)
@@ -65,6 +80,10 @@ class FloorMap:
         distances = np.linalg.norm(self.origin + CELL * cells - np.asarray(xy, dtype=float), axis=1)
         best = int(np.argmin(distances))
         return (int(cells[best][0]), int(cells[best][1])) if distances[best] <= within else None
+
+    def start_towards(self, goal: tuple[int, int]) -> tuple[int, int]:
+        """The cell near the base to drive to reachable ``goal`` from: the nearest in its area."""
+        return next(c for c in self.starts if self.area[c] == self.area[goal])
 
     def route(self, start: tuple[int, int], goal: tuple[int, int]) -> np.ndarray:
         """Waypoints (x, y) of a shortest 8-connected path over reachable cells, corners only."""
@@ -99,8 +118,7 @@ class FloorMap:
 
 
 def floor_map(world: World, half_extent: tuple[float, float], base_xy: np.ndarray, spec: RobotSpec) -> FloorMap:
-    """The free floor around the puzzle as it stands in ``world`` now, and what the base at
-    ``base_xy`` reaches of it."""
+    """The free floor around the puzzle as it stands in ``world`` now, for the base at ``base_xy``."""
     radius = turning_radius(spec)
     span = np.array(half_extent) + BORDER
     origin = -span
@@ -109,19 +127,18 @@ def floor_map(world: World, half_extent: tuple[float, float], base_xy: np.ndarra
     for i in range(counts[0]):
         for j in range(counts[1]):
             free[i, j] = world.floor_clear(origin + CELL * np.array([i, j]), radius)
-    reachable = np.zeros_like(free)
-    cells = np.argwhere(free)
-    distances = np.linalg.norm(origin + CELL * cells - np.asarray(base_xy, dtype=float)[:2], axis=1)
-    if len(cells) == 0 or distances.min() > NEAR:
-        return FloorMap(origin, free, reachable, None)
-    start = (int(cells[np.argmin(distances)][0]), int(cells[np.argmin(distances)][1]))
-    stack = [start]
-    reachable[start] = True
-    while stack:
-        i, j = stack.pop()
-        for di, dj in NEIGHBOURS[:4]:
-            n = (i + di, j + dj)
-            if 0 <= n[0] < counts[0] and 0 <= n[1] < counts[1] and free[n] and not reachable[n]:
-                reachable[n] = True
-                stack.append(n)
-    return FloorMap(origin, free, reachable, start)
+    area = np.full(counts, -1)
+    for seed in map(tuple, np.argwhere(free)):
+        if area[seed] >= 0:
+            continue
+        label = int(area.max()) + 1
+        area[seed] = label
+        stack = [seed]
+        while stack:
+            i, j = stack.pop()
+            for di, dj in NEIGHBOURS[:4]:
+                n = (i + di, j + dj)
+                if 0 <= n[0] < counts[0] and 0 <= n[1] < counts[1] and free[n] and area[n] < 0:
+                    area[n] = label
+                    stack.append(n)
+    return FloorMap(origin, free, area, np.asarray(base_xy, dtype=float)[:2])

@@ -158,7 +158,7 @@ def base_positions(world: World, point: np.ndarray, settings: IkSettings,
 def best_grasp_configuration(world: World, point: np.ndarray,
                              lookahead: Callable[[np.ndarray], Sequence[Future]] = lambda pose: (),
                              settings: IkSettings = IkSettings(),
-                             exclude_near: np.ndarray | None = None,
+                             avoid: Sequence[np.ndarray] = (),
                              prefer_near: np.ndarray | None = None,
                              clearance: float = GRASP_CLEARANCE,
                              base_ok: Callable[[np.ndarray], bool] = lambda xy: True) -> IkSolution | None:
@@ -167,7 +167,8 @@ def best_grasp_configuration(world: World, point: np.ndarray,
     ``lookahead(pose)`` gives the tool poses a grasp at ``pose`` must reach
     next, each with the puzzle state there (the object's coming positions); a
     candidate that cannot follow them by IK, clear of the puzzle, scores 0.
-    ``exclude_near``: base (x, y) of the configuration that just failed, so that a
+    ``avoid``: bases (x, y) of configurations that just failed (a grasp that stopped, a base
+    the robot could not get to); candidates keep :data:`EXCLUDE_RADIUS` from them, so that a
     regrasp really changes the robot's posture.
     ``prefer_near``: the base (x, y) now; candidates closest to it come first.
     ``clearance``: metres every configuration keeps from the puzzle.
@@ -181,7 +182,7 @@ def best_grasp_configuration(world: World, point: np.ndarray,
     for angle, base in candidates:
         if best is not None and best.score >= settings.good_enough:
             break
-        if exclude_near is not None and np.linalg.norm(base - exclude_near) < EXCLUDE_RADIUS:
+        if any(np.linalg.norm(base - other) < EXCLUDE_RADIUS for other in avoid):
             continue
         heading = math.remainder(angle + math.pi, 2 * math.pi)  # face the grasp point
         # At the rest pose the tool's x axis points back at the base: tool yaw = heading + pi.

@@ -65,8 +65,8 @@ def test_the_base_reaches_inside_a_walled_square_only_through_a_doorway_wide_eno
         assert floor.nearest_reachable(np.array([-2.5, 0.0])) is not None
         assert (floor.nearest_reachable(np.zeros(2), 0.1) is not None) == inside_reachable
         outside = floor.nearest_reachable(np.array([2.5, 0.0]), 0.1)
-        assert outside is not None and floor.start is not None
-        route = floor.route(floor.start, outside)
+        assert outside is not None
+        route = floor.route(floor.start_towards(outside), outside)
         # The drive goes around (or through the doorway), never through a wall: every stretch of it
         # is clear of the walls for the base turning on the spot.
         for a, b in zip(route, route[1:], strict=False):
