@@ -11,7 +11,7 @@ from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.folder import OutputError, require_writable_dir
 from solver.pool import deferred_signals
 
-from .execution import ExecutionSettings, ManipulationReport, execute_puzzle
+from .execution import ExecutionSettings, ManipulationReport, execute_puzzle, scene_placement
 from .outputs import summary_table, write_outputs
 from .solution import BenchmarkRun, candidate_solutions
 
@@ -28,8 +28,8 @@ def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = Tr
     from tqdm import tqdm
 
     runs = runs or {}
-    check_inputs(folders, out_root, table, runs)
     settings = settings or ExecutionSettings()
+    check_inputs(folders, out_root, table, runs, settings)
     reports = []
     for folder in folders:
         with tqdm(total=1, desc=Path(folder).name, unit="action", disable=quiet, file=sys.stderr,
@@ -59,16 +59,20 @@ def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = Tr
 
 
 def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = None,
-                 runs: Mapping[Path, Sequence[BenchmarkRun]] | None = None) -> None:
+                 runs: Mapping[Path, Sequence[BenchmarkRun]] | None = None,
+                 settings: ExecutionSettings | None = None) -> None:
     """Everything a run reads and writes, checked before the first simulation: a bad folder or
     output path found after an hour of simulating others is bad input found too late.
 
-    Every folder must read (puzzle and solutions, ``runs`` included); ``out_root``, the folder of
+    Every folder must read (puzzle and solutions, ``runs`` included) and fit the base's floor at
+    its scale (:func:`~manipulation.execution.scene_placement`); ``out_root``, the folder of
     ``table`` and ``<out_root>/<puzzle>`` must be writable as folders
     (``table`` as a file). Raises :class:`~phyrogen_core.folder.PuzzleFormatError`
-    or :class:`~phyrogen_core.folder.OutputError`, one line naming the path.
+    or :class:`~phyrogen_core.folder.OutputError`, one line naming the path, or ValueError naming
+    a puzzle too large for the base's floor at its scale.
     """
     runs = runs or {}
+    settings = settings or ExecutionSettings()
     out_root = require_writable_dir(out_root, "manipulation output folder")
     if table is not None:
         table = Path(table)
@@ -79,7 +83,8 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
         require_writable_dir(table.parent, f"folder of the summary table {table}:")
     for folder in folders:
         loaded = read_puzzle_dir(folder)
-        candidate_solutions(Path(folder), loaded, runs.get(Path(folder), ()))
+        for solution in candidate_solutions(Path(folder), loaded, runs.get(Path(folder), ())):
+            scene_placement(loaded, solution.path, settings)
         target = out_root / str(loaded.metadata.get("name", Path(folder).name))
         if os.path.lexists(target) and not target.is_dir():
             raise OutputError(f"{target} is not a folder; the outputs of puzzle {target.name} go there")

@@ -26,7 +26,7 @@ from phyrogen_core.chain import JointType, KinematicChain
 from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
 from solver.problem import densify
 
-from .floor import FloorMap, floor_map
+from .floor import BORDER, FloorMap, floor_map
 from .following import FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory
 from .grasp import GraspPoint, grasp_point
 from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
@@ -121,8 +121,8 @@ class ManipulationReport:
     target_at_goal: bool
     max_penetration: float
     message: str
-    action_reports: tuple[ActionReport, ...] = ()
     attempts: tuple[AttemptReport, ...] = ()
+    """Every solution tried, in order, each with its per-action reports."""
 
     @classmethod
     def of_attempts(cls, puzzle: str, generator: str, seed: int,
@@ -134,7 +134,7 @@ class ManipulationReport:
         return cls(puzzle, generator, seed, last.scale, last.solution, len(attempts), last.actions, last.regrasps,
                    sum(a.planning_seconds for a in attempts), sum(a.execution_seconds for a in attempts),
                    last.simulated_seconds, last.success, last.target_at_goal, last.max_penetration, message,
-                   last.action_reports, tuple(attempts))
+                   tuple(attempts))
 
 
 @dataclass
@@ -357,6 +357,20 @@ class _Run:
         return constraint
 
 
+def scene_placement(loaded: LoadedPuzzle, path: np.ndarray, settings: ExecutionSettings) -> Placement:
+    """Where the puzzle stands at its scale (``settings.scale`` or its generator's physical scale)
+    over ``path``; ValueError if it spans more floor than the base drives on."""
+    generator = str(loaded.metadata.get("generator", ""))
+    scale = settings.scale if settings.scale is not None else physical_scale(generator)
+    placement = centred_placement(loaded.chain, path, scale)
+    drive = settings.robot.base_range - BORDER
+    if max(placement.half_extent) > drive:
+        raise ValueError(f"puzzle {loaded.metadata.get('name', '')!r} at scale {scale:g} spans "
+                         f"{2 * max(placement.half_extent):.1f} m; the robot's base drives within {2 * drive:g} m "
+                         "around it (choose a smaller scale)")
+    return placement
+
+
 def puzzle_identity(loaded: LoadedPuzzle, folder: Path) -> tuple[str, str, int]:
     """(generator, name, seed) from ``puzzle.json``: what the puzzle's random draws are seeded from."""
     meta = loaded.metadata
@@ -395,9 +409,7 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
     chain = loaded.chain
     factors = {name: cols for name, cols in chain.factors.items() if name != "goal"}
     actions = split_actions(solution.path, factors)
-    generator = str(loaded.metadata.get("generator", ""))
-    scale = settings.scale if settings.scale is not None else physical_scale(generator)
-    placement = centred_placement(chain, solution.path, scale)
+    placement = scene_placement(loaded, solution.path, settings)
     scaled = scale_chain(chain, placement.scale)
     value_scale = joint_value_scale(chain, placement.scale)
     setup = SceneSetup(scaled, placement, settings.robot)

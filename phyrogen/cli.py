@@ -396,10 +396,26 @@ def cmd_manipulate(args) -> int:
 
     folders = [f.path if isinstance(f, PuzzleFolder) else f for f in find_in_paths(args.puzzle_dirs)]
     runs = benchmark_runs(Path(args.benchmark), folders) if args.benchmark else None
+    from manipulation.execution import ExecutionSettings
+
     reports = manipulate_folders(folders, Path(args.out), video=not args.no_video,
                                  table=Path(args.table) if args.table else None, gui=args.gui, quiet=args.quiet,
-                                 runs=runs)
+                                 settings=ExecutionSettings(scale=args.scale), runs=runs)
     return 0 if all(r.success for r in reports) else 1
+
+
+MAX_SCENE_SCALE = 2.0
+
+
+def scene_scale_option(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0 < value <= MAX_SCENE_SCALE):
+        raise argparse.ArgumentTypeError(f"must be a number above 0 and at most {MAX_SCENE_SCALE:g} (scene metres "
+                                         f"per puzzle metre), got {text!r}")
+    return value
 
 
 def benchmark_runs(benchmark: Path, folders: list[Path]) -> dict[Path, list]:
@@ -704,6 +720,9 @@ def build_parser() -> argparse.ArgumentParser:
     manipulate.add_argument("--out", default="output/manipulation", help="output folder (default: output/manipulation)")
     manipulate.add_argument("--no-video", action="store_true", help="frames and report only")
     manipulate.add_argument("--table", metavar="FILE", help="also write a Markdown summary table here")
+    manipulate.add_argument("--scale", type=scene_scale_option,
+                            help="scene metres per puzzle metre, for every puzzle (default: each generator's "
+                                 "physical scale, docs/manipulation/README.md#physical-scale)")
     manipulate.add_argument("--gui", action="store_true", help="show the simulation in a PyBullet window")
     manipulate.add_argument("--quiet", action="store_true", help="no progress bar")
     manipulate.add_argument("--benchmark", metavar="DIR",

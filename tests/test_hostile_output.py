@@ -269,3 +269,22 @@ def test_a_folder_broken_after_the_check_is_one_line_from_the_render_worker(tmp_
     lines = [line for line in result.stderr.splitlines() if line.startswith("render_worker: ")]
     assert len(lines) == 1 and message in lines[0] and "Traceback" not in result.stderr, result.stderr
     assert sorted(os.listdir(folder)) == ["meshes", "puzzle.json", "srdf", "urdf"]
+
+
+@pytest.mark.parametrize("scale", ["0", "-0.5", "nan", "inf", "2.5", "half"])
+def test_a_scene_scale_that_is_no_positive_number_up_to_the_bound_is_refused(scale, tmp_path, puzzles, capsys,
+                                                                             no_work):
+    refused(["manipulate", str(puzzles), "--out", str(tmp_path / "runs"), "--quiet", "--scale", scale], capsys,
+            tmp_path, "--scale", repr(scale))
+
+
+def test_a_puzzle_wider_than_the_floor_the_base_drives_on_is_refused_before_any_simulation(tmp_path, puzzles,
+                                                                                           no_work):
+    from manipulation.batch import check_inputs
+    from manipulation.execution import ExecutionSettings
+    from manipulation.robot import RobotSpec
+
+    folder = puzzles / "hostile" / "hostile_1"
+    check_inputs([folder], tmp_path / "runs", settings=ExecutionSettings(scale=1.0))  # 9.8 m: it fits
+    with pytest.raises(ValueError, match=r"'hostile_1' at scale 2 spans 19.6 m; the robot's base drives within 13.6 m"):
+        check_inputs([folder], tmp_path / "runs", settings=ExecutionSettings(scale=2.0, robot=RobotSpec(base_range=8)))
