@@ -1,8 +1,9 @@
 """Executing a puzzle's solution with the mobile iiwa, action by action, in physics.
 
 For each action: pick the grasp point on the moving object, solve IK there
-(with a look-ahead so the grasp is not singular a moment later), plan the
-robot's motion with BIT*, drive there, grasp (a fixed constraint), and pull
+(with a look-ahead so the grasp is not singular a moment later) for a base on
+floor it can drive to, plan the robot's motion (BIT*, or tuck the arm, drive
+over the free floor and untuck), drive there, grasp (a fixed constraint), and pull
 the object along its path by Jacobian control. When the monitor stops the
 motion (joint flip, low manipulability, joint limit) the robot releases,
 regrasps where it is well-conditioned for the object's next positions, and
@@ -277,7 +278,6 @@ class _Run:
         unreachable: list[np.ndarray] = []
         error: ReachingError | None = None
         for _ in range(REACH_TRIES):
-            solution = None
             # Shorter look-aheads, then a smaller clearance, only when nothing better exists.
             failed = unreachable + ([] if failed_base is None else [failed_base])
             tiers = ((len(futures), failed, GRASP_CLEARANCE), (1, failed, GRASP_CLEARANCE),
