@@ -2,12 +2,12 @@
 
 A cell is free when a vertical cylinder around the base, wide enough for the
 square base to turn on the spot with its arm tucked (straight up, inside the
-footprint), clears every puzzle part. The cells the base can reach from where
-it stands are one flood fill; a drive between two of them is a shortest
-8-connected path. Grasp configurations are kept to bases near reachable
-cells, so that the robot never picks a grasp inside a closed room or corridor
-of the puzzle, and long moves are planned as tuck, drive, untuck instead of
-one search over all ten joints.
+footprint), clears every puzzle part. Free cells are labelled by connected
+area; the base reaches the areas near where it stands, and a drive within one
+is a shortest 8-connected path. Grasp configurations are kept to bases near
+reachable cells, so that the robot never picks a grasp inside a closed room or
+corridor of the puzzle, and long moves are planned as tuck, drive, untuck
+instead of one search over all ten joints.
 """
 
 from __future__ import annotations
