@@ -7,4 +7,3 @@ apt_install libgl1 libx11-6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libsm6 l
 OUT="${1:-output}"
 "$VENV/bin/phyrogen" generate --generator all --seeds 1-4 --out "$OUT"
 "$VENV/bin/phyrogen" render --out "$OUT" --workers 2
-echo "gallery: $OUT/index.html"
