@@ -240,8 +240,9 @@ class _Run:
     def settle_released(self, in_place: Callable[[], bool]) -> bool:
         """Step the released object a while; whether it stayed within the goal tolerance.
 
-        A tiny puzzle (Lockbox Random 2 is scaled by 0.056) can drift out of the tolerance
-        after the release; the caller then regrasps and pushes it back."""
+        A small puzzle (Lockbox Random 2 did, when scenes were fitted to a square at scale
+        0.056) can drift out of the tolerance after the release; the caller then regrasps and
+        pushes it back."""
         step_physics(self.sim, SETTLE_STEPS, self.on_step)
         return in_place()
 
