@@ -69,15 +69,21 @@ class FloorMap:
         areas = {int(self.area[c]) for c in self.starts}
         return np.isin(self.area, list(areas)) & self.free
 
+    @cached_property
+    def _reachable_cells(self) -> tuple[np.ndarray, np.ndarray]:
+        """The reachable cells and their centres (asked for once per grasp candidate)."""
+        cells = np.argwhere(self.reachable)
+        return cells, self.origin + CELL * cells
+
     def point(self, cell: tuple[int, int]) -> np.ndarray:
         return self.origin + CELL * np.asarray(cell, dtype=float)
 
     def nearest_reachable(self, xy: np.ndarray, within: float = NEAR) -> tuple[int, int] | None:
         """The reachable cell nearest to ``xy`` if one is within ``within`` metres."""
-        cells = np.argwhere(self.reachable)
+        cells, centres = self._reachable_cells
         if len(cells) == 0:
             return None
-        distances = np.linalg.norm(self.origin + CELL * cells - np.asarray(xy, dtype=float), axis=1)
+        distances = np.linalg.norm(centres - np.asarray(xy, dtype=float), axis=1)
         best = int(np.argmin(distances))
         return (int(cells[best][0]), int(cells[best][1])) if distances[best] <= within else None
 
@@ -128,10 +134,11 @@ def floor_map(world: World, half_extent: tuple[float, float], base_xy: np.ndarra
         for j in range(counts[1]):
             free[i, j] = world.floor_clear(origin + CELL * np.array([i, j]), radius)
     area = np.full(counts, -1)
+    label = -1
     for seed in map(tuple, np.argwhere(free)):
         if area[seed] >= 0:
             continue
-        label = int(area.max()) + 1
+        label += 1
         area[seed] = label
         stack = [seed]
         while stack:
