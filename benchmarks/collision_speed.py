@@ -22,7 +22,7 @@ import numpy as np
 import pybullet as pb
 
 from phyrogen_core.export import read_puzzle_dir
-from solver.collision import CollisionModel
+from solver.collision.model import CollisionModel
 
 
 def prototype_checker(folder: Path, chain, distance: float = 0.0, depth: float = 0.0):

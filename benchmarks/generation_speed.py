@@ -12,7 +12,7 @@ import argparse
 import time
 
 from phyrogen_core.registry import paper_generators
-from solver.generation import Job, run_jobs
+from solver.pipelines.generation import Job, run_jobs
 
 PAPER_SECONDS = 127.0
 

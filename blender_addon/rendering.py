@@ -20,7 +20,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from solver.pool import deferred_signals
+from solver.parallel.pool import deferred_signals
 
 from .environment import worker_python
 from .views import DEFAULT_VIEWS

@@ -506,7 +506,7 @@ class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
     @staticmethod
     def validate(context) -> str:
         from phyrogen_core.puzzle import Goal
-        from solver.problem import verify_certificate
+        from solver.planning.problem import verify_certificate
 
         from . import annotations as keys
         from .scene import read_chain

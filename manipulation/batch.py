@@ -9,7 +9,7 @@ from pathlib import Path
 
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.folder import OutputError, require_writable_dir
-from solver.pool import deferred_signals
+from solver.parallel.pool import deferred_signals
 
 from .execution import ExecutionSettings, ManipulationReport, execute_puzzle, scene_placement
 from .outputs import summary_table, write_outputs

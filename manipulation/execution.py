@@ -25,7 +25,7 @@ import pybullet as pb
 from phyrogen_core.actions import Action, split_actions
 from phyrogen_core.chain import JointType, KinematicChain
 from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
-from solver.problem import densify
+from solver.planning.problem import densify
 
 from .floor import BORDER, FloorMap, floor_map
 from .following import FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory

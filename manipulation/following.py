@@ -21,7 +21,7 @@ from enum import StrEnum
 import numpy as np
 import pybullet as pb
 
-from solver.problem import densify
+from solver.planning.problem import densify
 
 from .linalg import damped_least_squares, manipulability
 from .scene import World

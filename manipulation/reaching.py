@@ -21,8 +21,8 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
-from solver.pool import stable_seed
-from solver.validation import seed_ompl
+from phyrogen_core.seeding import stable_seed
+from solver.planning.ompl_setup import seed_ompl
 
 from .scene import World
 
@@ -35,7 +35,7 @@ REACH_BUDGET = 30_000
 
 
 def seed_reaching(*parts: object) -> None:
-    """Seed the OMPL seed generator BIT* draws from (:func:`solver.validation.seed_ompl`) from a
+    """Seed the OMPL seed generator BIT* draws from (:func:`solver.planning.ompl_setup.seed_ompl`) from a
     stable hash of ``parts`` (say the puzzle's generator, name and seed)."""
     seed_ompl(stable_seed("ompl", "manipulation", *parts))
 

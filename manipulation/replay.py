@@ -1,6 +1,6 @@
 """PyBullet as an independent referee: replay a path on a puzzle's URDF and measure penetration.
 
-Our collision model (:mod:`solver.collision`) is a planar separating-axis
+Our collision model (:mod:`solver.collision.model`) is a planar separating-axis
 test written for this project; the certificate check and the planners all
 use it. PyBullet shares none of its code: it loads the exported URDF (the
 file a user gets, meshes included), and its GJK/EPA closest-point queries
@@ -23,9 +23,9 @@ import numpy as np
 import pybullet as pb
 
 from phyrogen_core.chain import KinematicChain
-from solver.audit import Replay
-from solver.collision import CollisionModel
-from solver.problem import FINE_RESOLUTION, MAX_CHECKED_STATES, segment_points
+from solver.collision.model import CollisionModel
+from solver.pipelines.audit import Replay
+from solver.planning.problem import FINE_RESOLUTION, MAX_CHECKED_STATES, segment_points
 
 PENETRATION_TOLERANCE = 1e-3
 """Metres of penetration PyBullet may report between shapes that only touch: its boxes, meshes
@@ -124,7 +124,7 @@ def _moving_links(chain: KinematicChain) -> set[str]:
 
 @dataclass(frozen=True)
 class PyBulletReferee:
-    """Replays paths in PyBullet every ``resolution`` metres (:class:`solver.audit.Referee`)."""
+    """Replays paths in PyBullet every ``resolution`` metres (:class:`solver.pipelines.audit.Referee`)."""
 
     resolution: float = REPLAY_RESOLUTION
     tolerance: float = PENETRATION_TOLERANCE

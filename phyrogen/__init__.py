@@ -36,7 +36,7 @@ def generators() -> dict:
 def generate(generator: str, seed: int, **params: Any):
     """One certified :class:`phyrogen_core.puzzle.Puzzle`, generated deterministically in a fresh
     process; ``params`` override the generator's defaults (``phyrogen list`` shows them)."""
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     return generate_puzzle(generator, seed, params)
 
@@ -44,7 +44,7 @@ def generate(generator: str, seed: int, **params: Any):
 def generate_into(out: str | Path, generator: str, seed: int, **params: Any) -> Path:
     """Generate like :func:`generate` and write the puzzle folder under ``out``; its path."""
     from phyrogen_core.maker import GenerationError
-    from solver.generation import Job, run_jobs
+    from solver.pipelines.generation import Job, run_jobs
 
     (report,) = list(run_jobs([Job(generator, seed, dict(params))], Path(out), workers=1))
     if report.error is not None or report.folder is None:
@@ -61,7 +61,7 @@ def load(folder: str | Path):
 
 def check(folder: str | Path) -> list[str]:
     """Problems with a puzzle folder's certificate (empty when it is valid at fine resolution)."""
-    from solver.problem import verify_certificate
+    from solver.planning.problem import verify_certificate
 
     loaded = load(folder)
     return verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)

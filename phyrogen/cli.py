@@ -87,7 +87,7 @@ CHECK_EVERY_SEED_UP_TO = 10_000
 
 def cmd_generate(args) -> int:
     from phyrogen_core.folder import require_writable_dir
-    from solver.generation import Job, run_jobs
+    from solver.pipelines.generation import Job, run_jobs
 
     names = _generators(args.generator)
     seeds = parse_seeds(args.seeds)
@@ -153,14 +153,14 @@ def cmd_dataset(args) -> int:
                                           ("--mjcf", args.mjcf)) if value]
         if given:
             raise UsageError(f"--stats reads a finished or unfinished dataset; it takes no {given[0]}")
-        from solver.dataset import dataset_stats, plot_stats
+        from solver.pipelines.dataset import dataset_stats, plot_stats
 
         stats = dataset_stats(Path(args.stats))
         print(stats.text(), end="")
         print(f"plots: {plot_stats(stats)}")
         return 0
     from phyrogen_core.folder import shard_name
-    from solver.dataset import build_dataset, check_dataset_root, local_backend, make_request, ray_backend
+    from solver.pipelines.dataset import build_dataset, check_dataset_root, local_backend, make_request, ray_backend
 
     if args.generator is None or args.out is None:
         raise UsageError("dataset needs --generator and --out (or --stats DIR to describe a dataset)")
@@ -218,7 +218,7 @@ def cmd_dataset(args) -> int:
 
 
 def dataset_count_option(text: str) -> int:
-    from solver.dataset.request import MAX_ENTRIES  # here, not at the top: the parser stays quick to build
+    from solver.pipelines.dataset.request import MAX_ENTRIES  # here, not at the top: the parser stays quick to build
 
     return _whole_number(text, 1, MAX_ENTRIES, " puzzles")
 
@@ -228,14 +228,14 @@ def dataset_start_option(text: str) -> int:
 
 
 def shard_size_option(text: str) -> int:
-    from solver.dataset.request import MAX_SHARD_SIZE
+    from solver.pipelines.dataset.request import MAX_SHARD_SIZE
 
     return _whole_number(text, 1, MAX_SHARD_SIZE, " puzzle folders per shard")
 
 
 def cmd_check(args) -> int:
     from phyrogen_core.export import read_puzzle_dir
-    from solver.problem import verify_certificate
+    from solver.planning.problem import verify_certificate
 
     loaded = read_puzzle_dir(Path(args.puzzle_dir))
     problems = verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)
@@ -253,7 +253,7 @@ def cmd_check(args) -> int:
 def cmd_replan(args) -> int:
     from phyrogen_core.export import read_puzzle_dir
     from phyrogen_core.folder import require_writable_dir
-    from solver.replanning import REPLAN_BUDGET, replan, write_replanned
+    from solver.pipelines.replanning import REPLAN_BUDGET, replan, write_replanned
 
     folder = Path(args.puzzle_dir)
     loaded = read_puzzle_dir(folder)  # bad input is found before any work
@@ -276,7 +276,7 @@ def cmd_replan(args) -> int:
 
 
 def replan_budget_option(text: str) -> int:
-    from solver.replanning import MAX_REPLAN_BUDGET
+    from solver.pipelines.replanning import MAX_REPLAN_BUDGET
 
     return _whole_number(text, 1, MAX_REPLAN_BUDGET, " collision queries")
 
@@ -303,7 +303,7 @@ def cmd_import(args) -> int:
     from phyrogen_core.export import write_puzzle
     from phyrogen_core.folder import require_writable_dir
     from phyrogen_core.urdf_import import import_urdf
-    from solver.importing import IMPORT_BUDGET, certify_imported, versions
+    from solver.pipelines.importing import IMPORT_BUDGET, certify_imported, versions
 
     out = require_writable_dir(args.out)  # an unusable --out is found before any work
     imported = import_urdf(args.urdf, target=args.target, goal=args.goal, name=args.name)
@@ -338,7 +338,7 @@ def goal_values_option(text: str) -> list[float]:
 
 
 def import_budget_option(text: str) -> int:
-    from solver.importing import MAX_IMPORT_BUDGET
+    from solver.pipelines.importing import MAX_IMPORT_BUDGET
 
     return _whole_number(text, 1, MAX_IMPORT_BUDGET, " collision queries")
 
@@ -347,7 +347,7 @@ def cmd_audit(args) -> int:
     from tqdm import tqdm
 
     from manipulation.replay import PyBulletReferee
-    from solver.audit import (
+    from solver.pipelines.audit import (
         DEFAULT_BUDGET,
         TABLE_HEADER,
         AuditSettings,
@@ -425,8 +425,8 @@ def benchmark_runs(benchmark: Path, folders: list[Path]) -> dict[Path, list]:
     from manipulation.solution import BenchmarkRun
     from phyrogen_core.export import read_puzzle_dir
     from phyrogen_core.folder import OutputError
-    from solver.benchmark import JOURNAL, puzzle_digest, read_journal
-    from solver.planners import LA_RRT_PLANNERS
+    from solver.benchmark.runner import JOURNAL, puzzle_digest, read_journal
+    from solver.planning.registry import LA_RRT_PLANNERS
 
     journal = benchmark / JOURNAL
     if not os.path.lexists(journal):
@@ -484,8 +484,8 @@ def cmd_render(args) -> int:
 
 
 def cmd_benchmark(args) -> int:
-    from solver.benchmark import get_profile, plan_benchmark, run_plan
-    from solver.planners import PLANNERS
+    from solver.benchmark.runner import get_profile, plan_benchmark, run_plan
+    from solver.planning.registry import PLANNERS
 
     generators = None if args.generator == "all" else _generators(args.generator)
     planners = list(PLANNERS) if args.planners == "all" else [p.strip() for p in args.planners.split(",")]
@@ -534,7 +534,7 @@ MAX_RUNS = 10_000
 MAX_TIME_LIMIT = 24 * 3600.0
 """``benchmark --time-limit`` in seconds: a day per run; the paper's longest limit is 600 s."""
 MAX_BENCHMARK_SEED = 2**31 - 2
-"""``benchmark --seed``: OMPL's seed range (see ``solver.pool.stable_seed``), from 0 (the default)."""
+"""``benchmark --seed``: OMPL's seed range (see ``phyrogen_core.seeding.stable_seed``), from 0 (the default)."""
 
 
 def max_workers() -> int:
@@ -559,10 +559,10 @@ def _whole_number(text: str, low: int, high: int, why: str = "") -> int:
 
 
 def ray_connection(address: str | None, workers: int):
-    """The Ray cluster of ``--ray`` for the block (see :func:`solver.ray_pool.ray_instance`); nothing without it."""
+    """The Ray cluster of ``--ray`` (:func:`solver.parallel.ray_pool.ray_instance`); nothing without it."""
     if address is None:
         return contextlib.nullcontext()
-    from solver.ray_pool import ray_instance
+    from solver.parallel.ray_pool import ray_instance
 
     return ray_instance(address, workers)
 
@@ -599,7 +599,7 @@ def time_limit_option(text: str) -> float:
 
 
 def audit_budget_option(text: str) -> int:
-    from solver.audit import MAX_BUDGET  # here, not at the top: the parser stays quick to build
+    from solver.pipelines.audit import MAX_BUDGET  # here, not at the top: the parser stays quick to build
 
     return _whole_number(text, 1, MAX_BUDGET, " collision queries")
 

@@ -9,7 +9,7 @@ of these works; the ``module:id`` form imports the module itself::
     envs = gym.make_vec("phyrogen.env:PhyRoGen/Puzzle-v0", num_envs=64, puzzle="output")  # PuzzleVectorEnv
 
 The environment is the planning problem the puzzle was certified on
-(:func:`solver.problem.problem_for_chain`), made steppable: the state is the
+(:func:`solver.planning.problem.problem_for_chain`), made steppable: the state is the
 joint vector, an action moves joints by a bounded displacement, and every
 move is checked with the exact planar collision model along the motion, as
 the planners check theirs. :class:`PuzzleEnv` documents the spaces and the
@@ -38,8 +38,15 @@ from gymnasium.vector.utils import batch_space
 
 from phyrogen_core.chain import JointType, KinematicChain
 from phyrogen_core.puzzle import Goal
-from solver.collision import CollisionModel
-from solver.problem import DEFAULT_RESOLUTION, GOAL_SLACK, LOCKED_WIDTH, Problem, problem_factors, problem_for_chain
+from solver.collision.model import CollisionModel
+from solver.planning.problem import (
+    DEFAULT_RESOLUTION,
+    GOAL_SLACK,
+    LOCKED_WIDTH,
+    Problem,
+    problem_factors,
+    problem_for_chain,
+)
 
 __all__ = ["ENV_ID", "OBSERVATION_BLOCKS", "STEP_LIMIT", "PuzzleEnv", "PuzzleVectorEnv"]
 
@@ -126,7 +133,7 @@ class _Task:
         self.inv_half_padded = padded(self.inv_half)
 
     def goal_distance(self, state) -> float:
-        """:func:`solver.problem.goal_distance`: the largest distance of a goal joint from its value."""
+        """:func:`solver.planning.problem.goal_distance`: the largest distance of a goal joint from its value."""
         distance = 0.0
         for i, value in self.goal_pairs:
             off = abs(float(state[i]) - value)
@@ -181,7 +188,7 @@ def _sources_of(item: Any) -> list[_Source]:
 
 def _generated(generator: str, puzzle_seed: Any, params: Any) -> list[_Source]:
     from phyrogen_core.registry import all_generators
-    from solver.generation import Job, run_jobs
+    from solver.pipelines.generation import Job, run_jobs
 
     known = all_generators()
     if generator not in known:
@@ -355,7 +362,7 @@ class PuzzleEnv(gym.Env):
     ``Discrete(2 * size)``, action ``2 j`` moves joint ``j`` one full step up,
     ``2 j + 1`` one step down (a padding joint: no move); fit for search and
     DQN-style agents. Every move is clipped to the joint limits, then checked
-    with the exact collision model (:class:`solver.collision.CollisionModel`)
+    with the exact collision model (:class:`solver.collision.model.CollisionModel`)
     at samples along the straight joint-space motion no more than
     ``resolution`` metres apart (0.02, the planners' resolution). A colliding
     move stops at its last collision-free sample (``on_collision="stop"``, the
@@ -365,7 +372,7 @@ class PuzzleEnv(gym.Env):
     **Reward.** ``"sparse"``: 1 on the step that reaches the goal region
     (every goal joint within the puzzle's tolerance, as the planners and
     certificates test it), else 0. ``"shaped"``: the sparse reward plus the
-    decrease of :func:`solver.problem.goal_distance` over the step, divided by
+    decrease of :func:`solver.planning.problem.goal_distance` over the step, divided by
     the start's goal distance (so an episode's shaping sums to 1 when it ends
     at the goal). ``terminated`` at the goal; ``truncated`` once
     ``max_episode_steps`` steps (:data:`STEP_LIMIT`; None: no limit) have been taken. Through

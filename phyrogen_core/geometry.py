@@ -2,7 +2,7 @@
 
 Every shape is expressed in its own frame with its axis of extrusion along +z,
 so that a shape placed with a pose whose roll and pitch are zero is a vertical
-prism. The collision checker relies on that (see ``solver.collision``).
+prism. The collision checker relies on that (see ``solver.collision.model``).
 """
 
 from __future__ import annotations

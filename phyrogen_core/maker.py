@@ -21,7 +21,6 @@ applies, otherwise Algorithm 1 would loop forever on them.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -30,6 +29,7 @@ import numpy as np
 
 from .objects import PuzzleObject
 from .puzzle import Goal
+from .seeding import stable_rng
 
 
 class GenerationError(RuntimeError):
@@ -145,8 +145,7 @@ class MakerResult:
 
 def rng_for(generator: str, seed: int, stream: str = "maker") -> np.random.Generator:
     """A numpy Generator seeded from a stable hash of (generator, seed, stream)."""
-    digest = hashlib.sha256(f"{generator}:{seed}:{stream}".encode()).digest()
-    return np.random.default_rng(int.from_bytes(digest[:8], "little"))
+    return stable_rng(generator, seed, stream)
 
 
 def make(spec: MakerInput, seed: int, validator: Validator, generator: str = "generator",

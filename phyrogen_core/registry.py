@@ -24,7 +24,7 @@ from typing import Any
 from .maker import MakerInput
 
 BENCHMARK_PROFILES = ("paper", "quick")
-"""The benchmark profiles (``solver.benchmark``) every generator gives a time limit for:
+"""The benchmark profiles (``solver.benchmark.runner``) every generator gives a time limit for:
 ``paper`` the paper's protocol, ``quick`` a short run of the same planners."""
 
 MAX_SEED = 2**63 - 1

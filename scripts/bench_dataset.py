@@ -30,8 +30,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from solver.dataset import TIMING_COLUMNS, build_dataset, local_backend, make_request, ray_backend  # noqa: E402
-from solver.ray_pool import LOCAL, ray_instance  # noqa: E402
+from solver.parallel.ray_pool import LOCAL, ray_instance  # noqa: E402
+from solver.pipelines.dataset import TIMING_COLUMNS, build_dataset, local_backend, make_request, ray_backend  # noqa: E402
 
 # Puzzles per generator at --scale 1 (about 20-40 s per backend on 2 cores), and the settings that
 # keep sizes where the paper ties them to the seed.

@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from solver.dataset import build_dataset, local_backend, make_request, read_manifest  # noqa: E402
+from solver.pipelines.dataset import build_dataset, local_backend, make_request, read_manifest  # noqa: E402
 
 SWEEPS = {  # generator: (size parameter, smallest, largest, other settings)
     "simple_slider": ("n_objects", 1, 12, []),

@@ -77,7 +77,7 @@ def main(argv: list[str]) -> int:
     from phyrogen_core.export import chain_to_urdf, write_puzzle
     from phyrogen_core.maker import GenerationError
     from phyrogen_core.registry import ParameterError, get_generator
-    from solver.generation import generate_here, versions
+    from solver.pipelines.generation import generate_here, versions
 
     try:
         spec = get_generator(args.generator)

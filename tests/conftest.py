@@ -9,7 +9,7 @@ import pytest
 def paper_reports(tmp_path_factory):
     """Reports (with puzzles and folders) of the six generators x seeds 1-4."""
     from phyrogen_core.registry import paper_generators
-    from solver.generation import Job, run_jobs
+    from solver.pipelines.generation import Job, run_jobs
 
     out = tmp_path_factory.mktemp("paper")
     jobs = [Job(name, seed) for name in paper_generators() for seed in range(1, 5)]

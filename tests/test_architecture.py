@@ -26,6 +26,15 @@ THIRD_PARTY = {
 }
 """Outside the standard library, what each package may import."""
 
+SOLVER_LAYERS = {"collision": 1, "parallel": 1, "planning": 2, "validation": 3, "benchmark": 4, "pipelines": 5}
+"""Inside the solver the same rule, one level down: a subpackage may import lower ones and itself.
+
+collision and parallel are the ground floor (the exact collision model; worker processes and Ray),
+planning builds the OMPL-free problem and the planners on collision, validation asks planners whether
+a puzzle is solvable (the Maker's validator and necessity judge), benchmark runs planners against each
+other, and pipelines (generation, dataset, audit, import, replan) put all of them to work.
+"""
+
 OMPL_USERS_ABOVE_SOLVER = {"manipulation.reaching": "plans the arm's reaching motions with OMPL's BIT*"}
 """Modules above the solver that use OMPL themselves (not just to read or densify a path)."""
 
@@ -73,12 +82,32 @@ def violations(imports: dict[str, set[str]]) -> list[str]:
                 problems.append(f"{module} -> {name}: {package} may not depend on {top}")
             elif top == "ompl" and LAYERS[package] > LAYERS["solver"] and module not in OMPL_USERS_ABOVE_SOLVER:
                 problems.append(f"{module} -> {name}: only the solver sets up OMPL")
+    problems += _solver_violations(imports)
     # Above the solver, a solver module that needs OMPL may only be used by a module that plans with OMPL.
     needs_ompl = {m for m in known if m.startswith("solver") and _reaches_ompl(m, imports)}
     for module, imported in sorted(imports.items()):
         if LAYERS[module.split(".")[0]] == 3 and module not in OMPL_USERS_ABOVE_SOLVER:
             for name in sorted(imported & needs_ompl):
                 problems.append(f"{module} -> {name}: imports OMPL (use the solver's OMPL-free modules)")
+    return problems
+
+
+def _solver_violations(imports: dict[str, set[str]]) -> list[str]:
+    """Imports between the solver's subpackages against :data:`SOLVER_LAYERS`, and solver modules
+    outside every subpackage (each concern has its folder)."""
+    problems = []
+    for module, imported in sorted(imports.items()):
+        parts = module.split(".")
+        if parts[0] != "solver" or len(parts) == 1:
+            continue
+        if parts[1] not in SOLVER_LAYERS:
+            problems.append(f"{module}: a solver module outside the subpackages {sorted(SOLVER_LAYERS)}")
+            continue
+        for name in sorted(n for n in imported if n.split(".")[0] == "solver" and len(n.split(".")) > 1):
+            other = name.split(".")[1]
+            if other in SOLVER_LAYERS and other != parts[1] and SOLVER_LAYERS[other] >= SOLVER_LAYERS[parts[1]]:
+                problems.append(f"{module} -> {name}: solver.{parts[1]} (level {SOLVER_LAYERS[parts[1]]}) may not "
+                                f"import solver.{other} (level {SOLVER_LAYERS[other]})")
     return problems
 
 
@@ -111,11 +140,29 @@ def test_the_check_catches_an_upward_import(tmp_path):
     (tmp_path / "solver" / "setup.py").write_text("from ompl import base\n")
     (tmp_path / "manipulation" / "run.py").write_text("from ..blender_addon import scene\nimport bpy\n")
     (tmp_path / "blender_addon" / "ui.py").write_text("from solver.setup import x\n")
+    for sub in ("collision", "pipelines"):
+        (tmp_path / "solver" / sub).mkdir()
+        (tmp_path / "solver" / sub / "__init__.py").write_text("")
+    (tmp_path / "solver" / "collision" / "model.py").write_text("from solver.pipelines.audit import run\n")
+    (tmp_path / "solver" / "pipelines" / "audit.py").write_text("from ..collision.model import x\n")
     problems = violations(module_imports(tmp_path))
     for expected in ("phyrogen_core.chain -> solver", "phyrogen_core.fast -> numba", "solver.cli -> blender_addon",
                      "manipulation.run -> blender_addon", "manipulation.run -> bpy",
-                     "blender_addon.ui -> solver.setup: imports OMPL"):
+                     "blender_addon.ui -> solver.setup: imports OMPL",
+                     "solver.collision.model -> solver.pipelines.audit: solver.collision (level 1) may not",
+                     "solver.cli: a solver module outside the subpackages"):
         assert any(p.startswith(expected) for p in problems), (expected, problems)
+
+
+def test_a_subpackage_init_imports_nothing():
+    # Importing solver.planning.problem runs solver/__init__.py and solver/planning/__init__.py first:
+    # an import there would load siblings (OMPL among them) into every user of one module.
+    for init in sorted((REPOSITORY / "solver").rglob("__init__.py")):
+        if init.parent.name == "dataset":
+            continue  # the dataset package's public names, all of its own level
+        tree = ast.parse(init.read_text(encoding="utf-8"))
+        assert not [n for n in ast.walk(tree) if isinstance(n, ast.Import | ast.ImportFrom)
+                    and not (isinstance(n, ast.ImportFrom) and n.module == "__future__")], init
 
 
 def test_the_core_imports_without_the_layers_above_it():

@@ -15,7 +15,7 @@ from phyrogen.cli import build_parser, main
 from phyrogen_core.export import read_puzzle_dir, write_puzzle
 from phyrogen_core.geometry import Pose
 from phyrogen_core.puzzle import Puzzle
-from solver.audit import (
+from solver.pipelines.audit import (
     DEFAULT_BUDGET,
     MARKDOWN_MARKER,
     MAX_BUDGET,
@@ -28,7 +28,7 @@ from solver.audit import (
     report_data,
     report_markdown,
 )
-from solver.generation import Job, run_jobs
+from solver.pipelines.generation import Job, run_jobs
 
 BUDGET = "3000"
 """Queries per attempt in these tests: a simple slider with one object too many is solved in far

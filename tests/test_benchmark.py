@@ -10,7 +10,16 @@ from pathlib import Path
 import pytest
 
 from phyrogen_core.folder import BEST_SOLUTION, PuzzleFolder
-from solver.benchmark import (
+from solver.benchmark.plots import (
+    COLORS,
+    PLANNER_ORDER,
+    curves,
+    planner_color,
+    plot_fig4,
+    summary_markdown,
+    summary_rows,
+)
+from solver.benchmark.runner import (
     PAPER_TIME_LIMITS,
     RunRecord,
     build_database,
@@ -22,8 +31,7 @@ from solver.benchmark import (
     run_key,
     write_log,
 )
-from solver.planners import PLANNERS
-from solver.plots import COLORS, PLANNER_ORDER, curves, planner_color, plot_fig4, summary_markdown, summary_rows
+from solver.planning.registry import PLANNERS
 
 
 def _record(planner: str, run: int, solved: bool, first: float | None, cost: int | None) -> RunRecord:
@@ -152,7 +160,7 @@ def test_every_planner_of_a_run_gets_the_same_goal_seed_and_the_mode_is_in_the_k
 def test_a_changed_planner_version_changes_the_journal_key(monkeypatch):
     from dataclasses import replace
 
-    import solver.planners as planners
+    import solver.planning.registry as planners
 
     job = make_jobs([PuzzleFolder(Path("/nowhere"), "rooms_1", "rooms")], ["la_rrt"], get_profile("quick"))[0]
     before = run_key(job, "digest", "2.0.1")
@@ -181,9 +189,9 @@ def test_journal_lines_round_trip_and_refuse_what_does_not_fit():
 def test_benchmark_end_to_end(tmp_path):
     from phyrogen_core.export import write_puzzle
     from phyrogen_core.folder import find_puzzle_folders
-    from solver.benchmark import run_benchmark
-    from solver.generation import generate_puzzle, versions
-    from solver.problem import verify_certificate
+    from solver.benchmark.runner import run_benchmark
+    from solver.pipelines.generation import generate_puzzle, versions
+    from solver.planning.problem import verify_certificate
 
     puzzle = generate_puzzle("simple_slider", 1)
     folder = write_puzzle(puzzle, tmp_path / "puzzles", versions())
@@ -206,8 +214,8 @@ def test_benchmark_end_to_end(tmp_path):
 def test_a_benchmark_until_first_stops_every_run_at_its_first_solution(tmp_path):
     from phyrogen_core.export import write_puzzle
     from phyrogen_core.folder import find_puzzle_folders
-    from solver.benchmark import JOURNAL, read_journal, run_benchmark
-    from solver.generation import generate_puzzle, versions
+    from solver.benchmark.runner import JOURNAL, read_journal, run_benchmark
+    from solver.pipelines.generation import generate_puzzle, versions
 
     write_puzzle(generate_puzzle("move_n_times", 1), tmp_path / "puzzles", versions())
     puzzles = find_puzzle_folders(tmp_path / "puzzles")

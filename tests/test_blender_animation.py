@@ -32,7 +32,7 @@ def empty_scene():
 @pytest.fixture(scope="module")
 def generated():
     """One certified puzzle per registered generator (seed 2), generated on first use."""
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     cache = {}
 

@@ -23,7 +23,7 @@ GENERATED = (("simple_slider", 1), ("move_n_times", 2))
 @pytest.fixture(scope="module")
 def rendered(tmp_path_factory):
     pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     root = tmp_path_factory.mktemp("out")
     folders = [write_puzzle(generate_puzzle(generator, seed), root) for generator, seed in GENERATED]

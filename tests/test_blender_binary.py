@@ -12,7 +12,7 @@ import pytest
 from blender_support import blender_environment, tool
 
 from phyrogen_core.export import read_puzzle_dir
-from solver.problem import verify_certificate
+from solver.planning.problem import verify_certificate
 
 REPOSITORY = Path(__file__).resolve().parent.parent
 BLENDER = tool("blender")

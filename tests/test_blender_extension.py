@@ -198,7 +198,7 @@ def test_zip_bundles_the_wheels_its_manifest_lists(bundled_zip):
 @pytest.mark.slow
 def test_fresh_blender_with_only_the_zip_generates_and_replans(bundled_zip, tmp_path):
     from phyrogen_core.export import read_puzzle_dir
-    from solver.problem import verify_certificate
+    from solver.planning.problem import verify_certificate
 
     python = fresh_blender_python(tmp_path / "blender-python")
     home, out = tmp_path / "home", tmp_path / "out"

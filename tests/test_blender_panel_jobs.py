@@ -18,7 +18,7 @@ from blender_support import FakeLayout, private_blender_home
 from blender_addon.jobs import Job, group_alive, phyrogen_command
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.folder import PuzzleFolder
-from solver.problem import verify_certificate
+from solver.planning.problem import verify_certificate
 
 TIMEOUT = 300.0  # a hung job fails the test instead of hanging it; no result depends on it
 

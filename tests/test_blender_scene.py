@@ -99,7 +99,7 @@ def test_two_puzzles_in_one_file_keep_their_names():
 @pytest.fixture(scope="module")
 def generated(tmp_path_factory):
     """One puzzle folder per paper generator (seed 1), generated on first use."""
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     root = tmp_path_factory.mktemp("generated")
     cache = {}

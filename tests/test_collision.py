@@ -8,7 +8,7 @@ from pybullet_scene import PENETRATION, PyBulletScene
 
 from phyrogen_core import Box, Cylinder, Geometry, Motion, Pose, PuzzleObject, Role, build_chain
 from phyrogen_core.geometry import slot_disc
-from solver.collision import CollisionModel, UnsupportedGeometryError
+from solver.collision.model import CollisionModel, UnsupportedGeometryError
 
 
 def obj(name, motion, x, y, yaw=0.0, size=(1.0, 1.0, 1.0), limits=None, shape=None, z=None):

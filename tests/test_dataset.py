@@ -24,7 +24,7 @@ pq = pytest.importorskip("pyarrow.parquet")
 from phyrogen.cli import main  # noqa: E402
 from phyrogen_core.export import read_puzzle_dir  # noqa: E402
 from phyrogen_core.folder import find_puzzle_folders  # noqa: E402
-from solver.dataset import (  # noqa: E402
+from solver.pipelines.dataset import (  # noqa: E402
     TIMING_COLUMNS,
     DatasetError,
     EntryOutcome,
@@ -34,8 +34,8 @@ from solver.dataset import (  # noqa: E402
     local_backend,
     make_request,
 )
-from solver.dataset.build import write_record  # noqa: E402
-from solver.dataset.manifest import canonical_description  # noqa: E402
+from solver.pipelines.dataset.build import write_record  # noqa: E402
+from solver.pipelines.dataset.manifest import canonical_description  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SEEDS = (9100, 9115)  # 16 puzzles: shards of 5, 5, 5 and 1

@@ -1,6 +1,6 @@
 """The dependency-shape knobs (the paper's future work): on seeds drawn fresh each run, a knob's
 0 gives mostly chains as deep as the puzzle allows, and more branching gives trees, shallower.
-The shape is measured from each certificate (solver.problem.dependency_graph), as the manifest
+The shape is measured from each certificate (solver.planning.problem.dependency_graph), as the manifest
 reports it, not taken from how the generator meant to lay the objects out."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 
 from phyrogen_core.export.metadata import puzzle_metadata
 from phyrogen_core.registry import get_generator
-from solver.generation import generate_here
+from solver.pipelines.generation import generate_here
 
 SEEDS = 4
 

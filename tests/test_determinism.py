@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from phyrogen_core.registry import paper_generators
-from solver.generation import Job, run_jobs
+from solver.pipelines.generation import Job, run_jobs
 
 pytestmark = pytest.mark.slow
 

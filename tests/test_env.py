@@ -17,7 +17,7 @@ gym = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 from phyrogen.env import ENV_ID, STEP_LIMIT, PuzzleEnv, PuzzleVectorEnv  # noqa: E402
-from solver.problem import in_goal  # noqa: E402
+from solver.planning.problem import in_goal  # noqa: E402
 
 DATASET = (("grid_world", 8400), ("continuous_space", 8401))
 
@@ -25,7 +25,7 @@ DATASET = (("grid_world", 8400), ("continuous_space", 8401))
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
     """A dataset root holding two puzzle folders; (root, {name: folder})."""
-    from solver.generation import Job, run_jobs
+    from solver.pipelines.generation import Job, run_jobs
 
     root = tmp_path_factory.mktemp("env_dataset")
     reports = list(run_jobs([Job(g, s) for g, s in DATASET], root, workers=2))

@@ -16,7 +16,7 @@ import pytest
 import test_registry
 
 from phyrogen_core.registry import all_generators, get_generator, paper_generators, registry_copy
-from solver.pool import fresh_process_pool
+from solver.parallel.pool import fresh_process_pool
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "two_sliders.py"
 NAME = "two_sliders"
@@ -61,9 +61,9 @@ def _generate_and_fix_each_blocker(seed: int) -> tuple[list[str], list[tuple[str
     each blocker fixed, at 10x the budget the generation's own necessity check had."""
     import numpy as np
 
-    from solver.generation import generate_here
-    from solver.judge import JUDGE_BUDGET, attempt_fixed
-    from solver.problem import verify_certificate
+    from solver.pipelines.generation import generate_here
+    from solver.planning.problem import verify_certificate
+    from solver.validation.judge import JUDGE_BUDGET, attempt_fixed
 
     with registry_copy():
         load_example()

@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solver.goal_sampling import GoalSampler, GoalSamplerSettings, goal_seed
-from solver.problem import in_goal, problem_for_chain
+from solver.planning.goal_sampling import GoalSampler, GoalSamplerSettings, goal_seed
+from solver.planning.problem import in_goal, problem_for_chain
 
 
 @pytest.fixture(scope="module")
 def slider4():
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     puzzle = generate_puzzle("simple_slider", 4)
     return problem_for_chain(puzzle.planning_chain, puzzle.goal)
@@ -66,7 +66,7 @@ def test_the_goal_seed_is_the_same_for_every_planner_of_a_run():
 
 
 def test_ompls_goal_region_hands_out_only_the_shared_valid_states(slider4):
-    from solver.ompl_planners import _setup
+    from solver.planning.ompl_planners import _setup
 
     goals = GoalSampler(slider4, 5, GoalSamplerSettings(capacity=4))
     si, pdef, keep = _setup(slider4, goals, np.random.default_rng(0))
@@ -97,9 +97,9 @@ def _progress_on(args) -> tuple[str, dict[str, tuple[int, int, int]], int]:
     recorded), and the goal states the sampler finds with the run's goal seed."""
     from ompl import geometric as og
 
-    from solver.ompl_planners import run_ompl
-    from solver.planners import PLANNERS, get_planner, run_seed
-    from solver.validation import seed_ompl
+    from solver.planning.ompl_planners import run_ompl
+    from solver.planning.ompl_setup import seed_ompl
+    from solver.planning.registry import PLANNERS, get_planner, run_seed
 
     name, puzzle = args
     problem = problem_for_chain(puzzle.planning_chain, puzzle.goal)
@@ -119,8 +119,8 @@ def _progress_on(args) -> tuple[str, dict[str, tuple[int, int, int]], int]:
 
 @pytest.mark.slow
 def test_every_planner_makes_progress_on_every_paper_puzzle(paper_reports):
-    from solver.planners import PLANNERS
-    from solver.pool import fresh_process_pool
+    from solver.parallel.pool import fresh_process_pool
+    from solver.planning.registry import PLANNERS
 
     jobs = [(f"{r.generator}_{r.seed}", r.puzzle) for r in paper_reports]
     assert len(jobs) == 24
@@ -145,11 +145,11 @@ def _runs_with_clips(args) -> list[tuple[bool, int, bool]]:
     """In a fresh process: ``planner`` (``until_first``, or 4 s runs) on Simple Slider 3, planning at a 0.2 m
     resolution so that most diagonal edges clip a corner at the 2 mm fine check. Per seed:
     (solved, clipped paths dropped, the path holds at fine resolution); stops after a run with clips."""
-    import solver.ompl_planners as ompl_planners
-    from solver.lbt_rrt import LbtRrtSettings, plan_lbt_rrt
-    from solver.planning import planning_steps
-    from solver.problem import FINE_RESOLUTION, path_is_valid
-    from solver.validation import seed_ompl
+    import solver.planning.ompl_planners as ompl_planners
+    from solver.planning.anytime import planning_steps
+    from solver.planning.lbt_rrt import LbtRrtSettings, plan_lbt_rrt
+    from solver.planning.ompl_setup import seed_ompl
+    from solver.planning.problem import FINE_RESOLUTION, path_is_valid
 
     planner, puzzle, coarse, until_first = args
     limit = 60 if until_first else 4
@@ -177,8 +177,8 @@ def _runs_with_clips(args) -> list[tuple[bool, int, bool]]:
 def test_a_clipped_path_restarts_the_baseline_instead_of_ending_its_run(planner, until_first):
     # The planners keep a clipped path as their best until a strictly cheaper one turns up, which
     # never happens when it is already the cheapest: such runs used to time out on easy puzzles.
-    from solver.generation import generate_puzzle
-    from solver.pool import fresh_process_pool
+    from solver.parallel.pool import fresh_process_pool
+    from solver.pipelines.generation import generate_puzzle
 
     puzzle = generate_puzzle("simple_slider", 3)
     with fresh_process_pool(1, 1, []) as pool:

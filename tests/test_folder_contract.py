@@ -66,8 +66,8 @@ def test_panel_export_after_render_and_benchmark_keeps_their_files(tmp_path):
     from blender_addon import ui
     from blender_addon.rendering import render_puzzles
     from blender_addon.scene import build_puzzle_folder, read_chain
-    from solver.benchmark import get_profile, run_benchmark
-    from solver.generation import generate_puzzle, versions
+    from solver.benchmark.runner import get_profile, run_benchmark
+    from solver.pipelines.generation import generate_puzzle, versions
 
     root = tmp_path / "out"
     folder = PuzzleFolder.open(write_puzzle(generate_puzzle("simple_slider", 2), root, versions()))

@@ -21,7 +21,7 @@ from maker_support import run
 from phyrogen_core.geometry import ConvexPrism
 from phyrogen_core.objects import Motion, PuzzleObject, build_chain
 from phyrogen_core.registry import ParameterError, get_generator
-from solver.collision import CollisionModel
+from solver.collision.model import CollisionModel
 
 SEEDS = (1, 2, 3, 4)
 SWEEP_SAMPLES = 1201
@@ -204,8 +204,8 @@ def test_lockbox_slots_lock_and_unlock_the_chain(seed):
     ("lockbox_random", {"n_objects": 3}),
 ])
 def test_generate_puzzle_certifies_the_intended_chain(name, overrides):
-    from solver.generation import generate_puzzle
-    from solver.problem import verify_certificate
+    from solver.pipelines.generation import generate_puzzle
+    from solver.planning.problem import verify_certificate
 
     puzzle = generate_puzzle(name, 1, overrides)
     assert verify_certificate(puzzle.planning_chain, puzzle.certificate, puzzle.goal) == []

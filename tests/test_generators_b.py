@@ -19,7 +19,7 @@ from maker_support import run
 from phyrogen_core.maker import MakerResult
 from phyrogen_core.objects import Motion, build_chain
 from phyrogen_core.registry import ParameterError, get_generator
-from solver.collision import CollisionModel
+from solver.collision.model import CollisionModel
 
 NAMES = ("continuous_space", "move_n_times", "rooms")
 
@@ -210,7 +210,7 @@ def test_rooms_closed_door_blocks_the_robot_and_open_door_lets_it_pass():
 @pytest.mark.parametrize("name", NAMES)
 @pytest.mark.parametrize("seed", [1, 2])
 def test_generates_a_certified_puzzle(name, seed):
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     puzzle = generate_puzzle(name, seed)
     assert puzzle.certificate, "no solution certificate"

@@ -9,10 +9,11 @@ import pytest
 from phyrogen_core.actions import count_actions
 from phyrogen_core.export.metadata import puzzle_metadata
 from phyrogen_core.registry import paper_generators
-from solver.defragment import defragment_certificate
-from solver.generation import Job, run_jobs
-from solver.judge import JUDGE_BUDGET, attempt_fixed
-from solver.pool import fresh_process_pool, stable_seed
+from phyrogen_core.seeding import stable_seed
+from solver.parallel.pool import fresh_process_pool
+from solver.pipelines.generation import Job, run_jobs
+from solver.planning.defragment import defragment_certificate
+from solver.validation.judge import JUDGE_BUDGET, attempt_fixed
 
 # Sizes where the paper ties them to the seed are set, so that the seeds are new but the
 # puzzles stay small enough for the suite.

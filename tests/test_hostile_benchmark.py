@@ -21,7 +21,7 @@ from hostile_support import hostile_puzzle
 from phyrogen.cli import main
 from phyrogen_core.export import write_puzzle
 from phyrogen_core.folder import OutputError, PuzzleFormatError, find_puzzle_folders
-from solver.benchmark import (
+from solver.benchmark.runner import (
     JOURNAL,
     Journal,
     estimate_seconds,

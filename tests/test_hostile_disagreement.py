@@ -9,7 +9,7 @@ and below a tenth of each goal joint's range, and the start is not already in
 it. A folder that breaks this is a :class:`PuzzleFormatError` naming
 ``puzzle.json`` and the field (``phyrogen check``: one line, exit 2).
 
-``solver.problem.verify_certificate`` (what ``phyrogen check`` runs) holds a
+``solver.planning.problem.verify_certificate`` (what ``phyrogen check`` runs) holds a
 certificate to the same rules: it must begin at the start state, stay within
 the limits, end in a sensible goal; a check that would take more than
 ``MAX_CHECKED_STATES`` states is refused, not attempted.
@@ -36,14 +36,14 @@ from hostile_support import (
     written,  # noqa: F401 (fixture)
 )
 
-import solver.problem
+import solver.planning.problem
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.export.metadata import metadata_for_chain
 from phyrogen_core.export.output import write_export_files
 from phyrogen_core.export.reader import GOAL_TOLERANCE_SHARE, goal_problems, start_state
 from phyrogen_core.folder import PuzzleFolder
 from phyrogen_core.puzzle import Goal, Puzzle
-from solver.problem import verify_certificate
+from solver.planning.problem import verify_certificate
 
 PUZZLE = hostile_puzzle()
 JOINTS = PUZZLE.joint_order
@@ -274,7 +274,7 @@ def test_a_malformed_certificate_is_reported_not_raised(written, path):  # noqa:
 
 def test_a_check_too_long_to_run_is_refused(written, monkeypatch):  # noqa: F811
     loaded = _loaded(written)
-    monkeypatch.setattr(solver.problem, "MAX_CHECKED_STATES", 10)
+    monkeypatch.setattr(solver.planning.problem, "MAX_CHECKED_STATES", 10)
     problems = verify_certificate(loaded.chain, loaded.certificate, loaded.goal)
     assert len(problems) == 1 and "more than the 10 a check may take" in problems[0], problems
 

@@ -53,8 +53,8 @@ from phyrogen_core.export.urdf import chain_to_urdf
 from phyrogen_core.folder import BEST_SOLUTION, PuzzleFormatError
 from phyrogen_core.puzzle import Goal
 from phyrogen_core.registry import ParameterError, all_generators, get_generator
-from solver.generation import generate_puzzle
-from solver.problem import verify_certificate
+from solver.pipelines.generation import generate_puzzle
+from solver.planning.problem import verify_certificate
 
 NON_FINITE = ("nan", "NaN", "inf", "-inf", "Infinity", "1e999", "-1e999")
 """Texts that Python's float() turns into NaN or an infinity."""

@@ -59,12 +59,12 @@ def no_work(monkeypatch):
     import blender_addon.gallery
     import blender_addon.rendering
     import manipulation.batch
-    import solver.generation
+    import solver.pipelines.generation
 
     def started(*args, **kwargs):
         raise AssertionError("work started before the input was checked")
 
-    monkeypatch.setattr(solver.generation, "run_jobs", started)
+    monkeypatch.setattr(solver.pipelines.generation, "run_jobs", started)
     monkeypatch.setattr(blender_addon.rendering, "_run_workers", started)
     monkeypatch.setattr(blender_addon.gallery, "write_gallery", started)
     monkeypatch.setattr(manipulation.batch, "execute_puzzle", started)

@@ -316,7 +316,7 @@ def test_overlapping_seed_ranges_give_each_seed_once_in_order(tmp_path, capsys):
 def test_a_worker_that_dies_without_a_result_is_reported_not_awaited():
     """A run killed from outside (the out-of-memory killer, a planner's segfault) is one lost item,
     in either order of results; the benchmark records it as a crashed run."""
-    from solver.pool import fresh_process_pool
+    from solver.parallel.pool import fresh_process_pool
 
     lost = lambda item, how: (item, how)  # noqa: E731
     with fresh_process_pool(2, 3, []) as pool:

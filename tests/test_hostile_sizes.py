@@ -20,7 +20,7 @@ import pytest
 
 from phyrogen.cli import MAX_BENCHMARK_SEED, MAX_RUNS, MAX_TIME_LIMIT, build_parser, main, max_workers
 from phyrogen_core.registry import ParameterError, all_generators, get_generator, paper_generators
-from solver.generation import generate_puzzle
+from solver.pipelines.generation import generate_puzzle
 
 HUGE = 10**6
 """Far beyond any feasible size: every integer parameter must be refused here (the binary search's ceiling)."""
@@ -59,12 +59,12 @@ def _largest_accepted(accepts: typing.Callable[[int], bool], low: int) -> int:
 @pytest.fixture
 def no_generation(monkeypatch):
     """Up front means before any worker starts: starting one fails the test."""
-    import solver.generation
+    import solver.pipelines.generation
 
     def refuse(*args, **kwargs):
         raise AssertionError("generation started for a size that should have been refused")
 
-    monkeypatch.setattr(solver.generation, "run_jobs", refuse)
+    monkeypatch.setattr(solver.pipelines.generation, "run_jobs", refuse)
 
 
 def _cli(argv: list[str], capsys) -> tuple[int, str, str]:

@@ -386,8 +386,8 @@ def test_a_generated_puzzle_imports_as_itself(tmp_path, generator, overrides):
     from phyrogen_core.export import write_puzzle
     from phyrogen_core.folder import PuzzleFolder
     from phyrogen_core.registry import get_generator
-    from solver.generation import generate_here
-    from solver.problem import verify_certificate
+    from solver.pipelines.generation import generate_here
+    from solver.planning.problem import verify_certificate
 
     puzzle = generate_here(generator, 8401, get_generator(generator).parse_params(overrides))
     folder = write_puzzle(puzzle, tmp_path)

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from phyrogen_core.registry import paper_generators
-from solver.generation import generate_here
-from solver.judge import JUDGE_BUDGET, JUDGE_SETTINGS
-from solver.la_rrt import la_rrt_within
-from solver.problem import problem_for_chain
+from solver.pipelines.generation import generate_here
+from solver.planning.la_rrt import la_rrt_within
+from solver.planning.problem import problem_for_chain
+from solver.validation.judge import JUDGE_BUDGET, JUDGE_SETTINGS
 
 SIZES = {"simple_slider": {"n_objects": 4}, "move_n_times": {"n": 3}}  # sizes the paper ties to the seed
 

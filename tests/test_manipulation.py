@@ -120,9 +120,9 @@ def test_robot_executes_a_simple_slider_end_to_end(tmp_path):
     from manipulation.execution import execute_puzzle
     from manipulation.outputs import write_outputs
     from phyrogen_core.export import write_puzzle
-    from solver.generation import generate_puzzle
-    from solver.pool import stable_seed
-    from solver.validation import seed_ompl
+    from phyrogen_core.seeding import stable_seed
+    from solver.pipelines.generation import generate_puzzle
+    from solver.planning.ompl_setup import seed_ompl
 
     puzzle = generate_puzzle("simple_slider", 1)
     folder = write_puzzle(puzzle, tmp_path / "puzzles")

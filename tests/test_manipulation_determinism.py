@@ -27,7 +27,7 @@ def two_puzzles(tmp_path_factory):
     (not every motion is a straight line): smaller Simple Sliders and Grid Worlds never call it,
     and then the order could not matter."""
     from phyrogen_core.export import write_puzzle
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     out = tmp_path_factory.mktemp("determinism")
     return [write_puzzle(generate_puzzle("move_n_times", 731, {"n": 2}), out),

@@ -19,7 +19,7 @@ def _in_frame(segmentation: np.ndarray, body: int) -> bool:
 def executed(tmp_path_factory):
     from manipulation.execution import execute_puzzle
     from phyrogen_core.export import write_puzzle
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     root = tmp_path_factory.mktemp("media")
     puzzle = generate_puzzle("simple_slider", 9173, {"n_objects": 2})

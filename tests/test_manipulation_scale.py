@@ -28,7 +28,7 @@ SIZES = {"move_n_times": {"n": 1}, "simple_slider": {"n_objects": 2}, "rooms": {
 
 @pytest.mark.parametrize("generator", sorted(all_generators()))
 def test_every_generators_knobs_are_a_size_a_parallel_gripper_holds(generator, tmp_path):
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     spec = all_generators()[generator]
     known = {f for f in spec.default_params().__dataclass_fields__}
@@ -80,7 +80,7 @@ def test_a_larger_puzzle_is_larger_in_the_scene_not_shrunk_to_fit(tmp_path):
     from manipulation.execution import ExecutionSettings, scene_placement
     from manipulation.placement import planar_bounds
     from phyrogen_core.export import read_puzzle_dir, write_puzzle
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     seed = random.SystemRandom().randrange(10_000, 1_000_000)
     areas = []

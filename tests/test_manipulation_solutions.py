@@ -17,7 +17,7 @@ from phyrogen_core.folder import BEST_SOLUTION, PuzzleFolder
 @pytest.fixture(scope="module")
 def slider_folder(tmp_path_factory):
     from phyrogen_core.export import write_puzzle
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     return write_puzzle(generate_puzzle("simple_slider", 741, {"n_objects": 2}), tmp_path_factory.mktemp("solutions"))
 
@@ -61,7 +61,7 @@ def _run(loaded, path, run: int, planner: str = "LA-RRT") -> BenchmarkRun:
 
 
 def _digest(folder, loaded):
-    from solver.benchmark import puzzle_digest
+    from solver.benchmark.runner import puzzle_digest
 
     return puzzle_digest(PuzzleFolder(folder, loaded.metadata["name"]))
 
@@ -102,7 +102,7 @@ def test_a_costlier_best_file_gives_way_to_cheaper_journal_runs(folder):
 def test_the_command_line_takes_solved_la_rrt_runs_of_this_very_puzzle_from_the_journal(folder, tmp_path):
     from phyrogen.cli import benchmark_runs
     from phyrogen_core.folder import OutputError
-    from solver.benchmark import RunRecord, journal_line
+    from solver.benchmark.runner import RunRecord, journal_line
 
     loaded = read_puzzle_dir(folder)
     name, digest = loaded.metadata["name"], _digest(folder, loaded)

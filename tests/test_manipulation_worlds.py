@@ -21,7 +21,7 @@ def scene(tmp_path_factory):
     from manipulation.robot import RobotSpec
     from manipulation.scene import write_scene_files
     from phyrogen_core.export import read_puzzle_dir, write_puzzle
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     out = tmp_path_factory.mktemp("worlds")
     loaded = read_puzzle_dir(write_puzzle(generate_puzzle("move_n_times", 731, {"n": 2}), out / "puzzles"))

@@ -48,7 +48,7 @@ NAMES = [f"{generator}_{seed}" for generator, seed, _ in PUZZLES]
 def exported(tmp_path_factory):
     """name -> (puzzle, folder): the puzzles written as folders, then `phyrogen export --format mjcf` on their root."""
     from phyrogen_core.registry import get_generator
-    from solver.generation import generate_here
+    from solver.pipelines.generation import generate_here
 
     root = tmp_path_factory.mktemp("mjcf")
     out = {}
@@ -87,8 +87,8 @@ def _deepest_between_objects(model, data, chain) -> tuple[float, tuple[str, str]
 
 
 def _dense(chain, states) -> np.ndarray:
-    from solver.collision import CollisionModel
-    from solver.problem import segment_points
+    from solver.collision.model import CollisionModel
+    from solver.planning.problem import segment_points
 
     states = np.asarray(states, dtype=float)
     steps = CollisionModel(chain).motion_steps(REPLAY_RESOLUTION)
@@ -141,7 +141,7 @@ def test_certificate_replayed_in_mujoco_penetrates_nothing(exported, name, recor
 def test_the_replay_sees_a_real_overlap(exported, name):
     """The measure is not vacuous: straight from start to goal runs through a blocker, which our
     model reports and MuJoCo measures deeper than the threshold."""
-    from solver.collision import CollisionModel
+    from solver.collision.model import CollisionModel
 
     puzzle, _, model, data = _model(exported, name)
     line = _dense(puzzle.chain, [puzzle.certificate[0], puzzle.certificate[-1]])

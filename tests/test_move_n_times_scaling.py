@@ -15,8 +15,8 @@ import pytest
 from phyrogen_core.generators.move_n_times import MAX_N
 from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.registry import get_generator
-from solver.generation import generate_here
-from solver.problem import verify_certificate
+from solver.pipelines.generation import generate_here
+from solver.planning.problem import verify_certificate
 
 
 def fresh_seed() -> int:

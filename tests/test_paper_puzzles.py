@@ -10,9 +10,9 @@ from pybullet_scene import PENETRATION, PyBulletScene
 
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.registry import get_generator
-from solver.judge import JUDGE_BUDGET, attempt_fixed
-from solver.pool import fresh_process_pool
-from solver.problem import densify, verify_certificate
+from solver.parallel.pool import fresh_process_pool
+from solver.planning.problem import densify, verify_certificate
+from solver.validation.judge import JUDGE_BUDGET, attempt_fixed
 
 pytestmark = pytest.mark.slow
 
@@ -34,7 +34,7 @@ def test_certificates_hold_in_our_checker_and_in_pybullet(paper_reports):
         assert verify_certificate(loaded.chain, loaded.certificate, loaded.goal) == []
         scene = PyBulletScene(loaded.chain)
         try:
-            from solver.collision import CollisionModel
+            from solver.collision.model import CollisionModel
 
             steps = CollisionModel(loaded.chain).motion_steps(0.02)
             states = densify(loaded.certificate, steps)

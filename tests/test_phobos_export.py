@@ -103,7 +103,7 @@ def exported(request, tmp_path_factory, phobos_requirements):
     ``blender``: Debian's (or any) Blender binary; ``bpy``: the bpy wheel of the project's environment.
     """
     from phyrogen_core.export import write_puzzle
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     script = [str(REPOSITORY / "tests" / "phobos_export_script.py"), "--"]
     if request.param == "blender":

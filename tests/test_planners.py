@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from phyrogen_core.actions import count_actions
-from solver.defragment import Defragmenter
-from solver.planners import PLANNERS, get_planner, run_seed
-from solver.problem import (
+from solver.planning.defragment import Defragmenter
+from solver.planning.problem import (
     chain_path,
     in_goal,
     path_is_valid,
@@ -16,6 +15,7 @@ from solver.problem import (
     problem_for_chain,
     verify_certificate,
 )
+from solver.planning.registry import PLANNERS, get_planner, run_seed
 
 FACTORS = {"a": (0,), "b": (1,), "c": (2, 3)}
 
@@ -44,7 +44,7 @@ def test_unknown_planner_names_the_valid_ones():
 
 
 def test_the_paper_la_rrt_has_none_of_our_additions():
-    from solver.la_rrt import PAPER_SETTINGS, PUSH_SETTINGS, LaRrtSettings
+    from solver.planning.la_rrt import PAPER_SETTINGS, PUSH_SETTINGS, LaRrtSettings
 
     assert PUSH_SETTINGS == LaRrtSettings()  # the judge and LA-RRT+push: the defaults
     assert (PAPER_SETTINGS.max_pushes, PAPER_SETTINGS.limit_probability, PAPER_SETTINGS.single_factor_probability,
@@ -57,9 +57,9 @@ def test_the_paper_la_rrt_has_none_of_our_additions():
 def test_planner_versions_name_their_settings_and_the_goal_sampler():
     from dataclasses import replace
 
-    from solver.goal_sampling import DEFAULT_GOAL_SETTINGS, GoalSamplerSettings
-    from solver.la_rrt import PAPER_SETTINGS
-    from solver.planners import _version
+    from solver.planning.goal_sampling import DEFAULT_GOAL_SETTINGS, GoalSamplerSettings
+    from solver.planning.la_rrt import PAPER_SETTINGS
+    from solver.planning.registry import _version
 
     versions = {spec.name: spec.version for spec in PLANNERS.values()}
     assert len(set(versions.values())) == len(versions) - 1  # RRT* and BIT* share the OMPL wrapper's
@@ -77,7 +77,7 @@ def test_run_seeds_are_stable_and_distinct():
 
 @pytest.fixture(scope="module")
 def slider():
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     puzzle = generate_puzzle("simple_slider", 1)
     return puzzle, problem_for_chain(puzzle.planning_chain, puzzle.goal)
@@ -100,7 +100,7 @@ def test_defragmenting_a_fragmented_path_leaves_two_actions(slider):
 
 @pytest.fixture(scope="module")
 def move_once():
-    from solver.generation import generate_puzzle
+    from solver.pipelines.generation import generate_puzzle
 
     puzzle = generate_puzzle("move_n_times", 1)
     return puzzle, problem_for_chain(puzzle.planning_chain, puzzle.goal)
@@ -146,7 +146,7 @@ def test_la_rrt_finds_the_fewest_actions(slider, name):
 
 @pytest.mark.parametrize("pushes", [0, 2])
 def test_la_rrt_pushes_the_blocker_aside_when_the_target_is_blocked(slider, pushes):
-    from solver.la_rrt import LaRrt, LaRrtSettings
+    from solver.planning.la_rrt import LaRrt, LaRrtSettings
 
     _, problem = slider
     factors = problem_factors(problem)
@@ -173,7 +173,7 @@ def test_la_rrt_pushes_the_blocker_aside_when_the_target_is_blocked(slider, push
 def test_an_isolated_step_is_all_or_nothing(slider):
     from dataclasses import replace
 
-    from solver.la_rrt import _REACHED, _TRAPPED, PAPER_SETTINGS, LaRrt
+    from solver.planning.la_rrt import _REACHED, _TRAPPED, PAPER_SETTINGS, LaRrt
 
     _, problem = slider
     # Target and blocker both to their far ends, in one step (the range covers the whole space):

@@ -8,8 +8,8 @@ import shutil
 from phyrogen.cli import main
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.folder import PuzzleFolder
-from solver.generation import generate_puzzle, versions
-from solver.problem import verify_certificate
+from solver.pipelines.generation import generate_puzzle, versions
+from solver.planning.problem import verify_certificate
 
 
 def _folder(root, generator="grid_world", seed=3) -> PuzzleFolder:

@@ -10,6 +10,6 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_problem_actions_and_pool_modules_do_not_import_ompl():
-    code = "import sys, solver.problem, solver.pool; assert 'ompl' not in sys.modules"
+    code = "import sys, solver.planning.problem, solver.parallel.pool; assert 'ompl' not in sys.modules"
     result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr

@@ -24,7 +24,7 @@ format, so that a puzzle loads in MuJoCo without a URDF conversion:
 - **Inertia** is the URDF's (:func:`~phyrogen_core.export.urdf.link_inertia`),
   written per body; ``inertiafromgeom="false"`` keeps MuJoCo from replacing it.
 
-Which geoms may touch follows the collision model (:mod:`solver.collision`):
+Which geoms may touch follows the collision model (:mod:`solver.collision.model`):
 geoms of *different* objects, at least one of them moving. MuJoCo by default
 drops contacts between a body and its parent body; objects mounted on other
 objects would lose their contacts that way, so that filter is disabled and

@@ -132,7 +132,7 @@ def start_state(chain: KinematicChain) -> tuple[float, ...]:
     """The start state of a puzzle chain (joint order): every active joint at 0, clipped into its limits.
 
     It is the state the planners start from
-    (:func:`solver.problem.problem_for_chain`), the one generated puzzles
+    (:func:`solver.planning.problem.problem_for_chain`), the one generated puzzles
     and :func:`~phyrogen_core.export.metadata.metadata_for_chain` write,
     and the one a certificate must begin at.
     """

@@ -110,7 +110,7 @@ needed: 1 % of the unit every generator builds on (grid cells, pocket and slider
 bars of 1-5 m), a tenth of the smallest clearance any generator leaves (0.1 m), and about
 the play of a real gripper on a handle (docs/generators.md#interlock-margin)."""
 MAX_INTERLOCK_MARGIN = 0.025
-"""The measured margin tries up to 4x the required one (:mod:`solver.judge`); past this the
+"""The measured margin tries up to 4x the required one (:mod:`solver.validation.judge`); past this the
 top rung would shrink the generators' 0.1 m walls and doors to nothing."""
 
 

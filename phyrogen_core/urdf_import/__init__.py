@@ -9,7 +9,7 @@ prisms (:mod:`.shapes`, :mod:`.footprint`) and reads the goal from a
 ordinary :class:`~phyrogen_core.puzzle.Puzzle` of generator
 :data:`GENERATOR`, written by the same exporter as generated puzzles, so
 that every tool reads it; the solver certifies it
-(``solver.importing``). ``docs/import.md`` is the user's guide.
+(``solver.pipelines.importing``). ``docs/import.md`` is the user's guide.
 """
 
 from __future__ import annotations

@@ -1,0 +1,213 @@
+"""The paper's Fig. 4 and the summary table, read back from the benchmark database.
+
+Everything here reads the SQLite database that OMPL's tools built from our
+logs, so the figure shows exactly what Planner Arena would show.
+Per puzzle: success rate over time (share of runs with a solution by time t)
+and action cost over time (median best cost over the runs solved by t).
+Planners appear in the registry's order (:data:`solver.planning.registry.PLANNERS`),
+each in its own colour. For a benchmark whose runs stopped at their first
+solution (``until_first``) the cost is that of the first solution, and the
+table and figure say so.
+"""
+
+from __future__ import annotations
+
+import math
+import sqlite3
+import statistics
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from solver.planning.registry import PLANNERS
+
+PLANNER_ORDER = tuple(spec.title for spec in PLANNERS.values())
+"""Planner titles in the registry's order: the paper's LA-RRT, ours, RRT*, LBT-RRT, BIT*."""
+COLORS = {"LA-RRT": "tab:green", "LA-RRT+push (ours)": "tab:purple", "RRT*": "tab:blue", "LBT-RRT": "tab:orange",
+          "BIT*": "tab:red"}
+"""The paper's colours for its four planners; any other planner gets one of :data:`SPARE_COLORS`."""
+SPARE_COLORS = ("tab:brown", "tab:pink", "tab:gray", "tab:olive", "tab:cyan")
+
+
+def planner_color(title: str) -> str:
+    """The colour of a planner in every plot: its own, else a spare one picked by its name (stable)."""
+    if title in COLORS:
+        return COLORS[title]
+    return SPARE_COLORS[sum(map(ord, title)) % len(SPARE_COLORS)]
+
+
+@dataclass(frozen=True)
+class SummaryRow:
+    experiment: str
+    planner: str
+    runs: int
+    time_limit: float
+    success: float  # share of runs solved, 0..1
+    median_first_solution: float | None  # seconds, over solved runs
+    median_action_cost: float | None  # final best cost, over solved runs
+
+
+def _connect(db_path: Path) -> sqlite3.Connection:
+    if not Path(db_path).is_file():
+        raise FileNotFoundError(f"{db_path}: no benchmark database")
+    return sqlite3.connect(str(db_path))
+
+
+def _planner_key(name: str) -> tuple[int, str]:
+    return (PLANNER_ORDER.index(name) if name in PLANNER_ORDER else len(PLANNER_ORDER), name)
+
+
+def summary_rows(db_path: Path) -> list[SummaryRow]:
+    """Success rate, median time to first solution and median final action cost per puzzle and planner."""
+    with _connect(db_path) as db:
+        rows = db.execute(
+            """SELECT experiments.name, plannerConfigs.name, experiments.timelimit, runs.solved,
+                      runs.time_to_first_solution, runs.action_cost
+               FROM runs JOIN experiments ON runs.experimentid = experiments.id
+                         JOIN plannerConfigs ON runs.plannerid = plannerConfigs.id
+               ORDER BY experiments.id""").fetchall()
+    groups: dict[tuple[str, str], list[tuple]] = {}
+    limits: dict[str, float] = {}
+    for experiment, planner, limit, solved, first, cost in rows:
+        groups.setdefault((experiment, planner), []).append((solved, first, cost))
+        limits[experiment] = limit
+    order = list(dict.fromkeys(r[0] for r in rows))
+    out = []
+    for (experiment, planner), runs in sorted(groups.items(), key=lambda kv: (order.index(kv[0][0]),
+                                                                               _planner_key(kv[0][1]))):
+        solved = [r for r in runs if r[0]]
+        out.append(SummaryRow(
+            experiment, planner, len(runs), limits[experiment], len(solved) / len(runs),
+            statistics.median(r[1] for r in solved) if solved else None,
+            statistics.median(r[2] for r in solved) if solved else None))
+    return out
+
+
+def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: float | None = None,
+                     workers: int | None = None, reused: int = 0, until_first: bool = False) -> str:
+    """The summary table as Markdown, one line per puzzle, a column group per planner.
+
+    ``reused``: runs of a resumed benchmark that an earlier session did (``wall_seconds`` is
+    then this session's time only). ``until_first``: the runs stopped at their first solution,
+    so the cost is the first solution's."""
+    planners = sorted({r.planner for r in rows}, key=_planner_key)
+    experiments = list(dict.fromkeys(r.experiment for r in rows))
+    table = {(r.experiment, r.planner): r for r in rows}
+    lines = []
+    if profile is not None:
+        session = f" in this session; {reused} runs resumed from an earlier one" if reused else ""
+        lines.append(f"Profile `{profile.name}`: {profile.runs} runs per planner and puzzle"
+                     + (f", {wall_seconds:.0f} s wall time on {workers} workers{session}" if wall_seconds else "")
+                     + ".")
+        lines.append("")
+    if until_first:
+        lines.append("Runs stopped at their first solution (`--until first`). Cells: success % within the "
+                     "limit / median time to first solution [s] / median action cost of the first solution "
+                     "(medians over solved runs).")
+    else:
+        lines.append("Cells: success % / median time to first solution [s] / median final action cost "
+                     "(medians over solved runs).")
+    lines.append("")
+    lines.append("| puzzle | limit [s] | " + " | ".join(planners) + " |")
+    lines.append("|---|---:|" + "---:|" * len(planners))
+
+    def cell(r: SummaryRow | None) -> str:
+        if r is None:
+            return "-"
+        first = "-" if r.median_first_solution is None else f"{r.median_first_solution:.2f}"
+        cost = "-" if r.median_action_cost is None else f"{r.median_action_cost:g}"
+        return f"{100 * r.success:.0f} / {first} / {cost}"
+
+    for experiment in experiments:
+        limit = next(r.time_limit for r in rows if r.experiment == experiment)
+        lines.append(f"| {experiment} | {limit:g} | "
+                     + " | ".join(cell(table.get((experiment, p))) for p in planners) + " |")
+    lines.append("")
+    for planner in planners:
+        mine = [r for r in rows if r.planner == planner]
+        full = sum(1 for r in mine if r.success >= 1.0)
+        firsts = [r.median_first_solution for r in mine if r.median_first_solution is not None]
+        lines.append(f"- {planner}: {full}/{len(mine)} puzzles at 100 % success"
+                     + (f"; median of per-puzzle median first-solution times {statistics.median(firsts):.2f} s"
+                        if firsts else "") + ".")
+    return "\n".join(lines) + "\n"
+
+
+def curves(db_path: Path, experiment: str, planner: str, points: int = 100
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times, success rate and median best action cost (nan where no run has a solution) over time."""
+    with _connect(db_path) as db:
+        limit, = db.execute("SELECT timelimit FROM experiments WHERE name = ?", (experiment,)).fetchone()
+        runs = db.execute(
+            """SELECT runs.id, runs.solved, runs.time_to_first_solution FROM runs
+               JOIN experiments ON runs.experimentid = experiments.id
+               JOIN plannerConfigs ON runs.plannerid = plannerConfigs.id
+               WHERE experiments.name = ? AND plannerConfigs.name = ?""", (experiment, planner)).fetchall()
+        progress = {run_id: db.execute("SELECT time, best_cost FROM progress WHERE runid = ? ORDER BY time",
+                                       (run_id,)).fetchall() for run_id, _, _ in runs}
+    times = np.linspace(0.0, limit, points)
+    firsts = np.array([first if solved and first is not None else math.inf for _, solved, first in runs])
+    success = (firsts[None, :] <= times[:, None]).mean(axis=1) if len(runs) else np.zeros(points)
+    costs = np.full((points, len(runs)), np.nan)
+    for k, (run_id, _, _) in enumerate(runs):
+        samples = [(t, c) for t, c in progress[run_id] if c is not None]
+        for t, c in samples:
+            costs[times >= t, k] = c  # later samples overwrite: the best cost known at each time
+    with np.errstate(all="ignore"):
+        median = np.array([np.nanmedian(row) if np.any(~np.isnan(row)) else np.nan for row in costs])
+    return times, success, median
+
+
+def plot_fig4(db_path: Path, out_path: Path, columns: int = 4, until_first: bool = False) -> Path:
+    """Fig. 4: per puzzle, success rate (upper panel) and action cost (lower panel) over time;
+    ``until_first``: the runs stopped at their first solution (the cost is the first solution's)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with _connect(db_path) as db:
+        experiments = [name for (name,) in db.execute("SELECT name FROM experiments ORDER BY id")]
+        planners = sorted({name for (name,) in db.execute("SELECT name FROM plannerConfigs")}, key=_planner_key)
+    rows = math.ceil(len(experiments) / columns)
+    figure, axes = plt.subplots(2 * rows, columns, figsize=(4 * columns, 4.2 * rows), squeeze=False)
+    for index, experiment in enumerate(experiments):
+        top = axes[2 * (index // columns)][index % columns]
+        bottom = axes[2 * (index // columns) + 1][index % columns]
+        for planner in planners:
+            times, success, cost = curves(db_path, experiment, planner)
+            color = planner_color(planner)
+            top.plot(times, 100 * success, color=color, label=planner)
+            bottom.plot(times, cost, color=color, label=planner)
+        top.set_title(experiment, fontsize=10)
+        top.set_ylim(-5, 105)
+        top.set_ylabel("success [%]", fontsize=8)
+        bottom.set_ylabel("first solution's action cost" if until_first else "action cost", fontsize=8)
+        bottom.set_xlabel("time [s]", fontsize=8)
+        bottom.set_yscale("log")
+        for axis in (top, bottom):
+            axis.tick_params(labelsize=7)
+            axis.grid(alpha=0.3)
+    for index in range(len(experiments), rows * columns):
+        axes[2 * (index // columns)][index % columns].axis("off")
+        axes[2 * (index // columns) + 1][index % columns].axis("off")
+    # One legend entry per planner, from whichever panel drew it (a planner may lack some puzzles).
+    legend: dict[str, object] = {}
+    for axis in axes.flat:
+        for handle, label in zip(*axis.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    ordered = sorted(legend, key=_planner_key)
+    figure.legend([legend[label] for label in ordered], ordered, loc="lower center", ncol=max(1, len(ordered)),
+                  fontsize=10)
+    height = figure.get_figheight()
+    if until_first:
+        figure.suptitle("Runs stopped at their first solution (--until first)", fontsize=11)
+    # Room for the legend (about half an inch) and the title, whatever the number of rows.
+    figure.tight_layout(rect=(0, min(0.5 / height, 0.2), 1, 1 - (0.35 / height if until_first else 0)))
+    out_path = Path(out_path)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(out_path, dpi=70)
+    plt.close(figure)
+    return out_path

@@ -1,0 +1,209 @@
+"""Compiled inner loops of the collision model (see ``solver.collision.model`` for the geometry).
+
+Kept apart so the model's construction stays readable Python while the hot
+loops (forward kinematics + separating-axis tests, per state) run compiled.
+All arrays are prepared by ``CollisionModel._compile_arrays``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def _poses(q, kin_int, kin_float, x, y, c, s):
+    yaw = 0.0
+    x[0] = 0.0
+    y[0] = 0.0
+    c[0] = 1.0
+    s[0] = 0.0
+    yaws = np.empty(x.shape[0])
+    yaws[0] = 0.0
+    for r in range(kin_int.shape[0]):
+        link, parent, column = kin_int[r, 0], kin_int[r, 1], kin_int[r, 2]
+        ox, oy, oyaw, ax, ay, rate = (kin_float[r, 0], kin_float[r, 1], kin_float[r, 2],
+                                      kin_float[r, 3], kin_float[r, 4], kin_float[r, 5])
+        pc, ps = c[parent], s[parent]
+        lx = x[parent] + pc * ox - ps * oy
+        ly = y[parent] + ps * ox + pc * oy
+        yaw = yaws[parent] + oyaw
+        value = q[column] if column >= 0 else 1.0
+        if ax != 0.0 or ay != 0.0:
+            c2, s2 = math.cos(yaw), math.sin(yaw)
+            lx += (c2 * ax - s2 * ay) * value
+            ly += (s2 * ax + c2 * ay) * value
+        if rate != 0.0:
+            yaw += rate * value
+        x[link] = lx
+        y[link] = ly
+        yaws[link] = yaw
+        c[link] = math.cos(yaw)
+        s[link] = math.sin(yaw)
+
+
+# Inlined into its callers: a call that passes numba arrays pays reference counting on
+# each of them, and with thirteen array arguments that cost 20x the test itself
+# (benchmarks/collision_speed.py; docs/performance.md).
+@njit(cache=True, nogil=True, inline='always')
+def _pair_collides(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
+                   shape_verts, shape_normals, shape_extent, reach_tol, tol):
+    la, lb = shape_link[a], shape_link[b]
+    # Relative pose of B's link frame in A's link frame.
+    dx, dy = x[lb] - x[la], y[lb] - y[la]
+    ca, sa = c[la], s[la]
+    rx, ry = ca * dx + sa * dy, -sa * dx + ca * dy
+    rc = ca * c[lb] + sa * s[lb]
+    rs = ca * s[lb] - sa * c[lb]
+    # Broad phase: bounding circles.
+    cbx = rc * shape_center[b, 0] - rs * shape_center[b, 1] + rx
+    cby = rs * shape_center[b, 0] + rc * shape_center[b, 1] + ry
+    ex, ey = cbx - shape_center[a, 0], cby - shape_center[a, 1]
+    reach = shape_radius[a] + shape_radius[b] - reach_tol
+    if ex * ex + ey * ey >= reach * reach:
+        return False
+    na, nb = shape_nv[a], shape_nv[b]
+    if na == 0:  # circle-circle
+        return True
+    if nb == 0:  # polygon-circle: distance from the circle centre to the polygon
+        radius = shape_radius[b] - tol
+        inside = True
+        best = 1e300
+        for k in range(na):
+            px, py = shape_verts[a, k, 0], shape_verts[a, k, 1]
+            k2 = (k + 1) % na
+            qx, qy = shape_verts[a, k2, 0], shape_verts[a, k2, 1]
+            if (cbx - px) * shape_normals[a, k, 0] + (cby - py) * shape_normals[a, k, 1] >= 0.0:
+                inside = False
+            exx, eyy = qx - px, qy - py
+            t = ((cbx - px) * exx + (cby - py) * eyy) / (exx * exx + eyy * eyy)
+            t = min(1.0, max(0.0, t))
+            hx, hy = px + t * exx - cbx, py + t * eyy - cby
+            best = min(best, hx * hx + hy * hy)
+        return inside or best < radius * radius
+    # Polygon-polygon: two convex polygons are disjoint iff an edge line of one of them
+    # separates them; an edge separates when the other polygon lies beyond it.
+    for k in range(na):
+        nx, ny = shape_normals[a, k, 0], shape_normals[a, k, 1]
+        lowest = 1e300
+        for j in range(nb):
+            vx, vy = shape_verts[b, j, 0], shape_verts[b, j, 1]
+            d = nx * (rc * vx - rs * vy + rx) + ny * (rs * vx + rc * vy + ry)
+            if d < lowest:
+                lowest = d
+        if lowest >= shape_extent[a, k] - tol:
+            return False
+    # A's vertices in B's frame: inverse of the relative transform.
+    for k in range(nb):
+        nx, ny = shape_normals[b, k, 0], shape_normals[b, k, 1]
+        lowest = 1e300
+        for j in range(na):
+            vx, vy = shape_verts[a, j, 0] - rx, shape_verts[a, j, 1] - ry
+            d = nx * (rc * vx + rs * vy) + ny * (-rs * vx + rc * vy)
+            if d < lowest:
+                lowest = d
+        if lowest >= shape_extent[b, k] - tol:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
+                 shape_verts, shape_normals, shape_extent, pairs, tol):
+    _poses(q, kin_int, kin_float, x, y, c, s)
+    for p in range(pairs.shape[0]):
+        if _pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, shape_link, shape_nv, shape_center,
+                          shape_radius, shape_verts, shape_normals, shape_extent, tol, tol):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def check_states(states, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
+                 shape_verts, shape_normals, shape_extent, pairs, tol):
+    out = np.empty(states.shape[0], dtype=np.bool_)
+    x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    for i in range(states.shape[0]):
+        out[i] = _state_valid(states[i], kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center,
+                              shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def motion_collision(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                     shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
+    """Fraction along a -> b of a colliding sample (not necessarily the first), or -1 if none.
+
+    ``a`` is assumed valid, so only pairs that a changing joint moves (``pair_columns``) can
+    start to collide: a one-object move checks that object's pairs only."""
+    moving = np.zeros(all_pairs.shape[0], dtype=np.bool_)
+    for p in range(all_pairs.shape[0]):
+        for j in range(a.shape[0]):
+            if pair_columns[p, j] and a[j] != b[j]:
+                moving[p] = True
+                break
+    pairs = all_pairs[moving]
+    count = 1
+    for j in range(a.shape[0]):
+        need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
+        if need > count:
+            count = need
+    x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    q = np.empty(a.shape[0])
+    # The same states as a scan from start to end, visited end first and then by halving
+    # strides (odd multiples of each power of two): a collision in the middle of a long
+    # motion, the common case for a failed connection, is found after a few states.
+    stride = 1
+    while stride * 2 < count:
+        stride *= 2
+    i = count
+    while True:
+        t = i / count
+        for j in range(a.shape[0]):
+            q[j] = a[j] + (b[j] - a[j]) * t
+        if not _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center,
+                            shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol):
+            return t
+        if i == count:
+            i = stride
+        else:
+            i += 2 * stride
+        while i >= count:
+            stride //= 2
+            if stride == 0:
+                return -1.0
+            i = stride
+    return -1.0
+
+
+@njit(cache=True, nogil=True)
+def pair_hits(states, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
+              shape_verts, shape_normals, shape_extent, pairs, tol):
+    hits = np.zeros(pairs.shape[0], dtype=np.bool_)
+    x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    for i in range(states.shape[0]):
+        _poses(states[i], kin_int, kin_float, x, y, c, s)
+        for p in range(pairs.shape[0]):
+            if not hits[p] and _pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, shape_link, shape_nv,
+                                              shape_center, shape_radius, shape_verts, shape_normals,
+                                              shape_extent, tol, tol):
+                hits[p] = True
+    return hits
+
+
+@njit(cache=True, nogil=True)
+def nearest_l1(states: np.ndarray, size: int, query: np.ndarray, weights: np.ndarray) -> int:
+    """Index of the row of ``states[:size]`` nearest to ``query`` in weighted L1 (compiled:
+    the brute-force scan dominates a run once the trees hold thousands of nodes)."""
+    best, best_distance = 0, np.inf
+    for i in range(size):
+        distance = 0.0
+        for j in range(query.shape[0]):
+            distance += weights[j] * abs(states[i, j] - query[j])
+            if distance >= best_distance:
+                break
+        if distance < best_distance:
+            best, best_distance = i, distance
+    return best

@@ -1,0 +1,310 @@
+"""An exact, vectorized collision model built straight from a kinematic chain.
+
+Every PhyRoGen puzzle is planar: objects stand on the floor, prismatic joints
+slide horizontally, revolute joints turn about the vertical axis. A
+collision shape (box, vertical cylinder, convex prism) therefore keeps its z
+extent forever and moves rigidly in the plane, so two shapes collide exactly
+when their z intervals overlap and their 2D outlines (convex polygons or
+circles) overlap. Pairs whose z intervals never overlap are dropped once, at
+construction; the rest are tested with the separating-axis theorem, batched
+over many states at a time with numpy.
+
+Touching is not collision: two shapes collide only when they interpenetrate
+by more than ``tolerance`` along every separating axis (or, for circles, the
+distance). That is why no ``link_shrink`` is needed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from phyrogen_core.chain import Joint, JointType, KinematicChain, Role, pose_matrix
+from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
+from solver.collision import kernels as _kernels
+
+DEFAULT_TOLERANCE = 1e-6
+"""Penetration (metres) below which touching shapes count as contact-free."""
+
+
+class UnsupportedGeometryError(ValueError):
+    """The chain is not planar, so the exact planar model does not apply."""
+
+
+@dataclass(frozen=True)
+class _Outline:
+    """One collision shape as a 2D outline in its link frame plus its z interval."""
+
+    link: int
+    obj: str
+    vertices: np.ndarray | None  # (k, 2) counter-clockwise, None for circles
+    center: np.ndarray  # (2,) bounding-circle centre (circle centre for circles)
+    radius: float  # bounding radius (circle radius for circles)
+    z_low: float
+    z_high: float
+
+    @property
+    def is_circle(self) -> bool:
+        return self.vertices is None
+
+
+def _planar(matrix: np.ndarray, what: str) -> tuple[float, float, float, float]:
+    r = matrix[:3, :3]
+    if abs(r[2, 2] - 1.0) > 1e-9:
+        raise UnsupportedGeometryError(f"{what} is tilted; the collision model needs planar poses")
+    return float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3]), math.atan2(r[1, 0], r[0, 0])
+
+
+def _outlines_of_geometry(geometry, link_index: int, obj: str, frame: np.ndarray) -> list[_Outline]:
+    """Outlines of one collision geometry; ``frame`` is the link frame's z-pose at rest (4x4)."""
+    # Outline vertices are expressed in the link frame (x/y), the z interval in the world.
+    z = _planar(frame @ pose_matrix(geometry.origin), f"collision geometry of link #{link_index}")[2]
+    rel = pose_matrix(geometry.origin)
+    ox, oy, _, oyaw = _planar(rel, f"collision geometry origin of link #{link_index}")
+    c, s = math.cos(oyaw), math.sin(oyaw)
+    rot = np.array([[c, -s], [s, c]])
+
+    def make(poly: np.ndarray, height: float) -> _Outline:
+        world = poly @ rot.T + (ox, oy)
+        center = world.mean(axis=0)
+        radius = float(np.max(np.linalg.norm(world - center, axis=1)))
+        return _Outline(link_index, obj, world, center, radius, z - height / 2, z + height / 2)
+
+    shape = geometry.shape
+    if isinstance(shape, Box):
+        hx, hy, hz = (v / 2 for v in shape.size)
+        return [make(np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]), 2 * hz)]
+    if isinstance(shape, ConvexPrism):
+        return [make(np.array(piece, dtype=float), shape.height) for piece in shape.pieces]
+    if isinstance(shape, Cylinder):
+        center = np.array([ox, oy])
+        return [_Outline(link_index, obj, None, center, shape.radius, z - shape.length / 2, z + shape.length / 2)]
+    raise UnsupportedGeometryError(f"unsupported collision shape {shape!r}")
+
+
+class CollisionModel:
+    """Validity of joint states of a planar chain.
+
+    ``locked`` maps joint names to values at which they are held (the
+    Maker's FixJoint); the state vector holds the remaining active joints in
+    chain order (:attr:`joint_order`).
+    """
+
+    def __init__(self, chain: KinematicChain, locked: Mapping[str, float] | None = None,
+                 tolerance: float = DEFAULT_TOLERANCE):
+        self.chain = chain
+        self.tolerance = tolerance
+        locked = dict(locked or {})
+        unknown = set(locked) - set(chain.joint_order)
+        if unknown:
+            raise ValueError(f"cannot lock unknown joints {sorted(unknown)}")
+        self.locked = locked
+        self.joint_order = tuple(j for j in chain.joint_order if j not in locked)
+        self._column = {name: i for i, name in enumerate(self.joint_order)}
+        self._links = list(chain.links_in_tree_order)
+        self._link_index = {name: i for i, name in enumerate(self._links)}
+        self._joint_steps = self._compile_kinematics()
+        self._moving = self._moving_links()
+        rest = chain.link_transforms({**{j: 0.0 for j in chain.joint_order}, **locked})
+        outlines: list[_Outline] = []
+        for name in self._links:
+            link = chain.link(name)
+            if link.role is Role.GOAL_MARKER:
+                continue
+            # Rest-pose z of the link frame; the planar motion never changes it.
+            frame = np.eye(4)
+            frame[2, 3] = rest[name][2, 3]
+            for geometry in link.collisions:
+                outlines += _outlines_of_geometry(geometry, self._link_index[name], link.object_name or name, frame)
+        self._outlines = outlines
+        self._compile_arrays()
+
+    # -- construction ------------------------------------------------------
+    def _compile_kinematics(self) -> list[tuple[int, int, float, float, float, int, float, float, float]]:
+        """Per non-root link: (link, parent, origin x, y, yaw, column, axis x, axis y, yaw rate)."""
+        steps = []
+        for name in self._links[1:]:
+            joint: Joint = self.chain.parent_joint(name)  # type: ignore[assignment]
+            ox, oy, _, oyaw = _planar(pose_matrix(joint.origin), f"joint {joint.name!r} origin")
+            column, ax, ay, rate, offset = -1, 0.0, 0.0, 0.0, 0.0
+            if joint.is_active:
+                if joint.type is JointType.PRISMATIC:
+                    if abs(joint.axis[2]) > 1e-9:
+                        raise UnsupportedGeometryError(f"prismatic joint {joint.name!r} axis is not horizontal")
+                    ax, ay = joint.axis[0], joint.axis[1]
+                else:
+                    if abs(abs(joint.axis[2]) - 1.0) > 1e-9:
+                        raise UnsupportedGeometryError(f"revolute joint {joint.name!r} axis is not vertical")
+                    rate = math.copysign(1.0, joint.axis[2])
+                if joint.name in self.locked:
+                    offset = self.locked[joint.name]
+                    ax, ay, rate = ax * offset, ay * offset, rate * offset
+                else:
+                    column = self._column[joint.name]
+            # Locked joints fold into constants: the column stays -1, the step uses (ax, ay, rate) * 1.
+            steps.append((self._link_index[name], self._link_index[joint.parent], ox, oy, oyaw,
+                          column, ax, ay, rate))
+        return steps
+
+    def _moving_links(self) -> set[int]:
+        moving: set[int] = set()
+        for link, parent, *_rest, column, _ax, _ay, _rate in self._joint_steps:
+            if column >= 0 or parent in moving:
+                moving.add(link)
+        return moving
+
+    def _compile_arrays(self) -> None:
+        """Flatten kinematics, shapes and candidate pairs into arrays for the compiled kernels."""
+        steps = self._joint_steps
+        self._kin_int = np.array([(s[0], s[1], s[5]) for s in steps], dtype=np.int64).reshape(-1, 3)
+        self._kin_float = np.array([(s[2], s[3], s[4], s[6], s[7], s[8]) for s in steps],
+                                   dtype=np.float64).reshape(-1, 6)
+        outlines = self._outlines
+        k = max([len(o.vertices) for o in outlines if not o.is_circle] + [3])
+        count = len(outlines)
+        self._shape_link = np.array([o.link for o in outlines], dtype=np.int64)
+        self._shape_nv = np.array([0 if o.is_circle else len(o.vertices) for o in outlines], dtype=np.int64)
+        self._shape_center = np.array([o.center for o in outlines], dtype=np.float64).reshape(count, 2)
+        self._shape_radius = np.array([o.radius for o in outlines], dtype=np.float64)
+        verts = np.zeros((count, k, 2))
+        normals = np.zeros((count, k, 2))
+        extent = np.zeros((count, k))
+        for i, o in enumerate(outlines):
+            if o.is_circle:
+                continue
+            v = o.vertices
+            edges = np.roll(v, -1, axis=0) - v
+            nrm = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+            nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+            verts[i, : len(v)] = v
+            normals[i, : len(v)] = nrm
+            # A convex polygon's projection on its own outward normal peaks at that edge's line.
+            extent[i, : len(v)] = (v @ nrm.T).max(axis=0)
+        self._shape_verts, self._shape_normals, self._shape_extent = verts, normals, extent
+        pairs = []
+        for i, a in enumerate(outlines):
+            for j in range(i + 1, count):
+                b = outlines[j]
+                if a.obj == b.obj or a.link == b.link:
+                    continue
+                if a.link not in self._moving and b.link not in self._moving:
+                    continue
+                if min(a.z_high, b.z_high) - max(a.z_low, b.z_low) <= self.tolerance:
+                    continue
+                pairs.append((j, i) if a.is_circle and not b.is_circle else (i, j))  # circles second
+        self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+        # Which state columns move each pair's shapes (a joint moves its child link and all below).
+        link_columns = np.zeros((len(self._links), len(self.joint_order)), dtype=np.bool_)
+        for link, parent, *_rest, column, _ax, _ay, _rate in self._joint_steps:
+            link_columns[link] = link_columns[parent]
+            if column >= 0:
+                link_columns[link, column] = True
+        shape_link = [o.link for o in outlines]
+        self._pair_columns = np.array([link_columns[shape_link[a]] | link_columns[shape_link[b]] for a, b in pairs],
+                                      dtype=np.bool_).reshape(len(pairs), len(self.joint_order))
+        self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in pairs]
+        self._arguments = self._args()
+
+    def _args(self) -> tuple:
+        return (self._kin_int, self._kin_float, len(self._links), self._shape_link, self._shape_nv,
+                self._shape_center, self._shape_radius, self._shape_verts, self._shape_normals,
+                self._shape_extent, self._pairs, self.tolerance)
+
+    # -- queries -----------------------------------------------------------
+    @property
+    def pair_count(self) -> int:
+        return len(self._pairs)
+
+    def _as_states(self, states) -> np.ndarray:
+        states = np.ascontiguousarray(np.atleast_2d(np.asarray(states, dtype=np.float64)))
+        if states.shape[1] != len(self.joint_order):
+            raise ValueError(f"states have {states.shape[1]} values, model has {len(self.joint_order)} joints")
+        return states
+
+    def check(self, states) -> np.ndarray:
+        """Validity of each row of ``states`` (N, d): True = collision-free."""
+        return _kernels.check_states(self._as_states(states), *self._arguments)
+
+    def check_prepared(self, states: np.ndarray) -> np.ndarray:
+        """:meth:`check` without input conversion: ``states`` must be a C-contiguous float64 (N, d) array."""
+        return _kernels.check_states(states, *self._arguments)
+
+    def is_valid(self, state: Sequence[float]) -> bool:
+        return bool(_kernels.check_states(self._as_states(state), *self._arguments)[0])
+
+    def check_motion(self, start: Sequence[float], end: Sequence[float], steps: np.ndarray) -> bool:
+        """Whether the straight joint-space segment is collision-free, sampled so that no
+        joint moves more than ``steps[j]`` between samples (the start is assumed valid)."""
+        return self.motion_collision(start, end, steps) < 0
+
+    def motion_collision(self, start: Sequence[float], end: Sequence[float], steps: np.ndarray) -> float:
+        """Like :meth:`check_motion`, but where it fails: the fraction along the segment of a
+        colliding sample (not necessarily the first one), or -1 when the segment is free."""
+        a = np.asarray(start, dtype=np.float64)
+        b = np.asarray(end, dtype=np.float64)
+        return float(_kernels.motion_collision(a, b, steps, *self._arguments, self._pair_columns))
+
+    def colliding_objects(self, states) -> set[tuple[str, str]]:
+        """Pairs of object names that collide at any of ``states``."""
+        hits = _kernels.pair_hits(self._as_states(states), *self._arguments)
+        return {tuple(sorted(self._pair_objects[p])) for p in np.flatnonzero(hits)}
+
+    def joint_reach(self) -> np.ndarray:
+        """Per state joint: how far (metres) a unit of motion can move any collision point.
+
+        1 for prismatic joints; for revolute joints the largest distance from
+        the joint axis of any collision vertex it carries. Motion checks use it
+        to turn a resolution in metres into per-joint steps.
+        """
+        rest = self.chain.link_transforms({**{j: 0.0 for j in self.chain.joint_order}, **self.locked})
+        reach = np.ones(len(self.joint_order))
+        descendants = self._descendants()
+        for index, name in enumerate(self.joint_order):
+            joint = self.chain.joint(name)
+            if joint.type is not JointType.REVOLUTE:
+                continue
+            axis_xy = rest[joint.child][:2, 3]
+            best = 0.0
+            for o in self._outlines:
+                if o.link not in descendants[joint.child]:
+                    continue
+                m = rest[self._links[o.link]]
+                pts = o.vertices if not o.is_circle else o.center[None, :]
+                world = pts @ m[:2, :2].T + m[:2, 3]
+                extra = 0.0 if not o.is_circle else o.radius
+                best = max(best, float(np.max(np.linalg.norm(world - axis_xy, axis=1))) + extra)
+            reach[index] = max(best, 1e-3)
+        return reach
+
+    def _descendants(self) -> dict[str, set[int]]:
+        out: dict[str, set[int]] = {}
+        for name in reversed(self._links):
+            mine = {self._link_index[name]}
+            for joint in self.chain.joints:
+                if joint.parent == name:
+                    mine |= out[joint.child]
+            out[name] = mine
+        return out
+
+    def motion_steps(self, resolution: float) -> np.ndarray:
+        """Per-joint step sizes so that no collision point moves more than ``resolution``."""
+        return resolution / self.joint_reach()
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel on a two-box model."""
+    from phyrogen_core.chain import Geometry
+    from phyrogen_core.geometry import Pose
+    from phyrogen_core.objects import Motion, PuzzleObject, build_chain
+
+    geometry = (Geometry(Box((1.0, 1.0, 1.0))),)
+    objects = [PuzzleObject(f"obj_0{i}", Motion.PRISMATIC, Pose.planar(2.0 * i, 0.0, 0.5), geometry, geometry,
+                            limits=((0.0, 1.0),)) for i in range(2)]
+    model = CollisionModel(build_chain(objects))
+    states = np.zeros((2, 2))
+    model.check(states)
+    model.check_motion(states[0], states[1] + 1.0, np.full(2, 0.1))
+    model.colliding_objects(states)

@@ -1,0 +1,487 @@
+"""Building a dataset: shards of puzzle folders, resumable after any interruption.
+
+Layout of a dataset root::
+
+    dataset.json                      the request (a re-run with another request is refused)
+    shard-00000/<generator>/<name>/   puzzle folders, exactly as ``phyrogen generate`` writes them
+    shard-00001/...                   (each shard folder is an output root of its own)
+    parts/shard-00000.parquet         a shard's manifest rows, written when the shard is complete
+    manifest.parquet                  every row, written when every shard is complete
+
+**Safe at any moment, even ``kill -9``.** A worker writes its puzzle's
+generation record (``shard-<n>/.records/<name>.json``: status, error, cost)
+and then its folder, each atomically (a temporary name, then a rename),
+without reacting to SIGINT or SIGTERM in between. A part file and the
+manifest are written the same way. So after any interruption every folder,
+record, part and manifest present is complete, and what is missing is
+redone on the next run: a complete shard (its part file holds all its
+rows) is skipped; inside an incomplete one, a puzzle whose folder is valid
+and matches the request is kept, a seed whose recorded failure is
+generation's own verdict is kept as failed, and everything else is
+generated. Temporary leftovers of a killed writer are removed on the way.
+
+**Backends.** Puzzles are made by a backend: a function that runs
+:func:`make_entry` for each task and yields the outcomes in any order.
+Every puzzle seeds its own random sources, so where and after what it runs
+does not matter. :func:`local_backend` runs batches of cheap entries in
+fresh processes of :mod:`solver.parallel.pool`; :func:`ray_backend` runs the same
+batches as Ray tasks (:mod:`solver.parallel.ray_pool`). Tasks name their shard
+folder, which every worker must be able to write (a shared file system).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import time
+import traceback
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from phyrogen_core.export.mjcf import mjcf_path
+from phyrogen_core.folder import (
+    DATASET_FILE,
+    PuzzleFormatError,
+    read_folder_json,
+    require_writable_dir,
+    shard_name,
+    write_file_atomic,
+)
+from phyrogen_core.maker import GenerationError
+from phyrogen_core.registry import ParameterError, get_generator
+from solver.parallel.pool import deferred_signals
+from solver.parallel.ray_pool import LOCAL
+from solver.parallel.tasks import task_pool
+from solver.pipelines.dataset.manifest import (
+    PARTS_FOLDER,
+    failed_row,
+    part_is_complete,
+    part_path,
+    puzzle_row,
+    write_manifest,
+    write_part,
+)
+from solver.pipelines.dataset.request import DatasetError, DatasetRequest, Entry, request_difference
+from solver.pipelines.generation import _PRELOAD as GENERATION_PRELOAD
+from solver.pipelines.generation import LOOKAHEAD, generate_here, versions
+
+RECORDS_FOLDER = ".records"
+"""Inside a shard folder: one generation record per finished puzzle, until the shard's part is written."""
+PRELOAD = [*GENERATION_PRELOAD, "solver.pipelines.dataset.build"]
+
+
+@dataclass(frozen=True)
+class EntryTask:
+    """What a worker needs to make one entry: the entry and the shard folder to write it into."""
+
+    index: int
+    generator: str
+    seed: int
+    params: Any
+    shard_dir: str
+    mjcf: bool = False  # also write the puzzle's MJCF
+
+    @property
+    def name(self) -> str:
+        return f"{self.generator}_{self.seed}"
+
+
+@dataclass(frozen=True)
+class EntryOutcome:
+    """What a worker reports: ``ok`` (its folder is written), or the error. ``lost``: the worker died
+    without reporting (the error says how)."""
+
+    index: int
+    ok: bool
+    error: str | None = None
+    seconds: float | None = None
+    validation_checks: int | None = None
+    lost: bool = False
+
+
+Backend = Callable[[Iterable[EntryTask], int, Callable[[list[EntryTask]], None] | None], Iterator[EntryOutcome]]
+"""``backend(tasks, workers, on_running)``: :func:`make_entry` for every task, each in a fresh process,
+outcomes yielded as they come (any order); ``on_running`` gets the running tasks now and then."""
+
+
+# -- the worker side -----------------------------------------------------------------
+def make_entry(task: EntryTask) -> EntryOutcome:
+    """Generate one puzzle and write its record, then its folder (runs in a fresh worker process)."""
+    started = time.perf_counter()
+    stats: dict[str, Any] = {}
+    puzzle = None
+    error = None
+    try:
+        puzzle = generate_here(task.generator, task.seed, task.params, stats=stats)
+    except (ParameterError, GenerationError) as exc:
+        error = str(exc)
+    except Exception as exc:  # a bug: keep the traceback in the manifest
+        error = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}"
+    outcome = EntryOutcome(task.index, error is None, error, time.perf_counter() - started,
+                           stats.get("validation_checks"))
+    from phyrogen_core.export import write_mjcf, write_puzzle
+
+    shard_dir = Path(task.shard_dir)
+    with deferred_signals():  # stopped now, a worker finishes every file first
+        write_record(shard_dir, task, outcome)
+        if puzzle is not None:
+            folder = write_puzzle(puzzle, shard_dir, versions())
+            if task.mjcf:
+                write_mjcf(folder, puzzle.chain, puzzle.name)
+    return outcome
+
+
+def write_record(shard_dir: Path, task: EntryTask, outcome: EntryOutcome) -> Path:
+    from solver.pipelines.dataset.request import parameters_json
+
+    record = {"index": task.index, "generator": task.generator, "seed": task.seed,
+              "parameters": parameters_json(task.params), "ok": outcome.ok, "error": outcome.error,
+              "seconds": outcome.seconds, "validation_checks": outcome.validation_checks}
+    data = json.dumps(record, sort_keys=True, allow_nan=False).encode()
+    return write_file_atomic(shard_dir / RECORDS_FOLDER / f"{task.name}.json", data)
+
+
+# -- backends ------------------------------------------------------------------------
+BATCH_SIZE = 8
+"""Cheap entries (a validation budget scale of at most 1) that one worker process makes in a row.
+Every puzzle seeds its random sources itself (OMPL's included, :func:`solver.planning.ompl_setup.seed_ompl`),
+so a batch gives the puzzles single processes give; starting a process per puzzle costs about
+15 % of a Grid World puzzle's time. Costlier entries run alone, so that no worker is left with a
+long queue at the end."""
+
+
+def make_batch(batch: list[EntryTask]) -> list[EntryOutcome]:
+    """:func:`make_entry` for each task of ``batch``, in one worker process."""
+    return [make_entry(task) for task in batch]
+
+
+def local_backend(tasks: Iterable[EntryTask], workers: int,
+                  on_running: Callable[[list[EntryTask]], None] | None = None, *,
+                  batch_size: int = BATCH_SIZE) -> Iterator[EntryOutcome]:
+    """Tasks on this machine, in batches, each in a fresh process forked from a server (:mod:`solver.parallel.pool`)."""
+    yield from _run_batches(task_pool(workers, workers, PRELOAD), tasks, on_running, batch_size)
+
+
+def ray_backend(address: str = LOCAL, *, batch_size: int = BATCH_SIZE) -> Backend:
+    """A backend running the same batches as Ray tasks (:mod:`solver.parallel.ray_pool`): on a local Ray
+    instance with ``workers`` CPUs (``address`` :data:`~solver.parallel.ray_pool.LOCAL`) or on the cluster
+    at ``address``. Its workers are reused: every puzzle seeds its own random sources."""
+
+    def backend(tasks: Iterable[EntryTask], workers: int,
+                on_running: Callable[[list[EntryTask]], None] | None = None) -> Iterator[EntryOutcome]:
+        yield from _run_batches(task_pool(workers, workers, PRELOAD, address, fresh=False), tasks, on_running,
+                                batch_size)
+
+    return backend
+
+
+def _run_batches(pool, tasks: Iterable[EntryTask], on_running: Callable[[list[EntryTask]], None] | None,
+                 batch_size: int) -> Iterator[EntryOutcome]:
+    def heartbeat(batches: list[list[EntryTask]]) -> None:
+        on_running([task for batch in batches for task in batch])
+
+    with pool:
+        for outcomes in pool.imap_unordered(make_batch, _batches(tasks, batch_size),
+                                            lookahead=max(1, LOOKAHEAD // batch_size),
+                                            priority=_batch_cost,
+                                            on_lost=_lost, heartbeat=heartbeat if on_running else None):
+            yield from outcomes
+
+
+def _batches(tasks: Iterable[EntryTask], size: int) -> Iterator[list[EntryTask]]:
+    batch: list[EntryTask] = []
+    for task in tasks:
+        if _cost_hint(task) > 1.0:
+            yield [task]
+            continue
+        batch.append(task)
+        if len(batch) == size:
+            yield batch
+            batch = []
+    if batch:
+        yield batch
+
+
+def _batch_cost(batch: list[EntryTask]) -> float:
+    return _cost_hint(batch[0]) if len(batch) == 1 else 1.0  # (a batch holds cheap entries only)
+
+
+def _cost_hint(task: EntryTask) -> float:
+    """The generator's validation budget scale for the task: the costliest puzzles start first."""
+    try:
+        return float(get_generator(task.generator).build(task.seed, task.params).budget_scale)
+    except Exception:  # the worker runs the task and reports what is wrong with it
+        return 1.0
+
+
+def _lost(batch: list[EntryTask], how: str) -> list[EntryOutcome]:
+    """Outcomes of a batch whose worker died: what it finished (its records say), the rest lost."""
+    return [_finished_outcome(task) or EntryOutcome(task.index, False, f"the worker process ended ({how}) before "
+                                                    "it reported", lost=True) for task in batch]
+
+
+def _finished_outcome(task: EntryTask) -> EntryOutcome | None:
+    """The outcome a worker wrote for ``task`` before it died: its record, and its folder if ok."""
+    try:
+        record = json.loads((Path(task.shard_dir) / RECORDS_FOLDER / f"{task.name}.json").read_text("utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict) or record.get("index") != task.index:
+        return None
+    ok = record.get("ok") is True
+    if ok and not (Path(task.shard_dir) / task.generator / task.name).is_dir():
+        return None  # killed between its record and its folder
+    return EntryOutcome(task.index, ok, record.get("error"), record.get("seconds"), record.get("validation_checks"))
+
+
+# -- the parent side -----------------------------------------------------------------
+@dataclass
+class BuildResult:
+    root: Path
+    entries: int = 0
+    ok: int = 0
+    failed: int = 0
+    generated: int = 0  # entries made by this run (the rest were found done)
+    seconds: float = 0.0
+    manifest: Path | None = None
+
+    @property
+    def reused(self) -> int:
+        return self.entries - self.generated
+
+    @property
+    def puzzles_per_hour(self) -> float:
+        return 3600.0 * self.generated / self.seconds if self.seconds > 0 else 0.0
+
+
+@dataclass
+class _Shard:
+    index: int
+    rows: dict[int, dict[str, Any]] = field(default_factory=dict)
+    waiting: set[int] = field(default_factory=set)
+
+
+def check_dataset_root(request: DatasetRequest, root: str | Path) -> Path:
+    """Refuse, before anything is written, a root that cannot hold this dataset: unwritable, a
+    dataset of another request, or a non-empty folder that is no dataset. Returns the root."""
+    root = Path(root)
+    require_writable_dir(root, "dataset folder")
+    stored_file = root / DATASET_FILE
+    if os.path.lexists(stored_file):
+        try:
+            stored = read_folder_json(stored_file, root)
+        except ValueError as exc:
+            raise DatasetError(f"{stored_file}: unreadable ({exc}); move the folder aside or choose another --out") \
+                from None
+        if not isinstance(stored, dict):
+            raise DatasetError(f"{stored_file}: not a dataset request; choose another --out")
+        difference = request_difference(stored, request)
+        if difference is not None:
+            raise DatasetError(f"{root} holds a dataset of another request ({difference}); run the same "
+                               "command as before to resume it, or choose another --out")
+    elif root.is_dir() and any(not _temporary(name) for name in os.listdir(root)):
+        raise DatasetError(f"{root} is not empty and holds no {DATASET_FILE}; choose an empty or new folder for "
+                           "the dataset")
+    return root
+
+
+def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *,
+                  backend: Backend = local_backend,
+                  on_row: Callable[[dict[str, Any], bool], None] | None = None,
+                  on_skip: Callable[[int], None] | None = None,
+                  on_shard: Callable[[int, list[dict[str, Any]]], None] | None = None,
+                  on_running: Callable[[list[EntryTask]], None] | None = None) -> BuildResult:
+    """Make (or finish) the dataset ``request`` in ``root`` and return what was done.
+
+    ``on_row(row, made_now)`` gets every entry's manifest row as it is known (``made_now`` False
+    for an entry found done in an incomplete shard); ``on_skip(count)`` the number of entries of
+    each complete shard, which is skipped; ``on_shard(shard, rows)`` every shard completed by this
+    run. Interrupted (an exception, Ctrl-C), it stops the workers; everything finished so far
+    stays, and a later call resumes.
+    """
+    try:
+        import pyarrow  # noqa: F401  (found missing before anything is written)
+    except ImportError:
+        raise DatasetError("datasets need pyarrow: pip install 'phyrogen[datasets]'") from None
+    started = time.perf_counter()
+    root = check_dataset_root(request, root)
+    result = BuildResult(root, entries=request.size)
+    root.mkdir(parents=True, exist_ok=True)
+    with _exclusive(root):
+        check_dataset_root(request, root)  # again, now that no other run can write it
+        if not (root / DATASET_FILE).is_file():
+            stored = json.dumps({**request.to_json(), "versions": versions()}, sort_keys=True, indent=2) + "\n"
+            write_file_atomic(root / DATASET_FILE, stored.encode())
+        _remove_temporary_files(root)
+        _remove_temporary_files(root / PARTS_FOLDER)
+        pending = []
+        for shard in range(request.shard_count):
+            if part_is_complete(part_path(root, shard), request.shard_entries(shard)):
+                shutil.rmtree(_clean_shard(request, root, shard) / RECORDS_FOLDER, ignore_errors=True)
+                if on_skip is not None:
+                    on_skip(len(request.shard_entries(shard)))
+            else:
+                pending.append(shard)
+        shards: dict[int, _Shard] = {}
+
+        def tasks() -> Iterator[EntryTask]:
+            for shard in pending:
+                state, todo = _scan_shard(request, root, shard, on_row)
+                shards[shard] = state
+                yield from todo
+
+        def finish_ready() -> None:
+            for shard in sorted(shards):
+                state = shards[shard]
+                if state.waiting:
+                    continue
+                rows = [state.rows[i] for i in request.shard_entries(shard)]
+                write_part(part_path(root, shard), rows)
+                shutil.rmtree(root / shard_name(shard) / RECORDS_FOLDER, ignore_errors=True)
+                del shards[shard]
+                if on_shard is not None:
+                    on_shard(shard, rows)
+
+        with contextlib.closing(backend(tasks(), workers, on_running)) as outcomes:
+            for outcome in outcomes:
+                shard = request.shard_of(outcome.index)
+                state = shards[shard]
+                entry = request.entry(outcome.index)
+                record = {"seconds": outcome.seconds, "validation_checks": outcome.validation_checks}
+                if outcome.ok:
+                    row = puzzle_row(entry, shard, root, _folder(root, shard, entry), record)
+                else:
+                    row = failed_row(entry, shard, outcome.error or "failed", record)
+                state.rows[outcome.index] = row
+                state.waiting.discard(outcome.index)
+                result.generated += 1
+                if on_row is not None:
+                    on_row(row, True)
+                finish_ready()
+        finish_ready()  # shards found complete after the last outcome
+        if shards:
+            raise RuntimeError(f"shards {sorted(shards)} still wait for entries the backend did not return")
+        result.manifest = write_manifest(root, [part_path(root, s) for s in range(request.shard_count)])
+    _count(result)
+    result.seconds = time.perf_counter() - started
+    return result
+
+
+def _count(result: BuildResult) -> None:
+    import pyarrow.compute as pc
+    import pyarrow.parquet as pq
+
+    status = pq.read_table(result.manifest, columns=["status"]).column("status")
+    result.ok = int(pc.sum(pc.equal(status, "ok")).as_py() or 0)
+    result.failed = len(status) - result.ok
+
+
+def _folder(root: Path, shard: int, entry: Entry) -> Path:
+    return root / shard_name(shard) / entry.generator / entry.name
+
+
+def _scan_shard(request: DatasetRequest, root: Path, shard: int,
+                on_row: Callable[[dict[str, Any], bool], None] | None) -> tuple[_Shard, list[EntryTask]]:
+    """What of an incomplete shard is done (rows) and what is left to do (tasks)."""
+    shard_dir = _clean_shard(request, root, shard)
+    state = _Shard(shard)
+    todo: list[EntryTask] = []
+    for entry in request.entries(request.shard_entries(shard)):
+        record = _read_record(shard_dir, entry)
+        row = None
+        folder = _folder(root, shard, entry)
+        if folder.is_dir() and not (request.mjcf and not mjcf_path(folder, entry.name).is_file()):
+            # (A folder killed between its URDF and its MJCF is made again: the same puzzle, so
+            # only the MJCF is new.)
+            try:
+                row = puzzle_row(entry, shard, root, folder, record if record and record.get("ok") else None)
+            except (PuzzleFormatError, FileNotFoundError):
+                row = None  # torn by hand, or of another request: made again
+        elif record is not None and not record.get("ok"):
+            row = failed_row(entry, shard, str(record.get("error") or "failed"), record)
+        if row is not None:
+            state.rows[entry.index] = row
+            if on_row is not None:
+                on_row(row, False)
+        else:
+            state.waiting.add(entry.index)
+            todo.append(EntryTask(entry.index, entry.generator, entry.seed, entry.params, str(shard_dir),
+                                  request.mjcf))
+    return state, todo
+
+
+def _clean_shard(request: DatasetRequest, root: Path, shard: int) -> Path:
+    """Remove what killed writers left in a shard's folder; returns the folder."""
+    shard_dir = root / shard_name(shard)
+    for generator in request.generators:
+        _remove_temporary_files(shard_dir / generator, prefix=f".{generator}_")
+    _remove_temporary_files(shard_dir / RECORDS_FOLDER)
+    return shard_dir
+
+
+def _read_record(shard_dir: Path, entry: Entry) -> dict[str, Any] | None:
+    """The generation record of ``entry`` when there is one and it belongs to exactly this entry."""
+    path = shard_dir / RECORDS_FOLDER / f"{entry.name}.json"
+    if not path.is_file():
+        return None
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict):
+        return None
+    same = (record.get("index") == entry.index and record.get("generator") == entry.generator
+            and record.get("seed") == entry.seed and record.get("parameters") == entry.parameters_json)
+    return record if same else None
+
+
+def _remove_temporary_files(folder: Path, prefix: str = ".") -> None:
+    """Remove what killed writers left in ``folder``: dot-prefixed temporary files and folders
+    (``.<name>.<random>.tmp`` and their ``.old<n>`` asides). Nothing else is touched."""
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return
+    for name in names:
+        if not (name.startswith(prefix) and _temporary(name)):
+            continue
+        path = folder / name
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                path.unlink()
+
+
+def _temporary(name: str) -> bool:
+    """Whether ``name`` is a temporary entry of an atomic write (:mod:`phyrogen_core.folder`)."""
+    return name.startswith(".") and ".tmp" in name
+
+
+@contextlib.contextmanager
+def _exclusive(root: Path) -> Iterator[None]:
+    """Hold a lock on the dataset root for the block: two runs never write one dataset at once.
+
+    A lock on the folder itself: nothing is left behind, and the lock ends with its process, even
+    one killed by SIGKILL."""
+    try:
+        import fcntl
+    except ImportError:  # not on POSIX: no lock
+        yield
+        return
+    descriptor = os.open(root, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_CLOEXEC", 0))
+    try:
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise DatasetError(f"{root}: another `phyrogen dataset` is writing this dataset; wait for it "
+                               "or stop it") from None
+        except OSError:  # a file system without flock
+            pass
+        yield
+    finally:
+        os.close(descriptor)

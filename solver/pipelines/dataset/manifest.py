@@ -1,0 +1,257 @@
+"""The manifest: one Parquet row per dataset entry, failed ones included.
+
+Parquet rather than SQLite: it is columnar (a histogram over a million rows
+reads two columns, not the table), pandas, Polars, DuckDB, Spark and Arrow
+read it as it is, a dataset can be appended to one shard at a time (each
+shard's rows are a file of their own, ``parts/shard-00000.parquet``, and
+``manifest.parquet`` is their concatenation, a row group per shard), and a
+file written once is never updated in place, so copying a finished dataset
+can never catch a half-written database page.
+
+Every column of a puzzle's row except the two cost columns is computed from
+its folder (``puzzle.json``, the URDF, the export files' bytes), so a row
+recovered from a folder that an interrupted run wrote is the row an
+uninterrupted run writes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from phyrogen_core.chain import KinematicChain, Role
+from phyrogen_core.dependencies import DependencyShape
+from phyrogen_core.folder import Stage, atomic_file, read_folder_file, stage_entries
+from phyrogen_core.geometry import Box, ConvexPrism, Cylinder, Pose, Shape
+from solver.pipelines.dataset.request import Entry
+
+MANIFEST_FILE = "manifest.parquet"
+PARTS_FOLDER = "parts"
+
+COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("index", "int64", "the entry's position in the dataset (0-based): generators in request order, seeds increasing"),
+    ("generator", "string", "generator name"),
+    ("name", "string", "puzzle name, <generator>_<seed>"),
+    ("seed", "int64", "the puzzle's seed"),
+    ("parameters", "string", "the generator's parameters, JSON with sorted keys"),
+    ("shard", "int32", "the shard number (folder shard-<nnnnn>)"),
+    ("path", "string", "the puzzle folder relative to the dataset root (null for a failed entry)"),
+    ("status", "string", "ok or failed"),
+    ("error", "string", "why generation failed (null when ok)"),
+    ("content_hash", "string", "sha256 over the folder's export files (urdf/, srdf/, meshes/, puzzle.json)"),
+    ("canonical_hash", "string", "sha256 of the puzzle's geometry and joints, independent of object names and order"),
+    ("movable_objects", "int32", "objects with a joint, the target included"),
+    ("actions", "int32", "the minimal known action count: actions in the stored (defragmented) certificate"),
+    ("depth", "int32", "the dependency graph's depth (puzzle.json dependency_graph.depth)"),
+    ("branching", "int32", "the dependency graph's branching (puzzle.json dependency_graph.branching)"),
+    ("shape", "string", "the dependency graph's shape: none, chain or tree (phyrogen_core.dependencies)"),
+    ("interlock_margin", "float64", "the smallest measured interlock margin over the blocking objects [m] "
+                                    "(null when the puzzle has no blocker)"),
+    ("validation_checks", "int64", "collision queries the Maker's validator spent on the puzzle (planning, "
+                                   "necessity judging, certifying): a machine-independent generation cost"),
+    ("generation_seconds", "float64", "wall time of generating the puzzle in its worker process [s] (a timing "
+                                      "column: differs between runs and machines)"),
+)
+"""The manifest's columns: (name, Arrow type, meaning). docs/datasets.md lists them too."""
+TIMING_COLUMNS = ("generation_seconds",)
+"""Columns that depend on the machine and the moment; every other column is the same on every run of a request."""
+CANONICAL_DECIMALS = 6
+"""Numbers in the canonical description are rounded to micrometres and microradians."""
+
+
+def schema():
+    import pyarrow as pa
+
+    types = {"int64": pa.int64(), "int32": pa.int32(), "string": pa.string(), "float64": pa.float64()}
+    return pa.schema([pa.field(name, types[kind]) for name, kind, _ in COLUMNS])
+
+
+# -- rows ----------------------------------------------------------------------------
+def base_row(entry: Entry, shard: int, record: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The columns every row has, from the entry and (when there is one) its generation record."""
+    record = record or {}
+    return {
+        "index": entry.index, "generator": entry.generator, "name": entry.name, "seed": entry.seed,
+        "parameters": entry.parameters_json, "shard": shard, "path": None, "status": "failed", "error": None,
+        "content_hash": None, "canonical_hash": None, "movable_objects": None, "actions": None, "depth": None,
+        "branching": None, "shape": None, "interlock_margin": None,
+        "validation_checks": record.get("validation_checks"), "generation_seconds": record.get("seconds"),
+    }
+
+
+def failed_row(entry: Entry, shard: int, error: str, record: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    row = base_row(entry, shard, record)
+    row["error"] = error
+    return row
+
+
+def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
+               record: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The row of a puzzle folder, read strictly (:func:`~phyrogen_core.export.read_puzzle_dir`).
+
+    Raises :class:`~phyrogen_core.folder.PuzzleFormatError` (a ValueError) when the folder is not a
+    valid puzzle folder of exactly this entry: its generator, seed, name or parameters differ.
+    """
+    from phyrogen_core.export import read_puzzle_dir
+    from phyrogen_core.folder import PuzzleFormatError
+
+    loaded = read_puzzle_dir(folder)
+    meta = loaded.metadata
+    expected = {"generator": entry.generator, "seed": entry.seed, "name": entry.name,
+                "parameters": json.loads(entry.parameters_json)}
+    for key, value in expected.items():
+        if meta.get(key) != value:
+            raise PuzzleFormatError(f"{folder}: puzzle.json {key} is {meta.get(key)!r}, the dataset asks for {value!r}")
+    graph = meta.get("dependency_graph", {})
+    margins = [o["interlock_margin"] for o in meta.get("objects", []) if "interlock_margin" in o]
+    row = base_row(entry, shard, record)
+    row.update({
+        "path": folder.relative_to(root).as_posix(), "status": "ok",
+        "content_hash": content_hash(folder, entry.name),
+        "canonical_hash": canonical_hash(loaded.chain, dict(zip(loaded.joint_order, loaded.start, strict=True)),
+                                         loaded.goal.values),
+        "movable_objects": len(loaded.chain.object_names),
+        "actions": int(meta["certificate_actions"]),
+        "depth": int(graph["depth"]), "branching": int(graph["branching"]),
+        "shape": DependencyShape(int(graph["depth"]), int(graph["branching"])).kind,
+        "interlock_margin": float(min(margins)) if margins else None,
+    })
+    return row
+
+
+# -- hashes --------------------------------------------------------------------------
+def content_hash(folder: Path, name: str) -> str:
+    """sha256 over the export stage's files of a puzzle folder: each file's path (relative, POSIX),
+    its length and its bytes, files in path order. Renders, solutions and MJCF files do not count."""
+    digest = hashlib.sha256()
+    files: list[Path] = []
+    for entry in stage_entries(Stage.EXPORT, name):
+        path = folder / entry
+        if path.is_dir():
+            files += [p for p in path.rglob("*") if p.is_file()]
+        elif path.is_file():
+            files.append(path)
+    for path in sorted(files, key=lambda p: p.relative_to(folder).as_posix()):
+        data = read_folder_file(path, folder)
+        digest.update(f"{path.relative_to(folder).as_posix()}\0{len(data)}\0".encode())
+        digest.update(data)
+    return digest.hexdigest()
+
+
+def canonical_hash(chain: KinematicChain, start: Mapping[str, float], goal: Mapping[str, float]) -> str:
+    """sha256 of :func:`canonical_description`: two puzzles that differ only in the names or the
+    order of their objects have the same hash; any change of a shape, a pose, a joint, a limit,
+    the start or the goal beyond :data:`CANONICAL_DECIMALS` changes it."""
+    text = "\n".join(["phyrogen-canonical-1", *canonical_description(chain, start, goal)])
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def canonical_description(chain: KinematicChain, start: Mapping[str, float],
+                          goal: Mapping[str, float]) -> list[str]:
+    """One JSON line per object, sorted: the object's links in tree order, each with its role, the
+    joint that carries it (type, origin, whether it hangs from the base; for a moving joint also
+    axis, limits, start value and goal value) and its collision shapes with their poses, numbers
+    rounded. No name appears: objects are told apart by what they are and where."""
+    objects: dict[str, list[Any]] = {}
+    for link_name in chain.links_in_tree_order:
+        link = chain.link(link_name)
+        if link.role in (Role.BASE, Role.GOAL_MARKER):
+            continue
+        joint = chain.parent_joint(link_name)
+        carried: dict[str, Any] | None = None
+        if joint is not None:
+            carried = {"type": joint.type.value, "origin": _pose(joint.origin), "from_base": joint.parent == chain.root}
+            if joint.is_active:
+                carried.update(axis=[_round(v) for v in joint.axis], limits=[_round(joint.lower), _round(joint.upper)],
+                               start=_round(start.get(joint.name, 0.0)),
+                               goal=_round(goal[joint.name]) if joint.name in goal else None)
+        shapes = sorted(json.dumps([_shape(g.shape), _pose(g.origin)], separators=(",", ":"))
+                        for g in link.collisions)
+        objects.setdefault(link.object_name or link.name, []).append(
+            {"role": link.role.value, "joint": carried, "collisions": shapes})
+    return sorted(json.dumps(links, sort_keys=True, separators=(",", ":")) for links in objects.values())
+
+
+def _round(value: float) -> float:
+    return round(float(value), CANONICAL_DECIMALS) + 0.0  # -0.0 -> 0.0
+
+
+def _pose(pose: Pose) -> list[list[float]]:
+    return [[_round(v) for v in pose.xyz], [_round(v) for v in pose.rpy]]
+
+
+def _shape(shape: Shape) -> list[Any]:
+    if isinstance(shape, Box):
+        return ["box", [_round(v) for v in shape.size]]
+    if isinstance(shape, Cylinder):
+        return ["cylinder", _round(shape.radius), _round(shape.length)]
+    if isinstance(shape, ConvexPrism):
+        pieces = sorted([[_round(x), _round(y)] for x, y in piece] for piece in shape.pieces)
+        return ["prism", _round(shape.height), pieces]
+    raise TypeError(f"no canonical form for shape {type(shape).__name__}")
+
+
+# -- files ---------------------------------------------------------------------------
+def part_path(root: Path, shard: int) -> Path:
+    from phyrogen_core.folder import shard_name
+
+    return Path(root) / PARTS_FOLDER / f"{shard_name(shard)}.parquet"
+
+
+def write_part(path: Path, rows: Sequence[Mapping[str, Any]]) -> Path:
+    """One shard's rows (in index order) as a Parquet file, written atomically."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from phyrogen_core.folder import write_file_atomic
+
+    table = pa.Table.from_pylist(sorted(rows, key=lambda r: r["index"]), schema=schema())
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    return write_file_atomic(path, sink.getvalue().to_pybytes())
+
+
+def part_is_complete(path: Path, indices: range) -> bool:
+    """Whether ``path`` is a readable manifest part holding exactly the rows ``indices``."""
+    import pyarrow.parquet as pq
+
+    if not path.is_file():
+        return False
+    try:
+        table = pq.read_table(path, columns=["index"])
+        if table.schema.names != ["index"] or pq.read_schema(path) != schema():
+            return False
+        return table.column("index").to_pylist() == list(indices)
+    except Exception:  # unreadable, truncated or another format: the shard is done again
+        return False
+
+
+def write_manifest(root: Path, parts: Sequence[Path]) -> Path:
+    """``manifest.parquet``: the parts' rows in order, a row group per part, written atomically
+    (a temporary file beside it, renamed into place)."""
+    import pyarrow.parquet as pq
+
+    final = Path(root) / MANIFEST_FILE
+    with atomic_file(final) as temporary, pq.ParquetWriter(temporary, schema()) as writer:
+        for part in parts:
+            writer.write_table(pq.read_table(part, schema=schema()))
+    return final
+
+
+def read_manifest(root: Path, columns: Sequence[str] | None = None):
+    """The manifest of the dataset at ``root`` as an Arrow table, and whether it is complete: the
+    merged ``manifest.parquet`` when the dataset is finished, else the parts written so far."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    root = Path(root)
+    cols = None if columns is None else list(columns)
+    if (root / MANIFEST_FILE).is_file():
+        return pq.read_table(root / MANIFEST_FILE, columns=cols), True
+    parts = sorted((root / PARTS_FOLDER).glob("shard-*.parquet"))
+    if not parts:
+        return schema().empty_table() if cols is None else schema().empty_table().select(cols), False
+    return pa.concat_tables([pq.read_table(p, columns=cols) for p in parts]), False

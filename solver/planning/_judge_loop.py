@@ -1,0 +1,272 @@
+"""The necessity judge's LA-RRT loop, compiled: the same run as :meth:`solver.planning.la_rrt.LaRrt.solve`.
+
+The judge (:mod:`solver.validation.judge`) runs LA-RRT with pushes until its first
+solution or until a budget of collision queries is spent, thousands of times
+per dataset. In Python most of that time was the loop's own bookkeeping, not
+collision checking; here the loop of :class:`~solver.planning.la_rrt.LaRrt` for that
+case (staircase extensions, goal roots drawn without a goal source, until the
+first solution) runs as one compiled call. It makes the same random draws in
+the same order from the same numpy Generator (numba's Generator methods share
+the generator's state and reproduce numpy's streams), the same collision
+queries in the same order, and the same floating-point operations, so every
+verdict, path and query count equals the Python loop's: the puzzles stay
+byte-identical (``tests/test_judge_loop.py`` compares both loops).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from solver.collision.kernels import check_states, motion_collision, nearest_l1, pair_hits
+
+_REACHED, _ADVANCED, _TRAPPED = 0, 1, 2  # as in solver.planning.la_rrt
+
+
+@njit(cache=True, nogil=True)
+def _draw(rng, lower, upper, limit_probability):
+    n = lower.shape[0]
+    u = rng.random(3 * n)
+    values = lower + (upper - lower) * u[:n]
+    for j in range(n):
+        if u[n + j] < limit_probability:
+            values[j] = upper[j] if u[2 * n + j] < 0.5 else lower[j]
+    return values
+
+
+@njit(cache=True, nogil=True)
+def _add(states, parents, sizes, tree, state, parent):
+    k = sizes[tree]
+    states[tree, k] = state
+    parents[tree, k] = parent
+    sizes[tree] = k + 1
+    return k
+
+
+@njit(cache=True, nogil=True)
+def _branch(states, parents, tree, node):
+    count, k = 0, node
+    while k >= 0:
+        count += 1
+        k = parents[tree, k]
+    out = np.empty((count, states.shape[2]))
+    k = node
+    for i in range(count - 1, -1, -1):
+        out[i] = states[tree, k]
+        k = parents[tree, k]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def run(rng, start, lower, upper, goal_columns, goal_values, weights, extension_range, steps, fine_steps,
+        factor_columns, factor_sizes, pair_objects, object_factor, limit_probability, single_probability,
+        goal_root_probability, goal_attempts, max_pushes, push_attempts, budget, queries, capacity,
+        kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+        shape_normals, shape_extent, pairs, tol, pair_columns):
+    """LA-RRT with pushes from ``start`` until a connection whose path holds at ``fine_steps`` or
+    until ``queries`` reach ``budget``. Returns (path or an empty array, iterations, queries,
+    clipped). ``factor_columns`` (F, k) lists each factor's state columns (padded with -1,
+    ``factor_sizes`` of them); ``pair_objects`` (P, 2) the object of each collision pair's shapes,
+    numbered in name order; ``object_factor`` the factor of each object (-1: it has none)."""
+    d = start.shape[0]
+    states = np.empty((2, capacity, d))
+    parents = np.empty((2, capacity), dtype=np.int64)
+    sizes = np.zeros(2, dtype=np.int64)
+    _add(states, parents, sizes, 0, start, -1)
+    iterations = 0
+    clipped = 0
+    growing, other = 0, 1
+    candidates = np.empty((goal_attempts, d))
+    while queries < budget:
+        iterations += 1
+        # -- a goal root (LaRrt._wants_goal_root, _add_goal_root without a goal source)
+        if sizes[1] == 0 or rng.random() < goal_root_probability:
+            uniform = rng.random(goal_attempts * d)
+            picks = rng.integers(0, sizes[0], goal_attempts)
+            for batch in range(2):
+                for i in range(goal_attempts):
+                    for j in range(d):
+                        if batch == 0:
+                            candidates[i, j] = lower[j] + (upper[j] - lower[j]) * uniform[i * d + j]
+                        else:
+                            candidates[i, j] = states[0, picks[i], j]
+                    for g in range(goal_columns.shape[0]):
+                        candidates[i, goal_columns[g]] = goal_values[g]
+                queries += 1
+                valid = check_states(candidates, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                                     shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
+                found = -1
+                for i in range(goal_attempts):
+                    if valid[i]:
+                        found = i
+                        break
+                if found >= 0:
+                    _add(states, parents, sizes, 1, candidates[found].copy(), -1)
+                    break
+        if sizes[1] == 0:
+            growing = 0
+        sample = _draw(rng, lower, upper, limit_probability)
+        near = nearest_l1(states[growing], sizes[growing], sample, weights)
+        single = rng.random() < single_probability
+        status, new, queries = _staircase(
+            rng, states, parents, sizes, growing, near, sample, extension_range, single, lower, upper, weights, steps,
+            factor_columns, factor_sizes, pair_objects, object_factor, max_pushes, push_attempts, queries,
+            kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+            shape_normals, shape_extent, pairs, tol, pair_columns)
+        if new != near and sizes[other] > 0:
+            target = states[growing, new].copy()
+            status, reached, queries = _staircase(
+                rng, states, parents, sizes, other, nearest_l1(states[other], sizes[other], target, weights),
+                target, np.inf, False, lower, upper, weights, steps, factor_columns, factor_sizes, pair_objects,
+                object_factor, max_pushes, push_attempts, queries, kin_int, kin_float, n_links, shape_link,
+                shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
+                pair_columns)
+            if status == _REACHED:
+                a = _branch(states, parents, growing, new)
+                b = _branch(states, parents, other, reached)
+                if growing == 1:
+                    a, b = b, a
+                path = np.empty((a.shape[0] + b.shape[0] - 1, d))
+                path[:a.shape[0]] = a
+                for i in range(b.shape[0] - 1):
+                    path[a.shape[0] + i] = b[b.shape[0] - 2 - i]
+                holds = True
+                for i in range(path.shape[0] - 1):
+                    queries += 1
+                    if motion_collision(path[i], path[i + 1], fine_steps, kin_int, kin_float, n_links, shape_link,
+                                        shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+                                        shape_extent, pairs, tol, pair_columns) >= 0:
+                        holds = False
+                        break
+                if holds:
+                    return path, iterations, queries, clipped
+                clipped += 1
+        if sizes[1] > 0:
+            growing, other = other, growing
+    return np.empty((0, d)), iterations, queries, clipped
+
+
+@njit(cache=True, nogil=True)
+def _staircase(rng, states, parents, sizes, tree, node, target, budget, single, lower, upper, weights, steps,
+               factor_columns, factor_sizes, pair_objects, object_factor, max_pushes, push_attempts, queries,
+               kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+               shape_normals, shape_extent, pairs, tol, pair_columns):
+    """LaRrt._staircase with LaRrt._push_blocker: returns (status, last node added or ``node``, queries)."""
+    n_factors = factor_sizes.shape[0]
+    current = states[tree, node].copy()
+    order = rng.permutation(n_factors)
+    queue = np.empty(n_factors + max_pushes, dtype=np.int64)  # a pushed factor is queued again at most once a push
+    head, tail = 0, 0
+    for k in range(1 if single else n_factors):
+        queue[tail] = order[k]
+        tail += 1
+    pushes = 0
+    moved = np.zeros(n_factors, dtype=np.bool_)
+    while head < tail:
+        f = queue[head]
+        head += 1
+        count = factor_sizes[f]
+        distance = 0.0
+        for k in range(count):
+            c = factor_columns[f, k]
+            distance += abs(target[c] - current[c]) * weights[c]
+        if distance <= 1e-12:
+            continue
+        partial = distance > budget
+        values = np.empty(count)
+        scale = budget / distance
+        for k in range(count):
+            c = factor_columns[f, k]
+            values[k] = current[c] + (target[c] - current[c]) * scale if partial else target[c]
+        following = current.copy()
+        for k in range(count):
+            following[factor_columns[f, k]] = values[k]
+        queries += 1
+        hit = motion_collision(current, following, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                               shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
+                               pair_columns)
+        if hit >= 0:
+            if pushes >= max_pushes:
+                return _TRAPPED, node, queries
+            # -- LaRrt._push_blocker: move aside the movable object the move hits
+            blocked = np.empty((1, current.shape[0]))
+            for j in range(current.shape[0]):
+                blocked[0, j] = current[j] + hit * (following[j] - current[j])
+            queries += 1
+            hits = pair_hits(blocked, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                             shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
+            touched = np.zeros(object_factor.shape[0], dtype=np.bool_)
+            for p in range(hits.shape[0]):
+                if hits[p]:
+                    touched[pair_objects[p, 0]] = True
+                    touched[pair_objects[p, 1]] = True
+            candidates = np.empty(object_factor.shape[0], dtype=np.int64)
+            n_candidates = 0
+            static = False
+            for o in range(object_factor.shape[0]):  # objects are numbered in name order, as sorted() sees them
+                if touched[o]:
+                    g = object_factor[o]
+                    if g < 0:
+                        static = True
+                    elif g != f and not moved[g]:
+                        candidates[n_candidates] = g
+                        n_candidates += 1
+            if static or n_candidates == 0:
+                return _TRAPPED, node, queries
+            g = candidates[rng.integers(0, n_candidates)]
+            size = factor_sizes[g]
+            low = np.empty(size)
+            high = np.empty(size)
+            for k in range(size):
+                low[k] = lower[factor_columns[g, k]]
+                high[k] = upper[factor_columns[g, k]]
+            pushed = False
+            aside = current
+            for _ in range(push_attempts):
+                aside = current.copy()
+                drawn = _draw(rng, low, high, 2 / 3)
+                for k in range(size):
+                    aside[factor_columns[g, k]] = drawn[k]
+                freed = aside.copy()
+                for k in range(count):
+                    freed[factor_columns[f, k]] = values[k]
+                if not check_states(aside.reshape((1, aside.shape[0])), kin_int, kin_float, n_links, shape_link,
+                                    shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+                                    shape_extent, pairs, tol)[0]:
+                    continue  # (an unmoved check, not a query: LaRrt's is_valid is not counted either)
+                queries += 1
+                if motion_collision(aside, freed, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                                    shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs,
+                                    tol, pair_columns) >= 0:
+                    continue
+                queries += 1
+                if motion_collision(current, aside, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                                    shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs,
+                                    tol, pair_columns) >= 0:
+                    continue
+                pushed = True
+                break
+            if not pushed:
+                return _TRAPPED, node, queries
+            node = _add(states, parents, sizes, tree, aside, node)
+            current = aside
+            pushes += 1
+            if not single:
+                queued = False
+                for k in range(head, tail):
+                    if queue[k] == g:
+                        queued = True
+                        break
+                if not queued:
+                    queue[tail] = g
+                    tail += 1
+            following = current.copy()
+            for k in range(count):
+                following[factor_columns[f, k]] = values[k]
+        node = _add(states, parents, sizes, tree, following, node)
+        current = following
+        moved[f] = True
+        if partial:
+            return _ADVANCED, node, queries
+        budget -= distance
+    return _REACHED, node, queries

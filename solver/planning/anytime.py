@@ -1,0 +1,189 @@
+"""What every benchmark planner shares: the anytime result and its recorder.
+
+A planner gets a :class:`~solver.planning.problem.Problem` (the collision model and
+the free joints' bounds, start and goal) and a time limit; it reports a
+:class:`PlanResult`: the best path it found, scored with the paper's action
+cost (:func:`phyrogen_core.actions.count_actions`, the same function for every
+planner), when it found its first solution, and how the best cost evolved.
+Paths in a result list states in the problem's joint order
+(``problem.model.joint_order``); :func:`solver.planning.problem.chain_path` expands
+them to the chain's full joint order.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from phyrogen_core.actions import count_actions
+from solver.planning.problem import FINE_RESOLUTION, Path, Problem, in_goal, path_is_valid, problem_factors
+
+PLANNING_RESOLUTION = 0.01
+"""Metres any collision point may move between two states checked while planning, for every
+planner alike. At 0.02, diagonal RRT* edges sometimes clipped a corner that the final
+fine-resolution check (:data:`~solver.planning.problem.FINE_RESOLUTION`) then caught."""
+
+
+@dataclass(frozen=True)
+class ProgressSample:
+    """One progress point of a run: OMPL's ``time``, ``best cost`` (inf: none yet), ``iterations``."""
+
+    time: float
+    best_cost: float
+    iterations: int
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """What one planner run produced."""
+
+    planner: str
+    solved: bool
+    path: Path  # best path, problem joint order; empty when unsolved
+    action_cost: int | None
+    first_solution_time: float | None
+    time: float
+    iterations: int
+    progress: tuple[ProgressSample, ...]
+    status: str  # one of OMPL's PlannerStatus names, e.g. "Exact solution", "Timeout"
+    rejected: int = 0  # solution paths dropped because they failed the fine-resolution check
+    best_solution_time: float | None = None  # when the returned path was found
+
+    @property
+    def length(self) -> float:
+        """Joint-space (L2) length of the best path, OMPL's ``solution length``."""
+        states = np.asarray(self.path, dtype=float)
+        if len(states) < 2:
+            return 0.0
+        return float(np.linalg.norm(np.diff(states, axis=0), axis=1).sum())
+
+
+class Offer(enum.Enum):
+    """What :meth:`AnytimeRecorder.offer_checked` made of a path."""
+
+    BEST = "the new best path"
+    CLIPPED = "cheaper, but it clips a corner at fine resolution (counted, dropped)"
+    NO_GAIN = "not cheaper than the best so far"
+
+
+class AnytimeRecorder:
+    """Keeps the best path a planner has found, its first-solution time and the cost over time.
+
+    Every candidate is scored with :func:`count_actions`. When the run ends,
+    the best path is re-checked at fine resolution (every planner checks at
+    the coarser planning resolution while it runs); a path that fails is
+    dropped with the improvements it made, and the previous best counts, so
+    a result only ever holds fine-checked paths, with the times they were found.
+    The clock starts when the recorder is made, after the compiled collision
+    kernels are loaded (:func:`warm_up`).
+    """
+
+    def __init__(self, planner: str, problem: Problem, time_limit: float, progress_interval: float):
+        if not time_limit > 0:
+            raise ValueError(f"time limit must be a positive number of seconds, got {time_limit!r}")
+        warm_up(problem)
+        self.planner = planner
+        self.problem = problem
+        self.time_limit = float(time_limit)
+        self.interval = float(progress_interval)
+        self.factors = problem_factors(problem)
+        self.started = time.perf_counter()
+        self.improvements: list[tuple[float, int, np.ndarray]] = []  # (time, action cost, path)
+        self.samples: list[tuple[float, int]] = []  # (time, iterations)
+        self._next_sample = 0.0
+        self.clipped = 0  # paths dropped while running for failing the fine check
+        self.fine_steps = problem.model.motion_steps(FINE_RESOLUTION)
+
+    @property
+    def best_cost(self) -> float:
+        return self.improvements[-1][1] if self.improvements else math.inf
+
+    @property
+    def has_solution(self) -> bool:
+        return bool(self.improvements)
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.started
+
+    def expired(self) -> bool:
+        return self.elapsed() >= self.time_limit
+
+    def improves(self, path: Sequence[Sequence[float]]) -> bool:
+        """Whether ``path`` would need fewer actions than the best so far (no other check)."""
+        return count_actions(np.asarray(path, dtype=float), self.factors) < self.best_cost
+
+    def offer(self, path: Sequence[Sequence[float]]) -> bool:
+        """Consider a solution path (valid at planning resolution); True when it became the new best."""
+        states = np.asarray(path, dtype=float)
+        if len(states) < 1 or not in_goal(self.problem, states[-1]):
+            return False
+        if np.max(np.abs(states[0] - self.problem.start)) > 1e-9:
+            return False
+        cost = count_actions(states, self.factors)
+        if cost >= self.best_cost:
+            return False
+        self.improvements.append((self.elapsed(), cost, states.copy()))
+        return True
+
+    def offer_checked(self, path: Sequence[Sequence[float]]) -> Offer:
+        """Offer ``path`` if it is cheaper than the best so far and holds at fine resolution.
+
+        A cheaper path that clips is counted (:meth:`clip`) and dropped: kept, it would block
+        every equally cheap path that holds (:meth:`offer` takes strictly cheaper ones only).
+        """
+        if not self.improves(path):
+            return Offer.NO_GAIN
+        if not path_is_valid(self.problem.model, np.asarray(path, dtype=float), self.fine_steps):
+            self.clip()
+            return Offer.CLIPPED
+        return Offer.BEST if self.offer(path) else Offer.NO_GAIN
+
+    def clip(self) -> None:
+        """Count a solution path the planner dropped because it failed the fine-resolution check."""
+        self.clipped += 1
+
+    def sample(self, iterations: int, force: bool = False) -> None:
+        """Record a progress sample if the sampling interval has passed (or ``force``)."""
+        now = self.elapsed()
+        if force or now >= self._next_sample:
+            self.samples.append((now, iterations))
+            self._next_sample = now + self.interval
+
+    def result(self, iterations: int, status: str | None = None) -> PlanResult:
+        self.sample(iterations, force=True)
+        elapsed = self.elapsed()
+        rejected = self.clipped
+        kept = list(self.improvements)
+        while kept and not path_is_valid(self.problem.model, kept[-1][2], self.fine_steps):
+            kept.pop()
+            rejected += 1
+        progress = []
+        for t, count in self.samples:
+            costs = [cost for found, cost, _ in kept if found <= t]
+            progress.append(ProgressSample(t, float(min(costs)) if costs else math.inf, count))
+        solved = bool(kept)
+        if status is None:
+            status = "Exact solution" if solved else "Timeout"
+        best = tuple(tuple(float(v) for v in s) for s in kept[-1][2]) if solved else ()
+        return PlanResult(self.planner, solved, best, kept[-1][1] if solved else None,
+                          kept[0][0] if solved else None, elapsed, iterations, tuple(progress), status, rejected,
+                          kept[-1][0] if solved else None)
+
+
+def planning_steps(problem: Problem, resolution: float = PLANNING_RESOLUTION) -> np.ndarray:
+    """Per-joint steps for collision checks while planning (metres of motion of any point)."""
+    return problem.model.motion_steps(resolution)
+
+
+def warm_up(problem: Problem) -> None:
+    """Load the compiled collision kernels before a run's clock starts (the first call pays for it)."""
+    model = problem.model
+    start = np.ascontiguousarray(problem.start, dtype=float)
+    model.is_valid(start)
+    model.check_prepared(start[None, :].copy())
+    model.check_motion(start, start, planning_steps(problem))

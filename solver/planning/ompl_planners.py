@@ -1,0 +1,182 @@
+"""RRT* and BIT* from OMPL, optimizing an action-cost objective on our collision model.
+
+The paper's action cost (runs of moves of one object) is not additive over
+path segments, which OMPL's objectives must be. The planners therefore
+optimize its additive upper bound: each segment costs the number of objects
+it moves. Every path a planner returns is scored with the true action count
+(:func:`phyrogen_core.actions.count_actions`) like every other planner's. Planners
+are solved in short slices (OMPL keeps the tree between ``solve`` calls), so
+the best cost can be sampled over time; with ``until_first`` a run ends at
+its first solution that holds at fine resolution (a first path that clips at
+fine resolution restarts the planner; see :func:`run_ompl`).
+
+Goal states come from the run's shared goal sampler
+(:mod:`solver.planning.goal_sampling`) through :class:`SharedGoalRegion`, which hands
+out only valid goal states. The two planners use it differently:
+
+- BIT* draws goal states through OMPL's ``PlannerInputStates`` until their
+  count reaches ``maxSampleCount()``, validity-checks each and makes every
+  valid one a goal vertex; while it has none, it waits (sleeping) for the
+  region until the termination condition. Our region's count is the
+  sampler's capacity, so BIT* takes all of its states, the first one at
+  once; with the old region (uniform goal states, at most 100), a lockbox
+  or Simple Slider 3-4 gave it no valid one and it made no iteration.
+- RRT* calls ``sampleGoal`` directly for its goal bias (5 % of its samples)
+  whenever ``canSample()`` (``maxSampleCount() > 0``) and steers toward the
+  state; it reaches the goal by ``isSatisfied``. After the sampler's states
+  run out, the region hands out one of them again.
+
+OMPL draws from its own global RNG, which must be seeded once in a fresh
+process before the planner is built (see :mod:`solver.benchmark.runner`); the goal
+sampler and the region's repeats draw from numpy Generators seeded with the
+run's goal seed and seed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+
+from solver.planning.anytime import AnytimeRecorder, Offer, PlanResult, planning_steps
+from solver.planning.goal_sampling import GoalSampler, default_goal_seed
+from solver.planning.ompl_setup import ompl_setup
+from solver.planning.problem import Problem, goal_distance, problem_factors
+
+
+class ObjectsMovedObjective(ob.OptimizationObjective):
+    """Segment cost = number of objects (factors) whose joints it moves; states cost nothing."""
+
+    def __init__(self, si, factors: list[list[int]], tolerance: float = 1e-6):
+        super().__init__(si)
+        self.factors = factors
+        self.tolerance = tolerance
+        self.setCostThreshold(ob.Cost(0.0))  # never satisfied: run until the time limit
+
+    def stateCost(self, state) -> ob.Cost:  # noqa: N802 (OMPL's name)
+        return ob.Cost(0.0)
+
+    def motionCost(self, s1, s2) -> ob.Cost:  # noqa: N802
+        moved = 0
+        for columns in self.factors:
+            for i in columns:
+                if abs(s1[i] - s2[i]) > self.tolerance:
+                    moved += 1
+                    break
+        return ob.Cost(float(moved))
+
+
+class SharedGoalRegion(ob.GoalSampleableRegion):
+    """The goal region (target joints at their goal values) whose samples are the run's shared
+    valid goal states (see the module docstring for how BIT* and RRT* use it)."""
+
+    def __init__(self, si, problem: Problem, goals: GoalSampler, rng: np.random.Generator):
+        super().__init__(si)
+        self.problem = problem
+        self.goals = goals
+        self.rng = rng
+        # Written only if the sampler found no goal state at all; canSample() is False by then,
+        # and OMPL validity-checks what a goal region hands out.
+        self._fallback = problem.start.copy()
+        for column, value in problem.goal_columns.items():
+            self._fallback[column] = value
+        self.setThreshold(problem.tolerance)
+
+    def distanceGoal(self, state) -> float:  # noqa: N802 (OMPL's name)
+        return goal_distance(self.problem, state)
+
+    def sampleGoal(self, state) -> None:  # noqa: N802
+        values = self.goals.sample(self.rng)
+        for i, v in enumerate((self._fallback if values is None else values).tolist()):
+            state[i] = v
+
+    def maxSampleCount(self) -> int:  # noqa: N802
+        # The sampler's capacity while it may find more, then what it found: BIT* stops asking
+        # there, and never waits for a region that has nothing (couldSample() is canSample()).
+        return len(self.goals.states) if self.goals.exhausted else self.goals.settings.capacity
+
+
+def _setup(problem: Problem, goals: GoalSampler, rng: np.random.Generator):
+    """SpaceInformation and ProblemDefinition for ``problem`` with the action-bound objective."""
+    def region(si, problem, rng):
+        return SharedGoalRegion(si, problem, goals, rng)
+
+    si, pdef, validator, keep = ompl_setup(problem, planning_steps(problem), region, rng)
+    objective = ObjectsMovedObjective(si, [list(c) for c in problem_factors(problem).values()])
+    pdef.setOptimizationObjective(objective)
+    # Python objects OMPL holds only by reference must outlive the run.
+    return si, pdef, (keep, validator, objective)
+
+
+def _solution(pdef, dimension: int) -> list[list[float]]:
+    path = pdef.getSolutionPath()
+    return [[path.getState(k)[i] for i in range(dimension)] for k in range(path.getStateCount())]
+
+
+@dataclass(frozen=True)
+class OmplRun:
+    """One OMPL planner run: its result and what the planner built (for tests and diagnosis)."""
+
+    result: PlanResult
+    vertices: int  # vertices of the planner's graph at the end (PlannerData)
+    goal_vertices: int  # of them, goal vertices (BIT*'s goal samples; RRT* marks none)
+    goal_states: int  # goal states the shared sampler found in this run
+
+
+def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, seed: int,
+             progress_interval: float = 0.1, until_first: bool = False, goal_seed: int | None = None) -> OmplRun:
+    """Run the OMPL planner ``make(si)`` for ``time_limit`` seconds, or until its first solution
+    that holds at fine resolution when ``until_first``; goal states from the shared sampler
+    seeded with ``goal_seed`` (default: from ``seed``)."""
+    rng = np.random.default_rng(seed)
+    goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
+    si, pdef, keep = _setup(problem, goals, rng)
+    objective = keep[2]
+    if until_first:
+        objective.setCostThreshold(ob.Cost(math.inf))  # any solution satisfies: solve() returns at the first
+    planner = make(si)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+    recorder = AnytimeRecorder(name, problem, time_limit, progress_interval)
+    if not problem.model.is_valid(problem.start):
+        return OmplRun(recorder.result(0, "Invalid start"), 0, 0, 0)
+    dimension = len(problem.start)
+    earlier = 0  # iterations of the trees cleared by restarts
+    while not recorder.expired():
+        slice_end = min(recorder.time_limit - recorder.elapsed(), progress_interval)
+        planner.solve(ob.timedPlannerTerminationCondition(max(slice_end, 1e-3)))
+        if pdef.hasExactSolution():
+            offer = recorder.offer_checked(_solution(pdef, dimension))
+            if offer is Offer.BEST and until_first:
+                recorder.sample(earlier + planner.numIterations(), force=True)
+                break
+            if offer is Offer.CLIPPED:
+                # The planner would keep the clipping path as its best until a strictly cheaper
+                # one turns up, which never happens when it is already the cheapest (most often
+                # one action per object), and every later path through the clipping edge clips
+                # too: the run starts a fresh tree instead, with the time left and OMPL's RNG where
+                # it is (LBT-RRT does the same; LA-RRT's next connection is a new path anyway).
+                earlier += planner.numIterations()
+                planner.clear()
+                pdef.clearSolutionPaths()
+        recorder.sample(earlier + planner.numIterations(), force=True)
+    result = recorder.result(earlier + planner.numIterations())
+    data = ob.PlannerData(si)
+    planner.getPlannerData(data)
+    return OmplRun(result, data.numVertices(), data.numGoalVertices(), len(goals.states))
+
+
+def plan_rrt_star(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
+                  until_first: bool = False, goal_seed: int | None = None) -> PlanResult:
+    """OMPL's RRT* (default range and goal bias) for ``time_limit`` seconds."""
+    return run_ompl("RRT*", og.RRTstar, problem, time_limit, seed, progress_interval, until_first, goal_seed).result
+
+
+def plan_bit_star(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
+                  until_first: bool = False, goal_seed: int | None = None) -> PlanResult:
+    """OMPL's BIT* (default batch size) for ``time_limit`` seconds."""
+    return run_ompl("BIT*", og.BITstar, problem, time_limit, seed, progress_interval, until_first, goal_seed).result

@@ -1,0 +1,138 @@
+"""OMPL set-up of a :class:`~solver.planning.problem.Problem`: our collision model as OMPL's state
+and motion validity checkers, a goal region, RRT-Connect with a budget in collision queries, and the
+seeding of OMPL's own random numbers (:func:`seed_ompl`).
+
+Budgets are counted in collision queries, never seconds, so an answer is the same on any machine.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from phyrogen_core.maker import SolveResult
+from solver.collision.model import CollisionModel
+from solver.planning.problem import DEFAULT_RESOLUTION, Problem, goal_distance
+
+
+class _MotionValidator(ob.MotionValidator):
+    """Checks a whole segment in one compiled call and counts the checks."""
+
+    def __init__(self, si, model: CollisionModel, steps: np.ndarray):
+        super().__init__(si)
+        self.model = model
+        self.steps = steps
+        self.dimension = len(steps)
+        self.calls = 0
+        self._a = np.empty(self.dimension)
+        self._b = np.empty(self.dimension)
+
+    def checkMotion(self, s1, s2) -> bool:  # noqa: N802 (OMPL's name)
+        self.calls += 1
+        for i in range(self.dimension):
+            self._a[i] = s1[i]
+            self._b[i] = s2[i]
+        return self.model.check_motion(self._a, self._b, self.steps)
+
+
+class _GoalRegion(ob.GoalSampleableRegion):
+    """Target joints at their goal values; every other joint anywhere within limits."""
+
+    def __init__(self, si, problem: Problem, rng: np.random.Generator):
+        super().__init__(si)
+        self.problem = problem
+        self.columns = problem.goal_columns
+        self.lower, self.upper = problem.lower, problem.upper
+        self.rng = rng
+        self._block = np.empty((0, len(self.lower)))
+        self._next = 0
+        self.setThreshold(problem.tolerance)
+
+    def distanceGoal(self, state) -> float:  # noqa: N802
+        return goal_distance(self.problem, state)
+
+    def sampleGoal(self, state) -> None:  # noqa: N802
+        # Uniform draws come in blocks: one numpy call per state would dominate the cost.
+        if self._next == len(self._block):
+            self._block = self.lower + (self.upper - self.lower) * self.rng.random((256, len(self.lower)))
+            self._block[:, list(self.columns)] = list(self.columns.values())
+            self._next = 0
+        values = self._block[self._next].tolist()
+        self._next += 1
+        for i, v in enumerate(values):
+            state[i] = v
+
+    def maxSampleCount(self) -> int:  # noqa: N802
+        return 1 << 30
+
+
+def ompl_setup(problem: Problem, steps: np.ndarray, goal_type: type, rng: np.random.Generator):
+    """OMPL's SpaceInformation and ProblemDefinition for ``problem`` on our collision model.
+
+    Motions are checked in one compiled call each (``steps`` per joint); the
+    returned motion validator counts motion and single-state checks in
+    ``calls``. ``goal_type`` is :class:`_GoalRegion` or a subclass. The last
+    item holds Python objects OMPL references but does not own: keep it alive.
+    """
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)  # invalid goal samples are expected, not errors
+    model = problem.model
+    dimension = len(problem.start)
+    space = ob.RealVectorStateSpace(dimension)
+    bounds = ob.RealVectorBounds(dimension)
+    for i in range(dimension):
+        bounds.setLow(i, float(problem.lower[i]))
+        bounds.setHigh(i, float(problem.upper[i]))
+    space.setBounds(bounds)
+    si = ob.SpaceInformation(space)
+    validator = _MotionValidator(si, model, steps)
+    buffer = np.empty((1, dimension))
+    row = buffer[0]
+
+    def state_valid(s) -> bool:
+        # Counted too: with an invalid goal, RRT-Connect only samples goal states.
+        validator.calls += 1
+        for i in range(dimension):
+            row[i] = s[i]
+        return bool(model.check_prepared(buffer)[0])
+
+    si.setStateValidityChecker(state_valid)
+    si.setMotionValidator(validator)
+    si.setup()
+    pdef = ob.ProblemDefinition(si)
+    start = si.allocState()
+    for i in range(dimension):
+        start[i] = float(problem.start[i])
+    pdef.addStartState(start)
+    goal = goal_type(si, problem, rng)
+    pdef.setGoal(goal)
+    return si, pdef, validator, (space, state_valid, start, goal)
+
+
+def rrt_connect(problem: Problem, budget: int, rng: np.random.Generator,
+                resolution: float = DEFAULT_RESOLUTION) -> SolveResult:
+    """RRT-Connect until a path is found or ``budget`` collision queries are spent."""
+    if not problem.model.is_valid(problem.start):
+        return SolveResult(False)
+    dimension = len(problem.start)
+    si, pdef, validator, _keep = ompl_setup(problem, problem.model.motion_steps(resolution), _GoalRegion, rng)
+    planner = og.RRTConnect(si)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+    status = planner.solve(ob.PlannerTerminationCondition(lambda: validator.calls >= budget))
+    if not pdef.hasExactSolution() or str(status) != "Exact solution":
+        return SolveResult(False, (), validator.calls)
+    path = pdef.getSolutionPath()
+    states = tuple(tuple(float(path.getState(k)[i]) for i in range(dimension)) for k in range(path.getStateCount()))
+    return SolveResult(True, states, validator.calls)
+
+
+def seed_ompl(seed: int) -> None:
+    """Seed OMPL's seed generator, from which every OMPL RNG made afterwards (each planner and
+    state sampler makes its own) takes its seed: a run seeded first draws the same numbers in any
+    process, whatever ran there before (OMPL logs a needless error about it, silenced here)."""
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    ou.RNG.setSeed(int(seed))
+    ou.setLogLevel(level)
