@@ -1,13 +1,12 @@
-"""ValidatePuzzle: can the target reach its goal? RRT-Connect (OMPL) on our collision model.
+"""ValidatePuzzle: can the target reach its goal? The Maker's validator on our collision model.
 
-This is OMPL's side of validation: the OMPL set-up of a
-:class:`~solver.planning.problem.Problem`, RRT-Connect with a budget, and the Maker's
-validator. The problem itself, densifying and checking certificates, and
-the dependency graph need no OMPL and live in :mod:`solver.planning.problem`.
+It extends the previous certificate when it can and otherwise runs OMPL's RRT-Connect
+(:func:`solver.planning.ompl_setup.rrt_connect`); the problem itself, densifying and checking
+certificates, and the dependency graph need no OMPL and live in :mod:`solver.planning.problem`.
 
 Budgets are counted in motion checks, never seconds, so the answer (and
 therefore every generated puzzle) is the same on any machine. Each puzzle
-seeds OMPL's seed generator at its start (:func:`seed_ompl`), and the goal
+seeds OMPL's seed generator at its start (:func:`~solver.planning.ompl_setup.seed_ompl`), and the goal
 sampler draws from its own seeded numpy Generator.
 """
 
