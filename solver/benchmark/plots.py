@@ -56,7 +56,9 @@ def _connect(db_path: Path) -> sqlite3.Connection:
 
 
 def _planner_key(name: str) -> tuple[int, str]:
-    return (PLANNER_ORDER.index(name) if name in PLANNER_ORDER else len(PLANNER_ORDER), name)
+    # The live registry, not PLANNER_ORDER: a planner registered after this module loaded sorts in place.
+    order = [spec.title for spec in PLANNERS.values()]
+    return (order.index(name) if name in order else len(order), name)
 
 
 def summary_rows(db_path: Path) -> list[SummaryRow]:

@@ -14,7 +14,7 @@ limit, and the action cost is the first solution's. Results are written in
 OMPL's benchmark log format, one log per puzzle (an *experiment*), then
 turned into one SQLite database with ``ompl.tools.readBenchmarkLog`` and
 ``computeViews`` (Planner Arena opens it). The best solution per puzzle of
-the LA-RRT entries (the paper's and ours, :data:`~solver.planning.registry.LA_RRT_PLANNERS`)
+the LA-RRT entries (the paper's and ours, those registered with ``saves_solution``)
 is saved into the puzzle's folder for the manipulation stage
 (:attr:`~phyrogen_core.folder.PuzzleFolder.best_solution`).
 
@@ -72,7 +72,7 @@ from phyrogen_core.folder import (
 from phyrogen_core.registry import benchmark_time_limits
 from solver.parallel.tasks import task_pool
 from solver.planning.goal_sampling import goal_seed
-from solver.planning.registry import LA_RRT_PLANNERS, PLANNERS, get_planner, run_seed
+from solver.planning.registry import PLANNERS, get_planner, load_planner_source, run_seed, solution_planners
 
 PAPER_TIME_LIMITS: Mapping[str, float] = benchmark_time_limits("paper")
 """Seconds per run for each generator's puzzles, as in the paper (from the generator registry)."""
@@ -91,6 +91,8 @@ RUN_PROPERTIES = (
     ("iterations", "INTEGER"),
     ("seed", "INTEGER"),
     ("rejected paths", "INTEGER"),
+    ("collision checks", "INTEGER"),
+    ("cpu time", "REAL"),
 )
 PROGRESS_PROPERTIES = (("time", "REAL"), ("best cost", "REAL"), ("iterations", "INTEGER"))
 
@@ -164,6 +166,8 @@ class RunJob:
     progress_interval: float
     until_first: bool = False  # stop at the first solution that holds at fine resolution
     goal_seed: int = 0  # the shared goal sampler's seed: the same for every planner of a run
+    budget_checks: int | None = None  # collision checks per run; then time_limit is only a backstop
+    planner_source: tuple[str, str | None] | None = None  # where a fresh worker finds a registered planner
 
 
 @dataclass(frozen=True)
@@ -189,12 +193,16 @@ class RunRecord:
     wall: float = 0.0  # seconds the worker spent, loading and checking included
     error: str | None = None
     best_solution_time: float | None = None
+    # None in records journaled before they were counted (still read; see parse_journal_line).
+    checks: int | None = None  # collision checks the run spent (solver.planning.anytime.CheckCounter)
+    cpu_time: float | None = None  # process CPU seconds of the planning, beside its wall ``time``
 
 
 def _run_job(job: RunJob) -> RunRecord:
     started = time.perf_counter()
-    spec = get_planner(job.planner)
     try:
+        load_planner_source(job.planner, job.planner_source)
+        spec = get_planner(job.planner)
         if spec.uses_ompl_rng:
             from solver.planning.ompl_setup import seed_ompl
 
@@ -204,22 +212,25 @@ def _run_job(job: RunJob) -> RunRecord:
 
         loaded = read_puzzle_dir(job.puzzle.path)
         problem = problem_for_chain(loaded.chain, loaded.goal)
-        result = spec.plan(problem, job.time_limit, job.seed, job.progress_interval, job.until_first, job.goal_seed)
+        result = spec.plan(problem, job.time_limit, job.seed, job.progress_interval, job.until_first, job.goal_seed,
+                           job.budget_checks)
         path = chain_path(problem, result.path) if result.solved else ()
         return RunRecord(
             spec.title, job.puzzle.name, job.run, job.seed, job.time_limit, result.solved, result.status,
             result.time, result.first_solution_time, result.action_cost,
             result.length if result.solved else None, result.iterations, result.rejected,
             tuple((p.time, p.best_cost, p.iterations) for p in result.progress), path, loaded.joint_order,
-            time.perf_counter() - started, None, result.best_solution_time)
+            time.perf_counter() - started, None, result.best_solution_time, result.checks, result.cpu_time)
     except Exception as exc:  # a crashed run is data, not the end of the benchmark
         return _crashed(job, time.perf_counter() - started,
                         f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}")
 
 
 def _crashed(job: RunJob, seconds: float, error: str) -> RunRecord:
-    return RunRecord(get_planner(job.planner).title, job.puzzle.name, job.run, job.seed, job.time_limit, False,
-                     "Crash", seconds, None, None, None, 0, 0, (), (), (), seconds, error)
+    spec = PLANNERS.get(job.planner)
+    title = job.planner if spec is None else spec.title
+    return RunRecord(title, job.puzzle.name, job.run, job.seed, job.time_limit, False, "Crash", seconds, None, None,
+                     None, 0, 0, (), (), (), seconds, error)
 
 
 def _lost(job: RunJob, how: str) -> RunRecord:
@@ -233,12 +244,11 @@ _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_c
 
 
 def make_jobs(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile,
-              base_seed: int = 0, until_first: bool = False) -> list[RunJob]:
-    for name in planners:
-        get_planner(name)
+              base_seed: int = 0, until_first: bool = False, budget_checks: int | None = None) -> list[RunJob]:
+    sources = {name: get_planner(name).source for name in planners}
     return [RunJob(planner, puzzle, run, run_seed(planner, puzzle.name, run, base_seed),
                    profile.time_limit(puzzle.generator), profile.progress_interval, bool(until_first),
-                   goal_seed(puzzle.name, run, base_seed))
+                   goal_seed(puzzle.name, run, base_seed), budget_checks, sources[planner])
             for puzzle in puzzles for run in range(profile.runs) for planner in planners]
 
 
@@ -267,10 +277,12 @@ def _value(v) -> str:
 
 def write_log(path: Path, experiment: str, records: Sequence[RunRecord], planner_titles: Sequence[str],
               time_limit: float, runs: int, base_seed: int, total_seconds: float, setup: str,
-              until_first: bool = False, versions: Mapping[str, str] | None = None) -> None:
+              until_first: bool = False, versions: Mapping[str, str] | None = None,
+              budget_checks: int | None = None) -> None:
     """Write OMPL's benchmark log for one experiment (one puzzle, several planners). Each planner's
     common properties hold the time limit, whether runs stopped at their first solution
-    (``until_first``) and, when given, its version (``versions``: title -> version)."""
+    (``until_first``) and, when given, its version (``versions``: title -> version) and the runs'
+    check budget (``budget_checks``)."""
     if any(c.isspace() for c in experiment):
         raise ValueError(f"experiment name {experiment!r} must not contain white space (OMPL logs split on it)")
     from importlib.metadata import version
@@ -296,12 +308,14 @@ def write_log(path: Path, experiment: str, records: Sequence[RunRecord], planner
         common = [f"time_limit REAL = {time_limit:g}", f"until_first BOOLEAN = {int(bool(until_first))}"]
         if versions and title in versions:
             common.append(f"version STRING = {versions[title]}")
+        if budget_checks is not None:
+            common.append(f"budget_checks INTEGER = {budget_checks}")
         lines += [title, f"{len(common)} common properties", *common, f"{len(RUN_PROPERTIES)} properties for each run"]
         lines += [f"{name} {kind}" for name, kind in RUN_PROPERTIES]
         lines.append(f"{len(mine)} runs")
         for r in mine:
             values = [r.time, r.solved, STATUS_NAMES.index(r.status), r.length, r.action_cost,
-                      r.first_solution_time, r.iterations, r.seed, r.rejected]
+                      r.first_solution_time, r.iterations, r.seed, r.rejected, r.checks, r.cpu_time]
             lines.append("".join(_value(v) + "; " for v in values))
         lines.append(f"{len(PROGRESS_PROPERTIES)} progress properties for each run")
         lines += [f"{name} {kind}" for name, kind in PROGRESS_PROPERTIES]
@@ -345,11 +359,11 @@ def solution_json(record: RunRecord, factors: Mapping[str, Sequence[int]]) -> di
 def save_best_solution(puzzle: PuzzleFolder, records: Sequence[RunRecord],
                        planner_titles: Sequence[str] | str | None = None) -> Path | None:
     """Write the lowest-cost path on ``puzzle`` of the planners titled ``planner_titles`` (default:
-    the LA-RRT entries, :data:`~solver.planning.registry.LA_RRT_PLANNERS`) to its folder (atomically)."""
+    the entries registered with ``saves_solution``, the LA-RRT ones) to its folder (atomically)."""
     from phyrogen_core.export import read_puzzle_dir
 
     if planner_titles is None:
-        planner_titles = [PLANNERS[name].title for name in LA_RRT_PLANNERS]
+        planner_titles = [PLANNERS[name].title for name in solution_planners()]
     elif isinstance(planner_titles, str):
         planner_titles = [planner_titles]
     solved = [r for r in records if r.planner in planner_titles and r.puzzle == puzzle.name and r.solved]
@@ -378,7 +392,7 @@ def puzzle_digest(puzzle: PuzzleFolder) -> str:
     """
     import xml.etree.ElementTree as ET
 
-    name = json.loads(read_folder_file(puzzle.metadata, puzzle.path))["name"]
+    name = PuzzleFolder.open(puzzle.path).name
     urdf = PuzzleFolder(puzzle.path, name).urdf
     urdf_bytes = read_folder_file(urdf, puzzle.path)
     meshes = sorted({m.get("filename", "") for m in ET.fromstring(urdf_bytes).iter("mesh")})
@@ -400,7 +414,10 @@ def run_key(job: RunJob, digest: str, ompl_version: str) -> str:
                        "puzzle": job.puzzle.name, "puzzle_sha256": digest,
                        "run": job.run, "seed": job.seed, "goal_seed": job.goal_seed, "time_limit": job.time_limit,
                        "progress_interval": job.progress_interval, "until": "first" if job.until_first else "limit",
-                       "ompl": ompl_version, "format": JOURNAL_FORMAT}, sort_keys=True)
+                       "ompl": ompl_version, "format": JOURNAL_FORMAT,
+                       # Only when set, so that the keys of runs without a budget are what they were.
+                       **({} if job.budget_checks is None else {"budget_checks": job.budget_checks})},
+                      sort_keys=True)
 
 
 def _finite_or_none(value):
@@ -420,7 +437,10 @@ _RECORD_TYPES = {
     "planner": str, "puzzle": str, "run": int, "seed": int, "time_limit": float, "solved": bool, "status": str,
     "time": float, "first_solution_time": float | None, "action_cost": int | None, "length": float | None,
     "iterations": int, "rejected": int, "wall": float, "error": str | None, "best_solution_time": float | None,
+    "checks": int | None, "cpu_time": float | None,
 }
+_ADDED_FIELDS = {"checks", "cpu_time"}
+"""RunRecord fields added after journals were first written: a record without them reads as None."""
 
 
 def _fits(value: object, kind) -> bool:
@@ -437,8 +457,10 @@ def parse_journal_line(line: bytes) -> tuple[str, RunRecord] | None:
     try:
         data = json.loads(line)
         key, raw = data["key"], data["record"]
-        if not isinstance(key, dict) or not isinstance(raw, dict) or set(raw) != set(RunRecord.__dataclass_fields__):
+        fields = set(RunRecord.__dataclass_fields__)
+        if not isinstance(key, dict) or not isinstance(raw, dict) or not fields - _ADDED_FIELDS <= set(raw) <= fields:
             return None
+        raw = {name: None for name in _ADDED_FIELDS} | raw
         if not all(_fits(raw[name], kind) for name, kind in _RECORD_TYPES.items()) or raw["status"] not in STATUS_NAMES:
             return None
         progress = tuple((float(t), math.inf if c is None else float(c), int(i)) for t, c, i in raw["progress"])
@@ -568,6 +590,7 @@ class BenchmarkPlan:
     save_solutions: bool
     jobs: tuple[RunJob, ...]
     until_first: bool = field(default=False, kw_only=True)
+    budget_checks: int | None = field(default=None, kw_only=True)  # collision checks per run (None: seconds)
     keys: tuple[str, ...] = field(repr=False)  # the journal key of each job
     done: Mapping[str, RunRecord] = field(repr=False)  # journaled runs of this benchmark, by key
     digests: Mapping[str, str] = field(repr=False)  # puzzle name -> puzzle_digest
@@ -593,7 +616,7 @@ def _ompl_version() -> str:
 
 def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
                    workers: int = 2, base_seed: int = 0, save_solutions: bool = True,
-                   until_first: bool = False) -> BenchmarkPlan:
+                   until_first: bool = False, budget_checks: int | None = None) -> BenchmarkPlan:
     """Check everything a benchmark needs, before any run and without writing anything.
 
     Raises ValueError (:class:`~phyrogen_core.folder.PuzzleFormatError`,
@@ -601,14 +624,18 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
     a puzzle cannot be read strictly or its planning problem cannot be built,
     two puzzles share a name, a planner is unknown, ``workers`` is not a whole
     number of at least 1, the output folder cannot be written, or (saving
-    solutions) a puzzle's ``solutions/`` cannot be written. Reads the journal
+    solutions) a puzzle's ``solutions/`` cannot be written, or ``budget_checks`` is not a whole
+    number in 1..:data:`~solver.planning.anytime.MAX_BUDGET_CHECKS`. Reads the journal
     of ``out`` to find the runs already done. ``until_first``: every run stops at its first
-    solution (see the module docstring).
+    solution (see the module docstring). ``budget_checks``: every run ends after that many
+    collision checks, its time limit only a backstop (the same result on any machine).
     """
     from phyrogen_core.export import read_puzzle_dir
+    from solver.planning.anytime import check_budget_checks
     from solver.planning.problem import problem_for_chain
 
     check_workers(workers)
+    check_budget_checks(budget_checks)
     if isinstance(base_seed, bool) or not isinstance(base_seed, int):
         raise ValueError(f"base seed must be a whole number, got {base_seed!r}")
     planners = tuple(planners)
@@ -641,29 +668,30 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
         except ValueError as exc:
             raise PuzzleFormatError(f"{where}: {exc}") from None
         digests[puzzle.name] = puzzle_digest(puzzle)
-        if save_solutions and any(name in planners for name in LA_RRT_PLANNERS):
+        if save_solutions and any(name in planners for name in solution_planners()):
             try:
                 require_writable_dir(puzzle.solutions, "solutions folder")
             except OutputError as exc:
                 raise OutputError(f"{exc} (or do not save solutions: --no-solutions)") from None
-    jobs = tuple(make_jobs(puzzles, planners, profile, base_seed, until_first))
+    jobs = tuple(make_jobs(puzzles, planners, profile, base_seed, until_first, budget_checks))
     ompl = _ompl_version()
     keys = tuple(run_key(job, digests[job.puzzle.name], ompl) for job in jobs)
     journaled = read_journal(out / JOURNAL) if out.is_dir() else {}
     # A crashed run is kept in the journal as a record, but run again: its cause may be fixed by now.
     done = {key: journaled[key] for key in keys if key in journaled and journaled[key].error is None}
     return BenchmarkPlan(puzzles, planners, profile, out, workers, base_seed, save_solutions, jobs, keys,
-                         done, digests, until_first=bool(until_first))
+                         done, digests, until_first=bool(until_first), budget_checks=budget_checks)
 
 
 def run_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
                   workers: int = 2, base_seed: int = 0, save_solutions: bool = True, plots: bool = True,
                   progress: bool = True, on_done: Callable[[RunRecord], None] | None = None,
-                  until_first: bool = False) -> BenchmarkOutput:
+                  until_first: bool = False, budget_checks: int | None = None) -> BenchmarkOutput:
     """Check the input (:func:`plan_benchmark`), then run what the journal does not hold and write
     ``out``: ``logs/<puzzle>.log``, ``benchmark.db``, ``summary.md``, ``fig4.png``, ``errors.txt``
     (when runs crashed), next to the journal ``runs.jsonl``."""
-    plan = plan_benchmark(puzzles, planners, profile, out, workers, base_seed, save_solutions, until_first)
+    plan = plan_benchmark(puzzles, planners, profile, out, workers, base_seed, save_solutions, until_first,
+                          budget_checks)
     return run_plan(plan, plots=plots, progress=progress, on_done=on_done)
 
 
@@ -715,7 +743,8 @@ def run_plan(plan: BenchmarkPlan, plots: bool = True, progress: bool = True,
 
 
 def _planner_id(title: str) -> str:
-    return next(name for name, spec in PLANNERS.items() if spec.title == title)
+    # A worker that could not load a registered planner reports it under its name.
+    return next((name for name, spec in PLANNERS.items() if spec.title == title), title)
 
 
 def _remove_stale_staging(out: Path) -> None:
@@ -731,6 +760,8 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
     versions = {PLANNERS[p].title: PLANNERS[p].version for p in plan.planners}
     mode = "each run stops at its first solution (--until first)" if plan.until_first else \
         "each run lasts its time limit (--until limit)"
+    if plan.budget_checks is not None:
+        mode += f"; a budget of {plan.budget_checks} collision checks per run, the time limit a backstop"
     setup = (f"PhyRoGen benchmark, profile {profile.name}: {profile.runs} runs per planner and puzzle, {mode}; "
              f"planners {', '.join(titles)}")
     staging = Path(tempfile.mkdtemp(prefix=_STAGING_PREFIX, dir=plan.out))
@@ -741,7 +772,8 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
             mine = [r for r in records if r.puzzle == puzzle.name]
             log = staging / "logs" / f"{puzzle.name}.log"
             write_log(log, puzzle.name, mine, titles, profile.time_limit(puzzle.generator), profile.runs,
-                      plan.base_seed, sum(r.wall for r in mine), setup, plan.until_first, versions)
+                      plan.base_seed, sum(r.wall for r in mine), setup, plan.until_first, versions,
+                      plan.budget_checks)
             logs.append(log)
         build_database(staging / "benchmark.db", logs)
         crashed = [r for r in records if r.error]

@@ -16,7 +16,7 @@ import enum
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -53,6 +53,8 @@ class PlanResult:
     status: str  # one of OMPL's PlannerStatus names, e.g. "Exact solution", "Timeout"
     rejected: int = 0  # solution paths dropped because they failed the fine-resolution check
     best_solution_time: float | None = None  # when the returned path was found
+    checks: int = 0  # collision checks spent (:class:`CheckCounter`), the unit of a check budget
+    cpu_time: float = 0.0  # process CPU seconds of the run (time.process_time), beside the wall ``time``
 
     @property
     def length(self) -> float:
@@ -61,6 +63,66 @@ class PlanResult:
         if len(states) < 2:
             return 0.0
         return float(np.linalg.norm(np.diff(states, axis=0), axis=1).sum())
+
+
+MAX_BUDGET_CHECKS = 10**9
+"""The largest check budget a run may have: about three hours of checks at 100,000 a second."""
+
+
+def check_budget_checks(budget: object) -> None:
+    """Raise ValueError unless ``budget`` is None or a whole number in 1..:data:`MAX_BUDGET_CHECKS`."""
+    if budget is None:
+        return
+    if isinstance(budget, bool) or not isinstance(budget, int) or not 1 <= budget <= MAX_BUDGET_CHECKS:
+        raise ValueError(f"check budget must be a whole number of collision checks from 1 to "
+                         f"{MAX_BUDGET_CHECKS}, got {budget!r}")
+
+
+class CheckCounter:
+    """A collision model that counts the checks made through it, the same way for every planner:
+    one per state whose validity is asked (singly or in a batch, OMPL's state validity checker
+    included) and one per motion (OMPL's motion validator included). A check budget is spent in
+    these units, so a budgeted run does the same work on any machine under any load."""
+
+    def __init__(self, model):
+        self._model = model
+        self.checks = 0
+
+    def __getattr__(self, name):
+        return getattr(self._model, name)
+
+    def check(self, states):
+        result = self._model.check(states)
+        self.checks += len(result)
+        return result
+
+    def check_prepared(self, states):
+        self.checks += len(states)
+        return self._model.check_prepared(states)
+
+    def is_valid(self, state) -> bool:
+        self.checks += 1
+        return self._model.is_valid(state)
+
+    def colliding_objects(self, states):
+        self.checks += len(np.atleast_2d(states))
+        return self._model.colliding_objects(states)
+
+    def check_motion(self, start, end, steps) -> bool:
+        self.checks += 1
+        return self._model.check_motion(start, end, steps)
+
+    def motion_collision(self, start, end, steps) -> float:
+        self.checks += 1
+        return self._model.motion_collision(start, end, steps)
+
+
+def count_checks(problem: Problem) -> Problem:
+    """``problem`` with its model behind a :class:`CheckCounter` (itself if it has one already).
+    Build the planner, its goal sampler and its recorder all on the returned problem."""
+    if isinstance(problem.model, CheckCounter):
+        return problem
+    return replace(problem, model=CheckCounter(problem.model))
 
 
 class Offer(enum.Enum):
@@ -81,18 +143,36 @@ class AnytimeRecorder:
     a result only ever holds fine-checked paths, with the times they were found.
     The clock starts when the recorder is made, after the compiled collision
     kernels are loaded (:func:`warm_up`).
+
+    With ``budget_checks`` the run ends once that many collision checks are
+    spent (counted by the problem's :class:`CheckCounter`: build the problem
+    with :func:`count_checks`); ``time_limit`` is then only a backstop against
+    a run that stops checking. Nothing a budgeted planner decides may read the
+    clock: it asks :meth:`usage` (checks then, seconds otherwise), so the same
+    seed and budget give the same path, cost and checks under any load.
     """
 
-    def __init__(self, planner: str, problem: Problem, time_limit: float, progress_interval: float):
+    def __init__(self, planner: str, problem: Problem, time_limit: float, progress_interval: float,
+                 budget_checks: int | None = None):
         if not time_limit > 0:
             raise ValueError(f"time limit must be a positive number of seconds, got {time_limit!r}")
+        check_budget_checks(budget_checks)
+        self.counter = problem.model if isinstance(problem.model, CheckCounter) else None
+        if budget_checks is not None and self.counter is None:
+            raise ValueError("a check budget needs a problem that counts its checks (count_checks(problem))")
+        self.budget_checks = budget_checks
+        # The fine-resolution check of offered paths is the benchmark's scoring, the same for every
+        # planner, not the planner's search: it does not spend the planner's budget.
+        self._referee = self.counter._model if self.counter is not None else problem.model
         warm_up(problem)
+        self._checks_before = self.counter.checks if self.counter is not None else 0
         self.planner = planner
         self.problem = problem
         self.time_limit = float(time_limit)
         self.interval = float(progress_interval)
         self.factors = problem_factors(problem)
         self.started = time.perf_counter()
+        self.cpu_started = time.process_time()
         self.improvements: list[tuple[float, int, np.ndarray]] = []  # (time, action cost, path)
         self.samples: list[tuple[float, int]] = []  # (time, iterations)
         self._next_sample = 0.0
@@ -110,7 +190,17 @@ class AnytimeRecorder:
     def elapsed(self) -> float:
         return time.perf_counter() - self.started
 
+    def checks(self) -> int:
+        """Collision checks spent since the recorder was made (0 when the problem does not count them)."""
+        return self.counter.checks - self._checks_before if self.counter is not None else 0
+
+    def usage(self) -> float:
+        """How much of the run is spent, in the unit that ends it: checks under a check budget, else seconds."""
+        return float(self.checks()) if self.budget_checks is not None else self.elapsed()
+
     def expired(self) -> bool:
+        if self.budget_checks is not None and self.checks() >= self.budget_checks:
+            return True
         return self.elapsed() >= self.time_limit
 
     def improves(self, path: Sequence[Sequence[float]]) -> bool:
@@ -138,7 +228,7 @@ class AnytimeRecorder:
         """
         if not self.improves(path):
             return Offer.NO_GAIN
-        if not path_is_valid(self.problem.model, np.asarray(path, dtype=float), self.fine_steps):
+        if not path_is_valid(self._referee, np.asarray(path, dtype=float), self.fine_steps):
             self.clip()
             return Offer.CLIPPED
         return Offer.BEST if self.offer(path) else Offer.NO_GAIN
@@ -159,7 +249,7 @@ class AnytimeRecorder:
         elapsed = self.elapsed()
         rejected = self.clipped
         kept = list(self.improvements)
-        while kept and not path_is_valid(self.problem.model, kept[-1][2], self.fine_steps):
+        while kept and not path_is_valid(self._referee, kept[-1][2], self.fine_steps):
             kept.pop()
             rejected += 1
         progress = []
@@ -172,7 +262,7 @@ class AnytimeRecorder:
         best = tuple(tuple(float(v) for v in s) for s in kept[-1][2]) if solved else ()
         return PlanResult(self.planner, solved, best, kept[-1][1] if solved else None,
                           kept[0][0] if solved else None, elapsed, iterations, tuple(progress), status, rejected,
-                          kept[-1][0] if solved else None)
+                          kept[-1][0] if solved else None, self.checks(), time.process_time() - self.cpu_started)
 
 
 def planning_steps(problem: Problem, resolution: float = PLANNING_RESOLUTION) -> np.ndarray:

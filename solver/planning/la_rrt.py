@@ -49,7 +49,7 @@ from typing import Protocol
 import numpy as np
 
 from solver.collision.kernels import nearest_l1
-from solver.planning.anytime import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, planning_steps
+from solver.planning.anytime import PLANNING_RESOLUTION, AnytimeRecorder, PlanResult, count_checks, planning_steps
 from solver.planning.defragment import Defragmenter
 from solver.planning.problem import FINE_RESOLUTION, Problem, in_goal, problem_factors
 
@@ -457,23 +457,28 @@ class LaRrt:
         # Both checked at fine resolution before they count (Offer), so that a clipping path
         # never blocks an equally cheap one that holds.
         recorder.offer_checked(raw)  # a solution already; defragmenting improves it
+        # The share is measured in the unit that ends the run (checks under a check budget):
+        # a budgeted run must not ask the clock what to do.
         if not recorder.has_solution or \
-                self.defragment_seconds < self.settings.defragment_share * recorder.elapsed():
-            began = recorder.elapsed()
+                self.defragment_seconds < self.settings.defragment_share * recorder.usage():
+            began = recorder.usage()
             recorder.offer_checked(self.defragmenter.run(raw, recorder.expired))
-            self.defragment_seconds += recorder.elapsed() - began
+            self.defragment_seconds += recorder.usage() - began
 
 
 def plan_la_rrt(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
                 settings: LaRrtSettings | None = None, *, until_first: bool = False, goal_seed: int | None = None,
-                title: str = "LA-RRT") -> PlanResult:
-    """Run LA-RRT for ``time_limit`` seconds (or until its first solution); its own draws from ``seed``,
-    goal roots from the shared goal sampler seeded with ``goal_seed`` (default: from ``seed``)."""
+                title: str = "LA-RRT", budget_checks: int | None = None) -> PlanResult:
+    """Run LA-RRT for ``time_limit`` seconds, or ``budget_checks`` collision checks with the time
+    limit as a backstop (or until its first solution); its own draws from ``seed``, goal roots from
+    the shared goal sampler seeded with ``goal_seed`` (default: from ``seed``)."""
     from solver.planning.goal_sampling import GoalSampler, default_goal_seed
 
+    problem = count_checks(problem)
     goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
     planner = LaRrt(problem, np.random.default_rng(seed), settings, goals)
-    return planner.solve(AnytimeRecorder(title, problem, time_limit, progress_interval), until_first)
+    recorder = AnytimeRecorder(title, problem, time_limit, progress_interval, budget_checks)
+    return planner.solve(recorder, until_first)
 
 
 class _CountingModel:

@@ -32,7 +32,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from phyrogen_core.actions import factor_membership
-from solver.planning.anytime import PLANNING_RESOLUTION, AnytimeRecorder, Offer, PlanResult, planning_steps
+from solver.planning.anytime import (
+    PLANNING_RESOLUTION,
+    AnytimeRecorder,
+    Offer,
+    PlanResult,
+    count_checks,
+    planning_steps,
+)
 from solver.planning.goal_sampling import GoalSampler, default_goal_seed
 from solver.planning.problem import Problem, in_goal, problem_factors
 
@@ -286,9 +293,12 @@ class LbtRrt:
 
 def plan_lbt_rrt(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
                  settings: LbtRrtSettings | None = None, *, until_first: bool = False,
-                 goal_seed: int | None = None) -> PlanResult:
-    """Run LBT-RRT for ``time_limit`` seconds (or until its first solution); its own draws from
-    ``seed``, goal states from the shared sampler seeded with ``goal_seed`` (default: from ``seed``)."""
+                 goal_seed: int | None = None, budget_checks: int | None = None) -> PlanResult:
+    """Run LBT-RRT for ``time_limit`` seconds, or ``budget_checks`` collision checks with the time
+    limit as a backstop (or until its first solution); its own draws from ``seed``, goal states
+    from the shared sampler seeded with ``goal_seed`` (default: from ``seed``)."""
+    problem = count_checks(problem)
     goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
     planner = LbtRrt(problem, np.random.default_rng(seed), settings, goals)
-    return planner.solve(AnytimeRecorder("LBT-RRT", problem, time_limit, progress_interval), until_first)
+    recorder = AnytimeRecorder("LBT-RRT", problem, time_limit, progress_interval, budget_checks)
+    return planner.solve(recorder, until_first)

@@ -42,7 +42,7 @@ import numpy as np
 from ompl import base as ob
 from ompl import geometric as og
 
-from solver.planning.anytime import AnytimeRecorder, Offer, PlanResult, planning_steps
+from solver.planning.anytime import AnytimeRecorder, Offer, PlanResult, count_checks, planning_steps
 from solver.planning.goal_sampling import GoalSampler, default_goal_seed
 from solver.planning.ompl_setup import ompl_setup
 from solver.planning.problem import Problem, goal_distance, problem_factors
@@ -127,11 +127,19 @@ class OmplRun:
     goal_states: int  # goal states the shared sampler found in this run
 
 
+BUDGET_SLICES = 50
+"""Under a check budget, an OMPL planner is solved in this many slices of the budget (progress is
+sampled between slices); a slice ends on the checks spent, so the slicing is the same on any machine."""
+
+
 def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, seed: int,
-             progress_interval: float = 0.1, until_first: bool = False, goal_seed: int | None = None) -> OmplRun:
-    """Run the OMPL planner ``make(si)`` for ``time_limit`` seconds, or until its first solution
-    that holds at fine resolution when ``until_first``; goal states from the shared sampler
-    seeded with ``goal_seed`` (default: from ``seed``)."""
+             progress_interval: float = 0.1, until_first: bool = False, goal_seed: int | None = None,
+             budget_checks: int | None = None) -> OmplRun:
+    """Run the OMPL planner ``make(si)`` for ``time_limit`` seconds, or ``budget_checks`` collision
+    checks with the time limit as a backstop, or until its first solution that holds at fine
+    resolution when ``until_first``; goal states from the shared sampler seeded with ``goal_seed``
+    (default: from ``seed``)."""
+    problem = count_checks(problem)
     rng = np.random.default_rng(seed)
     goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
     si, pdef, keep = _setup(problem, goals, rng)
@@ -141,18 +149,17 @@ def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, see
     planner = make(si)
     planner.setProblemDefinition(pdef)
     planner.setup()
-    recorder = AnytimeRecorder(name, problem, time_limit, progress_interval)
+    recorder = AnytimeRecorder(name, problem, time_limit, progress_interval, budget_checks)
     if not problem.model.is_valid(problem.start):
         return OmplRun(recorder.result(0, "Invalid start"), 0, 0, 0)
     dimension = len(problem.start)
     earlier = 0  # iterations of the trees cleared by restarts
     while not recorder.expired():
-        slice_end = min(recorder.time_limit - recorder.elapsed(), progress_interval)
-        planner.solve(ob.timedPlannerTerminationCondition(max(slice_end, 1e-3)))
+        planner.solve(_slice(recorder, progress_interval))
         if pdef.hasExactSolution():
             offer = recorder.offer_checked(_solution(pdef, dimension))
             if offer is Offer.BEST and until_first:
-                recorder.sample(earlier + planner.numIterations(), force=True)
+                recorder.sample(earlier + _iterations(planner, si), force=True)
                 break
             if offer is Offer.CLIPPED:
                 # The planner would keep the clipping path as its best until a strictly cheaper
@@ -160,23 +167,72 @@ def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, see
                 # one action per object), and every later path through the clipping edge clips
                 # too: the run starts a fresh tree instead, with the time left and OMPL's RNG where
                 # it is (LBT-RRT does the same; LA-RRT's next connection is a new path anyway).
-                earlier += planner.numIterations()
+                earlier += _iterations(planner, si)
                 planner.clear()
                 pdef.clearSolutionPaths()
-        recorder.sample(earlier + planner.numIterations(), force=True)
-    result = recorder.result(earlier + planner.numIterations())
+        recorder.sample(earlier + _iterations(planner, si), force=True)
+    result = recorder.result(earlier + _iterations(planner, si))
     data = ob.PlannerData(si)
     planner.getPlannerData(data)
     return OmplRun(result, data.numVertices(), data.numGoalVertices(), len(goals.states))
 
 
+def _iterations(planner, si) -> int:
+    """OMPL's iteration count where the planner reports one (RRT*, BIT*), else the vertices of its
+    graph (RRT-Connect, PRM and others have no ``numIterations``)."""
+    count = getattr(planner, "numIterations", None)
+    if count is not None:
+        return int(count())
+    data = ob.PlannerData(si)
+    planner.getPlannerData(data)
+    return int(data.numVertices())
+
+
+def _slice(recorder: AnytimeRecorder, progress_interval: float):
+    """The termination condition of one ``solve()`` slice: ``progress_interval`` seconds, or under
+    a check budget a share of it in checks (the clock then only as the run's backstop)."""
+    if recorder.budget_checks is None:
+        seconds = min(recorder.time_limit - recorder.elapsed(), progress_interval)
+        return ob.timedPlannerTerminationCondition(max(seconds, 1e-3))
+    end = recorder.checks() + max(1, math.ceil(recorder.budget_checks / BUDGET_SLICES))
+    # OMPL asks this between iterations, in the planner's own thread: its answer depends on the
+    # checks the planner made so far only (and on the backstop, which a budgeted run should not reach).
+    return ob.PlannerTerminationCondition(lambda: recorder.checks() >= end or recorder.expired())
+
+
+def ompl_plan_function(title: str, planner_class: Callable, configure: Callable | None = None) -> Callable:
+    """A registrable plan function (:func:`solver.planning.registry.register_planner`) that runs
+    the ``ompl.geometric`` planner ``planner_class(si)`` on our collision model through
+    :func:`run_ompl`: our state and motion validity checks (counted for check budgets), the shared
+    goal sampler, the action-bound objective, anytime recording with fine-resolution checks and
+    restarts. ``configure(planner)`` may set its parameters (``setRange``, ``setGoalBias``...)."""
+    def make(si):
+        planner = planner_class(si)
+        if configure is not None:
+            configure(planner)
+        return planner
+
+    def plan(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
+             until_first: bool = False, goal_seed: int | None = None, budget_checks: int | None = None) -> PlanResult:
+        return run_ompl(title, make, problem, time_limit, seed, progress_interval, until_first, goal_seed,
+                        budget_checks).result
+
+    plan.__doc__ = f"OMPL's {title} through :func:`run_ompl`."
+    plan.__qualname__ = plan.__name__ = f"plan_{planner_class.__name__}"
+    return plan
+
+
 def plan_rrt_star(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
-                  until_first: bool = False, goal_seed: int | None = None) -> PlanResult:
-    """OMPL's RRT* (default range and goal bias) for ``time_limit`` seconds."""
-    return run_ompl("RRT*", og.RRTstar, problem, time_limit, seed, progress_interval, until_first, goal_seed).result
+                  until_first: bool = False, goal_seed: int | None = None,
+                  budget_checks: int | None = None) -> PlanResult:
+    """OMPL's RRT* (default range and goal bias) for ``time_limit`` seconds or ``budget_checks`` checks."""
+    return run_ompl("RRT*", og.RRTstar, problem, time_limit, seed, progress_interval, until_first, goal_seed,
+                    budget_checks).result
 
 
 def plan_bit_star(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
-                  until_first: bool = False, goal_seed: int | None = None) -> PlanResult:
-    """OMPL's BIT* (default batch size) for ``time_limit`` seconds."""
-    return run_ompl("BIT*", og.BITstar, problem, time_limit, seed, progress_interval, until_first, goal_seed).result
+                  until_first: bool = False, goal_seed: int | None = None,
+                  budget_checks: int | None = None) -> PlanResult:
+    """OMPL's BIT* (default batch size) for ``time_limit`` seconds or ``budget_checks`` checks."""
+    return run_ompl("BIT*", og.BITstar, problem, time_limit, seed, progress_interval, until_first, goal_seed,
+                    budget_checks).result
