@@ -485,19 +485,21 @@ def cmd_render(args) -> int:
 
 def cmd_benchmark(args) -> int:
     from solver.benchmark.runner import get_profile, plan_benchmark, run_plan
-    from solver.planning.registry import PLANNERS
+    from solver.planning.registry import planner_names
 
     generators = None if args.generator == "all" else _generators(args.generator)
-    planners = list(PLANNERS) if args.planners == "all" else [p.strip() for p in args.planners.split(",")]
+    known = planner_names()
+    planners = list(known) if args.planners == "all" else [p.strip() for p in args.planners.split(",")]
     for name in planners:
-        if name not in PLANNERS:
-            raise UsageError(f"unknown planner {name!r} (known: {', '.join(PLANNERS)})")
+        if name not in known:
+            raise UsageError(f"unknown planner {name!r} (known: {', '.join(known)})")
     profile = get_profile(args.profile, args.runs, args.time_limit)
     puzzles = find_puzzle_folders(Path(args.puzzles), generators)
     # Every puzzle is read and every output path checked here, before the first run.
     until_first = args.until == "first"
     plan = plan_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
-                          save_solutions=not args.no_solutions, until_first=until_first)
+                          save_solutions=not args.no_solutions, until_first=until_first,
+                          budget_checks=args.budget_checks)
     estimate = plan.estimate_seconds(overhead=1.0)
     print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
           f"{'at most ' if until_first else ''}about {estimate / 3600:.1f} h on {args.workers} workers",
@@ -598,6 +600,12 @@ def time_limit_option(text: str) -> float:
     return value
 
 
+def budget_checks_option(text: str) -> int:
+    from solver.planning.anytime import MAX_BUDGET_CHECKS
+
+    return _whole_number(text, 1, MAX_BUDGET_CHECKS, " collision checks")
+
+
 def audit_budget_option(text: str) -> int:
     from solver.pipelines.audit import MAX_BUDGET  # here, not at the top: the parser stays quick to build
 
@@ -613,6 +621,16 @@ def image_size_option(text: str) -> str:
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
     return text
+
+
+def _planners_help() -> str:
+    """``benchmark --planners`` help, from the planner registry (docs/adding-a-planner.md)."""
+    from solver.planning.registry import PLANNERS, planner_names
+
+    names = planner_names()
+    # argparse %-formats help texts: a title with "%" must not break --help.
+    listed = "; ".join(f"{name} ({PLANNERS[name].title})" for name in names).replace("%", "%%")
+    return f"all (default) or comma-separated: {listed}"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -693,8 +711,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("benchmark", help="benchmark planners on puzzle folders (OMPL logs, database, plots)")
     bench.add_argument("--puzzles", default="output", help="folder of puzzle folders (default: output)")
     bench.add_argument("--generator", default="all", help="generators to include (default: all found)")
-    bench.add_argument("--planners", default="all",
-                       help="all (default) or comma-separated: la_rrt,la_rrt_push,rrt_star,lbt_rrt,bit_star")
+    bench.add_argument("--planners", default="all", help=_planners_help())
     bench.add_argument("--profile", default="quick", help="paper (100 runs, the paper's limits) or quick")
     bench.add_argument("--runs", type=runs_option,
                        help=f"runs per planner and puzzle, 1..{MAX_RUNS} (overrides the profile)")
@@ -710,6 +727,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--until", choices=("limit", "first"), default="limit",
                        help="limit (default): every run lasts its time limit; first: a run stops at its first "
                             "solution (success within the limit and time to it, affordably)")
+    bench.add_argument("--budget-checks", type=budget_checks_option, metavar="N",
+                       help="every run ends after N collision checks (1..10^9), the same result on any machine; "
+                            "the time limit becomes a backstop only")
     bench.add_argument("--no-solutions", action="store_true", help="do not save LA-RRT's best path per puzzle")
     bench.add_argument("--dry-run", action="store_true", help="print the job count and time estimate only")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
