@@ -87,12 +87,15 @@ def test_ompls_goal_region_hands_out_only_the_shared_valid_states(slider4):
 
 
 # -- every planner makes progress on every paper puzzle ----------------------------------------------
-PROGRESS_LIMIT = 0.4
-"""Seconds per run: BIT* takes its 16 goal states first (about 0.2 s on a lockbox), then iterates."""
+PROGRESS_CHECKS = 40_000
+"""Collision checks per run (about 0.4 s): BIT* takes its 16 goal states first (about 16,000 checks on
+a lockbox), then iterates. Checks, not seconds, so that a loaded machine runs the same search."""
+PROGRESS_BACKSTOP = 300.0
+"""Seconds: only against a hang."""
 
 
 def _progress_on(args) -> tuple[str, dict[str, tuple[int, int, int]], int]:
-    """In a fresh process: every planner on one puzzle for :data:`PROGRESS_LIMIT` seconds.
+    """In a fresh process: every planner on one puzzle for :data:`PROGRESS_CHECKS` collision checks.
     Returns the puzzle, per planner (iterations, graph vertices, goal states; -1 where not
     recorded), and the goal states the sampler finds with the run's goal seed."""
     from ompl import geometric as og
@@ -109,10 +112,12 @@ def _progress_on(args) -> tuple[str, dict[str, tuple[int, int, int]], int]:
     for planner in PLANNERS:
         seed = run_seed(planner, name, 0)
         if planner == "bit_star":
-            run = run_ompl("BIT*", og.BITstar, problem, PROGRESS_LIMIT, seed, 0.05, goal_seed=goals)
+            run = run_ompl("BIT*", og.BITstar, problem, PROGRESS_BACKSTOP, seed, 0.05, goal_seed=goals,
+                           budget_checks=PROGRESS_CHECKS)
             out[planner] = (run.result.iterations, run.vertices, run.goal_states)
         else:
-            result = get_planner(planner).plan(problem, PROGRESS_LIMIT, seed, 0.05, goal_seed=goals)
+            result = get_planner(planner).plan(problem, PROGRESS_BACKSTOP, seed, 0.05, goal_seed=goals,
+                                               budget_checks=PROGRESS_CHECKS)
             out[planner] = (result.iterations, -1, -1)
     return name, out, len(_stream(problem, goals))
 
@@ -141,8 +146,17 @@ def test_every_planner_makes_progress_on_every_paper_puzzle(paper_reports):
 
 
 # -- a first path that clips at fine resolution does not end a baseline's run -----------------------
+CLIP_RUN_CHECKS = 150_000
+"""Collision checks of a run to its limit: about 4 s of RRT* or LBT-RRT here."""
+CLIP_FIRST_CHECKS = 3_000_000
+"""Collision checks a run until its first solution may spend (it needs far fewer)."""
+CLIP_BACKSTOP = 600.0
+"""Seconds: only against a hang, never what ends a run here."""
+
+
 def _runs_with_clips(args) -> list[tuple[bool, int, bool]]:
-    """In a fresh process: ``planner`` (``until_first``, or 4 s runs) on Simple Slider 3, planning at a 0.2 m
+    """In a fresh process: ``planner`` (``until_first``, or runs of :data:`CLIP_RUN_CHECKS` collision checks,
+    about 4 s) on Simple Slider 3, planning at a 0.2 m
     resolution so that most diagonal edges clip a corner at the 2 mm fine check. Per seed:
     (solved, clipped paths dropped, the path holds at fine resolution); stops after a run with clips."""
     import solver.planning.ompl_planners as ompl_planners
@@ -152,7 +166,8 @@ def _runs_with_clips(args) -> list[tuple[bool, int, bool]]:
     from solver.planning.problem import FINE_RESOLUTION, path_is_valid
 
     planner, puzzle, coarse, until_first = args
-    limit = 60 if until_first else 4
+    # Budgets in checks, not seconds: a 0.2 s run on a loaded machine once found nothing at all.
+    budget = CLIP_FIRST_CHECKS if until_first else CLIP_RUN_CHECKS
     problem = problem_for_chain(puzzle.planning_chain, puzzle.goal)
     ompl_planners.planning_steps = lambda p: planning_steps(p, coarse)  # this process only
     fine = problem.model.motion_steps(FINE_RESOLUTION)
@@ -160,11 +175,11 @@ def _runs_with_clips(args) -> list[tuple[bool, int, bool]]:
     for seed in range(41, 47):
         seed_ompl(seed)
         if planner == "lbt_rrt":
-            result = plan_lbt_rrt(problem, limit, seed, settings=LbtRrtSettings(resolution=coarse),
-                                  until_first=until_first)
+            result = plan_lbt_rrt(problem, CLIP_BACKSTOP, seed, settings=LbtRrtSettings(resolution=coarse),
+                                  until_first=until_first, budget_checks=budget)
         else:
             plan = ompl_planners.plan_rrt_star if planner == "rrt_star" else ompl_planners.plan_bit_star
-            result = plan(problem, limit, seed, until_first=until_first)
+            result = plan(problem, CLIP_BACKSTOP, seed, until_first=until_first, budget_checks=budget)
         out.append((result.solved, result.rejected, result.solved and path_is_valid(problem.model, result.path, fine)))
         if result.rejected:
             break
