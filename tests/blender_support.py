@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import os
 import shutil
 import sys
@@ -13,6 +15,18 @@ from phyrogen_core.chain import BLACK, GREEN, RED, Geometry, Role
 from phyrogen_core.geometry import Box, Cylinder, Pose, slot_disc
 from phyrogen_core.objects import Motion, PuzzleObject
 from phyrogen_core.puzzle import Goal, Puzzle
+
+
+@contextlib.contextmanager
+def wheel_cache_lock():
+    """Held while scripts/build_addon.py runs: on a fresh clone it downloads into build/wheels, and
+    two builds at once (test files on parallel pytest-xdist workers) would each read the other's
+    half-written wheels."""
+    path = Path(__file__).resolve().parents[1] / "build" / "wheels.lock"
+    path.parent.mkdir(exist_ok=True)
+    with path.open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        yield
 
 
 def private_blender_home() -> None:

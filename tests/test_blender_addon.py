@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from blender_support import FakeLayout, private_blender_home
+from blender_support import FakeLayout, private_blender_home, wheel_cache_lock
 
 private_blender_home()
 bpy = pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
@@ -22,8 +22,9 @@ pytestmark = pytest.mark.blender
 @pytest.fixture(scope="module")
 def extension_zip(tmp_path_factory):
     out = tmp_path_factory.mktemp("dist")
-    result = subprocess.run([sys.executable, str(REPOSITORY / "scripts" / "build_addon.py"), "--out", str(out)],
-                            capture_output=True, text=True, check=True)
+    with wheel_cache_lock():
+        result = subprocess.run([sys.executable, str(REPOSITORY / "scripts" / "build_addon.py"), "--out", str(out)],
+                                capture_output=True, text=True, check=True)
     return Path(result.stdout.strip())
 
 

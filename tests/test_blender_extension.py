@@ -22,6 +22,7 @@ from importlib import metadata
 from pathlib import Path
 
 import pytest
+from blender_support import wheel_cache_lock
 
 REPOSITORY = Path(__file__).resolve().parent.parent
 BUILD_ADDON = REPOSITORY / "scripts" / "build_addon.py"
@@ -165,8 +166,9 @@ def run_fresh_blender(python: Path, script: str, arguments: list[str], tmp_path:
 
 
 def _build_zip(out: Path, *options: str) -> Path:
-    result = subprocess.run([sys.executable, str(BUILD_ADDON), "--out", str(out), *options],
-                            capture_output=True, text=True)
+    with wheel_cache_lock():
+        result = subprocess.run([sys.executable, str(BUILD_ADDON), "--out", str(out), *options],
+                                capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     return Path(result.stdout.strip())
 

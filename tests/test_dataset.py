@@ -14,10 +14,10 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+from waiting import BACKSTOP, wait_until
 
 pq = pytest.importorskip("pyarrow.parquet")
 
@@ -287,6 +287,14 @@ def test_failed_seeds_are_rows_and_are_not_retried(tmp_path):
             assert row["status"] == "ok" and row["error"] is None
 
 
+def group_alive(group: int) -> bool:
+    try:
+        os.killpg(group, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
 def test_killed_with_sigkill_and_interrupted_with_ctrl_c_it_resumes_to_the_same_dataset(reference, tmp_path):
     root = tmp_path / "killed"
 
@@ -299,21 +307,14 @@ def test_killed_with_sigkill_and_interrupted_with_ctrl_c_it_resumes_to_the_same_
         return sorted(root.glob("shard-*/grid_world/[!.]*/puzzle.json"))
 
     def stop(process: subprocess.Popen, signum: int, after: int) -> int:
-        deadline = time.monotonic() + 120
-        while len(finished()) < after:
+        def enough() -> bool:
             assert process.poll() is None, process.communicate()
-            assert time.monotonic() < deadline, "no puzzle finished in time"
-            time.sleep(0.02)
+            return len(finished()) >= after
+
+        wait_until(enough, f"{after} finished puzzles", poll=0.02)
         os.killpg(process.pid, signum)
-        process.communicate(timeout=60)
-        for _ in range(200):  # the whole session ends: command, fork server, workers
-            try:
-                os.killpg(process.pid, 0)
-            except ProcessLookupError:
-                break
-            time.sleep(0.05)
-        else:
-            pytest.fail("processes of the stopped command are still running")
+        process.communicate(timeout=BACKSTOP)
+        wait_until(lambda: not group_alive(process.pid), "the end of the stopped command's fork server and workers")
         return process.returncode
 
     for after in (1, 7):  # in the first shard, then in the second with the first one's part written
@@ -330,7 +331,7 @@ def test_killed_with_sigkill_and_interrupted_with_ctrl_c_it_resumes_to_the_same_
     assert not list(root.rglob(".*.tmp"))  # stopped cleanly: no temporary file or folder
 
     process = start()
-    out, err = process.communicate(timeout=300)
+    out, err = process.communicate(timeout=BACKSTOP)
     assert process.returncode == 0, err
     assert "16/16 puzzles ok" in out
     assert_same_dataset(root, reference)

@@ -12,10 +12,10 @@ import random
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+from waiting import BACKSTOP, wait_until
 
 pytest.importorskip("ray")
 pq = pytest.importorskip("pyarrow.parquet")
@@ -54,21 +54,18 @@ def test_a_dataset_on_ray_is_the_local_one_byte_for_byte_even_after_sigkill(tmp_
     command = [sys.executable, "-m", "phyrogen", *options, "--out", str(root), "--ray", "--workers", "2"]
     process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                start_new_session=True)
-    deadline = time.monotonic() + 120
-    while len(list(root.glob("shard-*/*/[!.]*/puzzle.json"))) < 3:
-        assert process.poll() is None, process.communicate()
-        assert time.monotonic() < deadline, f"seeds {first}+: no puzzle on Ray in time"
-        time.sleep(0.05)
-    os.kill(process.pid, signal.SIGKILL)  # the command alone: Ray's processes must end with it
-    process.communicate(timeout=60)
-    for _ in range(300):
-        if not ray_processes(process.pid):
-            break
-        time.sleep(0.1)
-    else:
-        pytest.fail(f"Ray processes outlived the killed command: {ray_processes(process.pid)}")
 
-    resumed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    def three_puzzles() -> bool:
+        assert process.poll() is None, process.communicate()
+        return len(list(root.glob("shard-*/*/[!.]*/puzzle.json"))) >= 3
+
+    wait_until(three_puzzles, f"seeds {first}+: three puzzles on Ray")
+    os.kill(process.pid, signal.SIGKILL)  # the command alone: Ray's processes must end with it
+    process.communicate(timeout=BACKSTOP)
+    wait_until(lambda: not ray_processes(process.pid),
+               lambda: f"the end of the Ray processes of the killed command: {ray_processes(process.pid)}", poll=0.1)
+
+    resumed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=BACKSTOP)
     assert resumed.returncode == 0, resumed.stderr
     assert "24/24 puzzles ok" in resumed.stdout, resumed.stdout
     assert dataset_files(root) == dataset_files(tmp_path / "local"), f"seeds {first}-{first + 11}"
