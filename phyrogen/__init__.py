@@ -12,6 +12,17 @@ called, so ``import phyrogen`` needs neither Blender nor PyBullet::
     loaded = phyrogen.load(folder)                          # chain, start, goal, certificate
     assert phyrogen.check(folder) == []                     # problems with its certificate
     for puzzle_folder in phyrogen.find_puzzles("output"): ...
+
+Generation runs in worker processes that never run the caller's script
+again, so these calls work at the top level of a plain ``python script.py``
+as well as under an ``if __name__ == "__main__":`` guard
+(``docs/examples/generate_from_script.py``); only a generator that the
+script registers itself makes the workers run it again, to have it, and
+then the guard is needed. Bad arguments (an unknown generator or
+parameter, a value out of its bounds, a bad seed, an ``out`` that cannot be
+written) raise :class:`ValueError` naming the value, before
+any process starts; a puzzle the Maker cannot build raises
+:class:`phyrogen_core.maker.GenerationError`.
 """
 
 from __future__ import annotations
@@ -33,19 +44,32 @@ def generators() -> dict:
     return all_generators()
 
 
+def _check_arguments(generator: str, seed: int, params: dict[str, Any]) -> None:
+    """Raise :class:`phyrogen_core.registry.ParameterError` (a ValueError) naming what is wrong,
+    as the command line does before any work; the worker would only find it after starting."""
+    from phyrogen_core.registry import get_generator
+
+    spec = get_generator(generator)
+    spec.check(seed, spec.parse_params(params))
+
+
 def generate(generator: str, seed: int, **params: Any):
     """One certified :class:`phyrogen_core.puzzle.Puzzle`, generated deterministically in a fresh
     process; ``params`` override the generator's defaults (``phyrogen list`` shows them)."""
     from solver.pipelines.generation import generate_puzzle
 
+    _check_arguments(generator, seed, params)
     return generate_puzzle(generator, seed, params)
 
 
 def generate_into(out: str | Path, generator: str, seed: int, **params: Any) -> Path:
     """Generate like :func:`generate` and write the puzzle folder under ``out``; its path."""
+    from phyrogen_core.folder import require_writable_dir
     from phyrogen_core.maker import GenerationError
     from solver.pipelines.generation import Job, run_jobs
 
+    _check_arguments(generator, seed, params)
+    require_writable_dir(out)
     (report,) = list(run_jobs([Job(generator, seed, dict(params))], Path(out), workers=1))
     if report.error is not None or report.folder is None:
         raise GenerationError(report.error or "generation failed")

@@ -17,8 +17,9 @@ rewards; :class:`PuzzleVectorEnv` steps many copies with one call into the
 batched collision kernel. ``docs/interop.md`` has a training-loop skeleton
 and measured speeds (``benchmarks/env_speed.py``).
 
-Generating puzzles (``generator=...``) starts worker processes: call it
-under ``if __name__ == "__main__":`` in scripts.
+Generating puzzles (``generator=...``) runs in worker processes that do not
+run the calling script again: no ``if __name__ == "__main__":`` guard is
+needed (:mod:`solver.parallel.pool`).
 """
 
 from __future__ import annotations

@@ -44,5 +44,5 @@ def main() -> None:
         raise SystemExit("the certificate did not reach the goal through the environment")
 
 
-if __name__ == "__main__":  # generation runs in worker processes, which re-import this file
+if __name__ == "__main__":  # importable without running (the workers themselves never run this file)
     main()

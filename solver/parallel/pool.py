@@ -18,6 +18,17 @@ between processes, so a process killed at any moment cannot block the others
 or leave a semaphore behind, and a worker that dies without a result is
 reported instead of waited for.
 
+A worker does not run the caller's main script. For every process it starts,
+multiprocessing sends the path of ``__main__`` along, and the new process
+runs that file (as ``__mp_main__``) before its task: a script that calls
+``phyrogen.generate`` at its top level, without an ``if __name__ ==
+"__main__":`` guard, would call it again in the worker and fail there. A
+task is a function of an importable module (one defined in the main script
+cannot be sent) and needs nothing from ``__main__``, so the server
+(:mod:`solver.parallel._pool_server`) drops the main module from the
+start-up data of the processes named :data:`WORKER_NAME` (every worker, unless
+the pool is made with ``run_main``).
+
 This module does not use OMPL.
 """
 
@@ -37,6 +48,8 @@ from multiprocessing.pool import ExceptionWithTraceback
 from typing import Any
 
 _SERVER_MODULE = "solver.parallel._pool_server"
+WORKER_NAME = "phyrogen-worker"
+"""The process name of the pool's workers: the server starts these without the caller's ``__main__``."""
 STOP_GRACE_SECONDS = 5.0
 """How long stopped workers may take to finish a write before they are killed."""
 
@@ -47,16 +60,20 @@ class WorkerLostError(RuntimeError):
     """A worker process ended without sending its task's result."""
 
 
-def fresh_process_pool(workers: int, tasks: int, preload: Sequence[str]) -> FreshProcessPool:
+def fresh_process_pool(workers: int, tasks: int, preload: Sequence[str], *,
+                       run_main: bool = False) -> FreshProcessPool:
     """A pool running at most ``workers`` tasks at once (at most ``tasks``, at least one), each in
     a fresh process forked from a server that imported the modules named in ``preload``.
 
     The server is started once per parent process; ``preload`` counts only for the first pool.
     Leaving the ``with`` block (normally, or by an exception) stops the pool's workers.
+    ``run_main``: each worker runs the caller's main script first, as multiprocessing does by
+    default, for tasks that need something only that script sets up (a generator it registers);
+    such a script needs its ``if __name__ == "__main__":`` guard.
     """
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([_SERVER_MODULE, *preload])
-    return FreshProcessPool(context, max(1, min(workers, tasks)))
+    return FreshProcessPool(context, max(1, min(workers, tasks)), run_main)
 
 
 @dataclass(eq=False)
@@ -69,9 +86,10 @@ class _Task:
 class FreshProcessPool:
     """Runs each task in a new process; see :func:`fresh_process_pool`."""
 
-    def __init__(self, context, workers: int):
+    def __init__(self, context, workers: int, run_main: bool = False):
         self._context = context
         self.workers = workers
+        self._name = None if run_main else WORKER_NAME  # None: multiprocessing's own name and rules
         self._running: set[_Task] = set()
 
     def __enter__(self) -> FreshProcessPool:
@@ -149,7 +167,7 @@ class FreshProcessPool:
     def _start(self, func, item) -> _Task:
         global _server_ready
         reader, writer = self._context.Pipe(duplex=False)
-        process = self._context.Process(target=_work, args=(writer, func, item), daemon=True)
+        process = self._context.Process(target=_work, args=(writer, func, item), name=self._name, daemon=True)
         # Once the server is up, starting takes milliseconds: an interrupt waits for it, so that
         # no worker is forked without being known here. The first start waits for the server's
         # imports and stays interruptible; a worker forked after that finds its parent gone and ends.

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 import traceback
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sized
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sized
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -149,6 +149,17 @@ LOOKAHEAD = 64
 """Jobs read ahead of the oldest unreported one: the memory a run holds does not grow with its length."""
 
 
+def _registered_by_caller(job: Job) -> bool:
+    """Whether the job's generator (or its parameter class) comes from outside this project: then
+    the caller's script registered it, and only running that script again gives a worker it."""
+    try:
+        spec = get_generator(job.generator)
+    except ParameterError:
+        return False  # the worker reports it
+    modules = [spec.build.__module__, type(job.params).__module__ if job.params is not None else "phyrogen_core"]
+    return any(module.partition(".")[0] != "phyrogen_core" for module in modules)
+
+
 def run_jobs(jobs: Iterable[Job], out_root: Path | None = None, workers: int = 2,
              on_done: Callable[[Report], None] | None = None,
              on_running: Callable[[list[Job]], None] | None = None) -> Iterator[Report]:
@@ -161,7 +172,8 @@ def run_jobs(jobs: Iterable[Job], out_root: Path | None = None, workers: int = 2
     """
     tasks = len(jobs) if isinstance(jobs, Sized) else workers
     root = None if out_root is None else str(out_root)
-    with fresh_process_pool(workers, tasks, _PRELOAD) as pool:
+    run_main = isinstance(jobs, Collection) and any(_registered_by_caller(job) for job in jobs)
+    with fresh_process_pool(workers, tasks, _PRELOAD, run_main=run_main) as pool:
         # Among the jobs read ahead, those with the largest search budgets start first, so that
         # no long job is left running alone at the end. Each puzzle depends only on its job,
         # never on the order or the process it runs in.
