@@ -10,14 +10,14 @@ the edit move into ``stale/<n>/`` with it.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import bpy
 
 from phyrogen_core.export import write_export_files
-from phyrogen_core.export.metadata import metadata_for_chain
+from phyrogen_core.export.metadata import record_for_chain
 from phyrogen_core.folder import PuzzleFolder, Stage, stage_directory
+from phyrogen_core.record import PuzzleRecord
 
 from . import annotations as keys
 from .scene import read_chain, urdf_digest
@@ -39,8 +39,8 @@ def export_collection(collection: bpy.types.Collection, folder: str | Path,
         raise ValueError(f"{collection.name!r} keeps no puzzle.json; build it with Generate or from a puzzle folder")
     metadata = str(stored)
     if collection.get(keys.URDF_DIGEST) != urdf_digest(chain):
-        edited = metadata_for_chain(json.loads(metadata), chain)
-        metadata = json.dumps(edited, sort_keys=True, indent=2, allow_nan=False) + "\n"
+        stored_record = PuzzleRecord.from_json(metadata, f"{collection.name}: puzzle.json")
+        metadata = record_for_chain(stored_record, chain).to_json()
     place = PuzzleFolder(Path(folder), chain.name)
     with stage_directory(place.path, Stage.EXPORT, chain.name, notices) as temporary:
         write_export_files(PuzzleFolder(temporary, chain.name), chain, metadata)

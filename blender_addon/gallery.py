@@ -11,7 +11,6 @@ can be moved or served as is.
 from __future__ import annotations
 
 import html
-import json
 import os
 import tempfile
 from pathlib import Path
@@ -30,8 +29,7 @@ def write_gallery(out_root: str | Path, views: tuple[str, ...] = DEFAULT_VIEWS) 
     except FileNotFoundError:
         found = []
     for folder in found:  # in the registry's generator order
-        metadata = json.loads(folder.metadata.read_text(encoding="utf-8"))
-        cells[(str(metadata["generator"]), int(metadata["seed"]))] = folder
+        cells[(folder.generator, folder.seed)] = folder  # both as its puzzle.json states them
     generators = list(dict.fromkeys(g for g, _ in cells))
     seeds = sorted({s for _, s in cells})
     titles = _titles()

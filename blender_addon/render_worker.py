@@ -53,7 +53,7 @@ def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple
     built = build_puzzle_folder(place.path, scene)
     render.setup_stage(scene, built.collection, engine, size)
     # An edited puzzle keeps its old certificate, marked unverified: it may not fit the puzzle any more.
-    animation = animation and len(loaded.certificate) >= 2 and loaded.metadata.get("certificate_verified", True)
+    animation = animation and len(loaded.certificate) >= 2 and loaded.record.certificate_verified
     animation_seconds = None
     with atomic_directory(place.images) as images:
         paths = render.render_views(scene, built.collection, images, place.name, views)

@@ -123,7 +123,9 @@ def _path(text: str) -> Path:
 
 def puzzle_folder(settings, collection) -> PuzzleFolder:
     """The folder of the scene's puzzle under the panel's output folder."""
-    generator = json.loads(collection.get("phyrogen/metadata", "{}")).get("generator", "scene")
+    from phyrogen_core.record import folder_identity
+
+    _, generator, _ = folder_identity(json.loads(collection.get("phyrogen/metadata", "{}")), generator="scene")
     return PuzzleFolder.at(_output(settings), generator, collection.name)
 
 
@@ -505,7 +507,7 @@ class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
 
     @staticmethod
     def validate(context) -> str:
-        from phyrogen_core.puzzle import Goal
+        from phyrogen_core.record import PuzzleRecord
         from solver.planning.problem import verify_certificate
 
         from . import annotations as keys
@@ -514,14 +516,12 @@ class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
         collection = current_collection(context)
         if keys.METADATA not in collection:
             raise ValueError(f"{collection.name!r} keeps no puzzle.json: nothing to validate against")
-        metadata = json.loads(collection[keys.METADATA])
+        record = PuzzleRecord.from_json(collection[keys.METADATA], f"{collection.name}: puzzle.json")
         chain = read_chain(collection)
-        stored = metadata["goal"]
-        goal = Goal(stored["target"], stored["values"], stored["tolerance"])
-        problems = verify_certificate(chain, metadata["certificate"], goal)
+        problems = verify_certificate(chain, record.certificate, record.goal)
         if problems:
             raise ValueError(f"{collection.name}: INVALID: " + "; ".join(problems))
-        return f"{collection.name}: certificate valid ({len(metadata['certificate'])} states)"
+        return f"{collection.name}: certificate valid ({len(record.certificate)} states)"
 
 
 class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801

@@ -85,6 +85,6 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
         loaded = read_puzzle_dir(folder)
         for solution in candidate_solutions(Path(folder), loaded, runs.get(Path(folder), ())):
             scene_placement(loaded, solution.path, settings)
-        target = out_root / str(loaded.metadata.get("name", Path(folder).name))
+        target = out_root / loaded.name
         if os.path.lexists(target) and not target.is_dir():
             raise OutputError(f"{target} is not a folder; the outputs of puzzle {target.name} go there")

@@ -361,12 +361,12 @@ class _Run:
 def scene_placement(loaded: LoadedPuzzle, path: np.ndarray, settings: ExecutionSettings) -> Placement:
     """Where the puzzle stands at its scale (``settings.scale`` or its generator's physical scale)
     over ``path``; ValueError if it spans more floor than the base drives on."""
-    generator = str(loaded.metadata.get("generator", ""))
+    generator = loaded.record.generator
     scale = settings.scale if settings.scale is not None else physical_scale(generator)
     placement = centred_placement(loaded.chain, path, scale)
     drive = settings.robot.base_range - BORDER
     if max(placement.half_extent) > drive:
-        raise ValueError(f"puzzle {loaded.metadata.get('name', '')!r} at scale {scale:g} spans "
+        raise ValueError(f"puzzle {loaded.name!r} at scale {scale:g} spans "
                          f"{2 * max(placement.half_extent):.1f} m; the robot's base drives within {2 * drive:g} m "
                          "around it (choose a smaller scale)")
     return placement
@@ -374,8 +374,7 @@ def scene_placement(loaded: LoadedPuzzle, path: np.ndarray, settings: ExecutionS
 
 def puzzle_identity(loaded: LoadedPuzzle, folder: Path) -> tuple[str, str, int]:
     """(generator, name, seed) from ``puzzle.json``: what the puzzle's random draws are seeded from."""
-    meta = loaded.metadata
-    return str(meta.get("generator", "")), str(meta.get("name", folder.name)), int(meta.get("seed", 0))
+    return loaded.record.generator, loaded.name, loaded.record.seed
 
 
 def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings(), gui: bool = False,

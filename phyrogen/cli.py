@@ -239,9 +239,9 @@ def cmd_check(args) -> int:
 
     loaded = read_puzzle_dir(Path(args.puzzle_dir))
     problems = verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)
-    name = loaded.metadata.get("name", args.puzzle_dir)
+    name = loaded.name
     # An edited puzzle (the Blender panel's Export) keeps its old certificate, marked as not verified for it.
-    edited = loaded.metadata.get("certificate_verified") is False
+    edited = not loaded.record.certificate_verified
     note = " (found for the puzzle before it was edited)" if edited else ""
     if problems:
         print(f"{name}: INVALID{note}: " + "; ".join(problems))
@@ -258,7 +258,7 @@ def cmd_replan(args) -> int:
     folder = Path(args.puzzle_dir)
     loaded = read_puzzle_dir(folder)  # bad input is found before any work
     require_writable_dir(folder, "puzzle folder")
-    name = loaded.metadata["name"]
+    name = loaded.name
     result = replan(loaded, REPLAN_BUDGET if args.budget is None else args.budget, args.seed)
     if not result.solved:
         print(f"phyrogen: error: {name}: not solved by RRT-Connect nor LA-RRT within {result.budget} collision "
@@ -295,7 +295,7 @@ def cmd_export(args) -> int:
         require_writable_dir(folder, "puzzle folder")
         puzzles.append((folder, loaded))
     for folder, loaded in puzzles:
-        print(write_mjcf(folder, loaded.chain, loaded.metadata["name"]))
+        print(write_mjcf(folder, loaded.chain, loaded.name))
     return 0
 
 
@@ -435,7 +435,7 @@ def benchmark_runs(benchmark: Path, folders: list[Path]) -> dict[Path, list]:
     records = [(json.loads(key), record) for key, record in read_journal(journal).items()]
     out: dict[Path, list] = {}
     for folder in folders:
-        name = str(read_puzzle_dir(folder).metadata.get("name", Path(folder).name))
+        name = read_puzzle_dir(folder).name
         digest = puzzle_digest(PuzzleFolder(Path(folder), name))
         out[Path(folder)] = [BenchmarkRun(r.planner, r.run, tuple(r.joint_order), tuple(r.path))
                              for key, r in records

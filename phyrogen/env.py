@@ -174,7 +174,7 @@ def _sources_of(item: Any) -> list[_Source]:
     if isinstance(item, LoadedPuzzle):
         column = {n: i for i, n in enumerate(item.joint_order)}
         certificate = tuple(tuple(s[column[n]] for n in item.chain.joint_order) for s in item.certificate)
-        return [_Source(str(item.metadata.get("name", item.chain.name)), item.chain, item.goal, certificate)]
+        return [_Source(item.name, item.chain, item.goal, certificate)]
     if isinstance(item, PuzzleFolder):
         item = item.path
     if not isinstance(item, str | Path):

@@ -11,6 +11,7 @@ import numpy as np
 
 from .chain import GOAL_GREEN, Geometry, Joint, JointType, KinematicChain, Link, Role
 from .objects import Motion, PuzzleObject, build_chain
+from .provenance import Provenance
 
 GOAL_TOLERANCE = 1e-3
 """Half-width of a goal interval on each target joint (metres or radians)."""
@@ -66,7 +67,9 @@ class Puzzle:
     lists (blocker, blocked) object-name pairs found while building.
     ``certificate`` is a joint-space path (joint order) from start to goal.
     ``margins`` maps each movable object but the target to its measured
-    interlock margin (metres; see :mod:`phyrogen_core.maker`).
+    interlock margin (metres; see :mod:`phyrogen_core.maker`). ``provenance``
+    says where an imported puzzle came from and who certified it (empty for a
+    generated one: generator, parameters and seed say it all).
     """
 
     objects: tuple[PuzzleObject, ...]
@@ -77,6 +80,7 @@ class Puzzle:
     dependencies: tuple[tuple[str, str], ...] = ()
     certificate: tuple[tuple[float, ...], ...] = ()
     margins: Mapping[str, float] = field(default_factory=dict)
+    provenance: Provenance = field(default_factory=Provenance)
 
     @property
     def name(self) -> str:

@@ -120,7 +120,7 @@ def test_a_penetrating_certificate_fails(generated, tmp_path, capsys):
     metadata["certificate"] = [metadata["certificate"][0], metadata["certificate"][-1]]
     (folder / "puzzle.json").write_text(json.dumps(metadata))
     loaded = read_puzzle_dir(folder)
-    replay = PyBulletReferee().replay(folder / "urdf" / f"{loaded.metadata['name']}.urdf", loaded.chain,
+    replay = PyBulletReferee().replay(folder / "urdf" / f"{loaded.name}.urdf", loaded.chain,
                                       loaded.certificate)
     assert replay.depth > 0.05 and len(replay.links) == 2
 

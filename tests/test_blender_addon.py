@@ -90,7 +90,7 @@ def test_operators_generate_validate_export_render(installed, tmp_path):
     assert bpy.ops.phyrogen.export_urdf() == {"FINISHED"}
     folder = tmp_path / "simple_slider" / "simple_slider_2"
     loaded = read_puzzle_dir(folder)
-    assert loaded.metadata["parameters"]["gap"] == 0.15
+    assert loaded.record.parameters["gap"] == 0.15
     assert (folder / "urdf" / "simple_slider_2.urdf").read_text() == chain_to_urdf(loaded.chain)[0]
     assert bpy.ops.phyrogen.render() == {"FINISHED"}
     assert sorted(p.name for p in (folder / "images").iterdir()) == [

@@ -79,7 +79,7 @@ def test_panel_generate_replan_manipulate_clicks_in_the_real_ui(tmp_path):
         assert any("Esc or right-click cancels" in status for status in step["statuses"]), step
     folder = Path(result["output"]) / "simple_slider" / "simple_slider_1"
     loaded = read_puzzle_dir(folder)  # the scene's edit, certified anew by Re-plan
-    assert "certificate_verified" not in loaded.metadata and "replanned_by" in loaded.metadata
+    assert loaded.record.certificate_verified and loaded.record.provenance.replanned is not None
     assert verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start) == []
     report = json.loads((Path(result["manipulation_output"]) / "report.json").read_text())
     assert result["panel"][:2] == ["Manipulate simple_slider_1", "DONE"]

@@ -221,7 +221,7 @@ def test_fresh_blender_with_only_the_zip_generates_and_replans(bundled_zip, tmp_
     folder = out / "simple_slider" / "simple_slider_2"
     assert (folder / "urdf" / "simple_slider_2.urdf").is_file() and (folder / "srdf" / "simple_slider_2.srdf").is_file()
     loaded = read_puzzle_dir(folder)  # strictly: metadata agrees with the URDF
-    assert len(loaded.metadata["certificate"]) >= 2 and "replanned_by" in loaded.metadata
+    assert len(loaded.certificate) >= 2 and loaded.record.provenance.replanned is not None
     assert verify_certificate(loaded.chain, loaded.certificate, loaded.goal) == []
     # The same puzzle as PhyRoGen's own environment makes.
     reference = tmp_path / "reference"

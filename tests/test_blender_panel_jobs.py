@@ -18,6 +18,7 @@ from blender_support import FakeLayout, private_blender_home
 from blender_addon.jobs import Job, group_alive, phyrogen_command
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.record import PuzzleRecord
 from solver.planning.problem import verify_certificate
 
 TIMEOUT = 300.0  # a hung job fails the test instead of hanging it; no result depends on it
@@ -115,13 +116,13 @@ def test_panel_generate_edit_replan_benchmark_manipulate(panel, tmp_path):
     assert ok, message
     assert "new certificate by" in settings.result_message
     loaded = read_puzzle_dir(folder)
-    assert "certificate_verified" not in loaded.metadata and loaded.metadata["replanned_by"]["queries"] > 0
+    assert loaded.record.certificate_verified and loaded.record.provenance.replanned.queries > 0
     assert verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start) == []
     from blender_addon.scene import read_chain
 
     assert read_chain(bpy.data.collections["simple_slider_2"]) == loaded.chain  # the scene shows the edit
-    stored = json.loads(bpy.data.collections["simple_slider_2"]["phyrogen/metadata"])
-    assert stored["certificate"] == loaded.metadata["certificate"]  # the new certificate is in the scene
+    stored = PuzzleRecord.from_json(bpy.data.collections["simple_slider_2"]["phyrogen/metadata"])
+    assert stored.certificate == loaded.certificate  # the new certificate is in the scene
     assert bpy.ops.phyrogen.validate() == {"FINISHED"}
 
     ok, message, statuses = _run(bpy, ui, "benchmark")

@@ -169,16 +169,16 @@ def test_a_dataset_has_every_seed_once_in_valid_folders(reference):
         assert row["path"] == f"shard-{row['shard']:05d}/grid_world/grid_world_{row['seed']}"
         loaded = read_puzzle_dir(folder)  # strict: a torn or inconsistent folder raises
         params = json.loads(row["parameters"])
-        assert params == loaded.metadata["parameters"] and params["n_objects"] == 2 + row["seed"] % 3
-        assert row["movable_objects"] == params["n_objects"] == len(loaded.metadata["dependency_graph"]["nodes"])
-        assert row["actions"] == loaded.metadata["certificate_actions"] >= row["movable_objects"]
-        assert row["depth"] == loaded.metadata["dependency_graph"]["depth"]
-        assert row["branching"] == loaded.metadata["dependency_graph"]["branching"]
-        blocked = [edge[1] for edge in loaded.metadata["dependency_graph"]["edges"]]
+        record = loaded.record
+        assert params == record.parameters and params["n_objects"] == 2 + row["seed"] % 3
+        assert row["movable_objects"] == params["n_objects"] == len(record.dependency_graph.nodes)
+        assert row["actions"] == record.certificate_actions >= row["movable_objects"]
+        assert row["depth"] == record.dependency_graph.depth
+        assert row["branching"] == record.dependency_graph.branching
+        blocked = [edge[1] for edge in record.dependency_graph.edges]
         fan_in = max((blocked.count(name) for name in blocked), default=0)
         assert row["shape"] == ("none" if not blocked else "chain" if fan_in == 1 else "tree")
-        assert row["interlock_margin"] == min(o["interlock_margin"] for o in loaded.metadata["objects"]
-                                              if "interlock_margin" in o)
+        assert row["interlock_margin"] == min(record.margins.values())
         assert row["content_hash"] == content_hash(folder, row["name"])
         assert row["validation_checks"] > 0 and row["generation_seconds"] > 0
     assert [p.name for p in sorted((reference / "parts").iterdir())] == [f"shard-{k:05d}.parquet" for k in range(4)]

@@ -356,7 +356,7 @@ def test_read_puzzle_dir_gives_back_the_chain_and_problem(written):
     assert loaded.certificate == puzzle.certificate
     assert loaded.chain.link("robot_base_x").role is Role.HELPER
     assert loaded.chain.link("goal").role is Role.GOAL_MARKER
-    assert loaded.metadata["seed"] == 7
+    assert loaded.record.seed == 7
 
 
 URDF = Path("urdf") / "sample_7.urdf"

@@ -41,11 +41,12 @@ def test_stages_own_disjoint_entries():
 def test_finding_folders_is_one_rule(tmp_path):
     for name in ("rooms/rooms_10", "rooms/rooms_9", "simple_slider/simple_slider_2", "rooms/.rooms_3.x.tmp"):
         (tmp_path / name).mkdir(parents=True)
-        (tmp_path / name / "puzzle.json").write_text(json.dumps({"name": Path(name).name,
+        seed = int(name.rsplit("_")[-1].split(".")[0])
+        (tmp_path / name / "puzzle.json").write_text(json.dumps({"name": Path(name).name, "seed": seed,
                                                                  "generator": Path(name).parent.name}))
     (tmp_path / "manipulation" / "rooms_9").mkdir(parents=True)  # another command's output: no puzzle.json
     found = find_puzzle_folders(tmp_path)
-    # Registry order of generators, then the seed as a number (9 before 10), temporary folders skipped.
+    # Registry order of generators, then the seed puzzle.json states (9 before 10), temporary folders skipped.
     names = [f.name for f in found]
     assert sorted(names, key=names.index) == names and set(names) == {"rooms_9", "rooms_10", "simple_slider_2"}
     assert names.index("rooms_9") < names.index("rooms_10")
@@ -97,11 +98,11 @@ def test_panel_export_after_render_and_benchmark_keeps_their_files(tmp_path):
     # The edit made another puzzle: its renders and solution move into stale/1, beside the puzzle they show.
     moved = [k for k in before if k.startswith(("images/", "solutions/")) or k == folder.blend.name]
     assert moved and all(k not in after and after[f"stale/1/{k}"] == before[k] for k in moved)
-    assert read_puzzle_dir(folder.path / "stale" / "1").metadata == json.loads(before["puzzle.json"])
+    assert read_puzzle_dir(folder.path / "stale" / "1").record.to_json() == before["puzzle.json"]
     assert after[f"urdf/{folder.name}.urdf"] != before[f"urdf/{folder.name}.urdf"]
     loaded = read_puzzle_dir(folder.path)  # metadata and URDF agree: the strict reader accepts them
     assert loaded.chain == edited
-    assert loaded.metadata["certificate_verified"] is False
-    limits = loaded.metadata["joint_limits"]
-    assert {n: (v["lower"], v["upper"]) for n, v in limits.items()} == {
+    assert loaded.record.certificate_verified is False
+    limits = loaded.record.joint_limits
+    assert {limit.joint: (limit.lower, limit.upper) for limit in limits} == {
         j.name: (j.lower, j.upper) for j in loaded.chain.active_joints}

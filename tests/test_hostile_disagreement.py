@@ -20,7 +20,6 @@ entry, and the URDF side as well as the metadata side.
 
 from __future__ import annotations
 
-import json
 import re
 
 import numpy as np
@@ -38,11 +37,12 @@ from hostile_support import (
 
 import solver.planning.problem
 from phyrogen_core.export import read_puzzle_dir
-from phyrogen_core.export.metadata import metadata_for_chain
+from phyrogen_core.export.metadata import record_for_chain
 from phyrogen_core.export.output import write_export_files
 from phyrogen_core.export.reader import GOAL_TOLERANCE_SHARE, goal_problems, start_state
 from phyrogen_core.folder import PuzzleFolder
 from phyrogen_core.puzzle import Goal, Puzzle
+from phyrogen_core.record import PuzzleRecord
 from solver.planning.problem import verify_certificate
 
 PUZZLE = hostile_puzzle()
@@ -305,16 +305,16 @@ def test_check_rejects_a_disagreeing_folder_with_one_line(written, tmp_path, cha
 
 
 def test_an_edited_puzzle_written_by_the_panel_reads(written, tmp_path):  # noqa: F811
-    stored = json.loads((written / "puzzle.json").read_text())
+    stored = PuzzleRecord.from_json((written / "puzzle.json").read_text())
     # Same joints: the certificate is kept, marked as not verified.
     same = PUZZLE.chain
-    place = PuzzleFolder(tmp_path / "same", stored["name"])
-    write_export_files(place, same, json.dumps(metadata_for_chain(stored, same)))
+    place = PuzzleFolder(tmp_path / "same", stored.name)
+    write_export_files(place, same, record_for_chain(stored, same).to_json())
     loaded = read_puzzle_dir(place.path)
-    assert loaded.metadata["certificate_verified"] is False and len(loaded.certificate) == 2
+    assert loaded.record.certificate_verified is False and len(loaded.certificate) == 2
     # One object fewer: a new start state for the new joints, no certificate.
     fewer = Puzzle(tuple(o for o in PUZZLE.objects if o.name != "obj_02"), PUZZLE.goal, "hostile", 1).chain
-    place = PuzzleFolder(tmp_path / "fewer", stored["name"])
-    write_export_files(place, fewer, json.dumps(metadata_for_chain(stored, fewer)))
+    place = PuzzleFolder(tmp_path / "fewer", stored.name)
+    write_export_files(place, fewer, record_for_chain(stored, fewer).to_json())
     loaded = read_puzzle_dir(place.path)
     assert loaded.joint_order == ("obj_00", "obj_01") and loaded.certificate == ()

@@ -406,7 +406,7 @@ def test_good_names_pass_every_reader(written, tmp_path, name):  # noqa: F811
     edit_json(folder, lambda m: m.__setitem__("name", name))
     urdf = folder / "urdf" / "hostile_1.urdf"
     urdf.rename(urdf.with_name(f"{name}.urdf"))
-    assert read_puzzle_dir(folder).metadata["name"] == name
+    assert read_puzzle_dir(folder).name == name
     assert PuzzleFolder.open(folder).urdf == folder / "urdf" / f"{name}.urdf"
     assert PuzzleFolder.at(tmp_path, "generator", name).name == name
     assert [f.name for f in find_puzzle_folders(folder)] == [name]

@@ -18,7 +18,7 @@ from hostile_support import PARAMETERS, hostile_puzzle
 from phyrogen_core import folder as folder_module
 from phyrogen_core.chain import RED, Geometry
 from phyrogen_core.export import read_puzzle_dir, write_export_files, write_puzzle
-from phyrogen_core.export.metadata import metadata_for_chain
+from phyrogen_core.export.metadata import record_for_chain
 from phyrogen_core.folder import (
     OutputError,
     PuzzleFolder,
@@ -29,6 +29,7 @@ from phyrogen_core.folder import (
     stage_entries,
 )
 from phyrogen_core.geometry import Pose, slot_disc
+from phyrogen_core.record import PuzzleRecord
 
 
 def tree(root: Path) -> dict[str, bytes]:
@@ -218,10 +219,10 @@ def test_export_of_an_unedited_puzzle_keeps_everything_and_of_an_edited_one_move
     assert tree(place.path) == before and notices == []
 
     edited = moved_wall().chain
-    metadata = json.dumps(metadata_for_chain(json.loads(stored), edited), sort_keys=True, indent=2) + "\n"
+    metadata = record_for_chain(PuzzleRecord.from_json(stored), edited).to_json()
     export_like(place, edited, metadata, notices)
     assert len(notices) == 1 and "stale/1" in notices[0]
-    assert read_puzzle_dir(place.path).metadata["certificate_verified"] is False
+    assert read_puzzle_dir(place.path).record.certificate_verified is False
     assert {k: v for k, v in tree(place.path / "stale" / "1").items() if k in others} == {
         k: v for k, v in others.items() if k not in USER_FILES}
     assert all(tree(place.path)[k] == others[k] for k in USER_FILES)

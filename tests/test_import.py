@@ -181,14 +181,20 @@ def imported(tmp_path_factory):
 def test_the_imported_folder_reads_back_and_its_certificate_checks(imported, name, capsys):
     result, folder = imported[name]
     loaded = read_puzzle_dir(folder)
-    assert loaded.metadata["generator"] == GENERATOR and loaded.metadata["name"] == name
+    assert loaded.record.generator == GENERATOR and loaded.name == name
     assert len(loaded.certificate) >= 2
     capsys.readouterr()
     assert main(["check", str(folder)]) == 0
     assert "certificate valid" in capsys.readouterr().out
-    source = loaded.metadata["parameters"]["source"]
-    assert source["file"] == f"{name}.urdf" and len(source["sha256"]) == 64
-    assert loaded.metadata["parameters"]["certified_by"]["planner"] == "la_rrt_push"
+    source = loaded.record.provenance.imported
+    assert source.file == f"{name}.urdf" and len(source.sha256) == 64 and source.robot == name
+    # Every joint of the puzzle maps back to the URDF joint it was made from (the import renames them).
+    back = {j.joint: j.urdf_joint for j in source.joints}
+    assert set(back) == set(loaded.joint_order)
+    assert set(back.values()) == {"door": {"hinge"}, "lockbox": {"disc", "bolt"}, "se2": {"j_a", "j_b", "j_c"}}[name]
+    assert back == {m.joint: m.urdf for item in result.objects for m in item.joints}
+    assert "source" not in loaded.record.parameters and "certified_by" not in loaded.record.parameters
+    assert loaded.record.provenance.certified.planner == "la_rrt_push"
 
 
 def test_a_door_with_its_panel_handle_and_knob_is_one_object(imported):
@@ -213,7 +219,7 @@ def test_a_door_with_its_panel_handle_and_knob_is_one_object(imported):
     assert sorted(item.obj.name for item in result.objects if not item.obj.is_movable) == ["wall"]
     assert any("'floor' lies wholly below everything that moves" in note for note in result.notes)
     loaded = read_puzzle_dir(folder)
-    assert [o["name"] for o in loaded.metadata["objects"] if o["motion"] != "fixed"] == ["hinge"]
+    assert [o.name for o in loaded.record.objects if o.motion != "fixed"] == ["hinge"]
     # Turned to its goal, the knob has swung round the hinge with the door.
     frames = loaded.chain.link_transforms(loaded.certificate[-1])
     knob = frames["hinge"] @ np.array([1.2, 0.3, 0, 1])
@@ -240,7 +246,7 @@ def test_a_binary_stl_slot_disc_with_a_mesh_scale_and_a_foreign_path(imported):
     # The bolt cannot enter before the disc turns its slot toward it: the certificate turns the disc.
     disc_column = loaded.joint_order.index("disc")
     assert min(state[disc_column] for state in loaded.certificate) < -1.0
-    assert ["disc", "bolt"] in loaded.metadata["dependency_graph"]["edges"]
+    assert ("disc", "bolt") in loaded.record.dependency_graph.edges
 
 
 def test_an_se2_body_is_one_object_whatever_its_helper_links_are_called(imported):
@@ -254,7 +260,7 @@ def test_an_se2_body_is_one_object_whatever_its_helper_links_are_called(imported
     hull = movable[0].obj.collisions[0].shape
     assert isinstance(hull, ConvexPrism) and len(hull.pieces) == 1 and len(hull.pieces[0]) == 4
     loaded = read_puzzle_dir(folder)
-    assert sum(o["motion"] != "fixed" for o in loaded.metadata["objects"]) == 1
+    assert sum(o.motion != "fixed" for o in loaded.record.objects) == 1
     assert len(loaded.joint_order) == 3
 
 

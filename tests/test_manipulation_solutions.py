@@ -63,7 +63,7 @@ def _run(loaded, path, run: int, planner: str = "LA-RRT") -> BenchmarkRun:
 def _digest(folder, loaded):
     from solver.benchmark.runner import puzzle_digest
 
-    return puzzle_digest(PuzzleFolder(folder, loaded.metadata["name"]))
+    return puzzle_digest(PuzzleFolder(folder, loaded.name))
 
 
 def test_without_a_benchmark_the_certificate_is_the_only_solution(folder):
@@ -105,7 +105,7 @@ def test_the_command_line_takes_solved_la_rrt_runs_of_this_very_puzzle_from_the_
     from solver.benchmark.runner import RunRecord, journal_line
 
     loaded = read_puzzle_dir(folder)
-    name, digest = loaded.metadata["name"], _digest(folder, loaded)
+    name, digest = loaded.name, _digest(folder, loaded)
     path = tuple(tuple(s) for s in loaded.certificate)
 
     def line(planner: str, title: str, run: int, solved: bool = True, puzzle_digest: str = digest) -> bytes:

@@ -29,7 +29,7 @@ def test_replan_stores_a_valid_certificate_the_same_on_every_run(tmp_path, capsy
     assert out.out.count("grid_world_3: new certificate by") == 2
     loaded = read_puzzle_dir(first.path)
     assert verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start) == []
-    assert loaded.metadata["replanned_by"]["planner"] in ("rrt_connect", "la_rrt_push")
+    assert loaded.record.provenance.replanned.planner in ("rrt_connect", "la_rrt_push")
     assert first.metadata.read_bytes() == second.metadata.read_bytes()  # seeded: the same search everywhere
     assert first.urdf.read_bytes() == urdf  # the puzzle itself is unchanged
     # Renders made for the old certificate move aside with it (the folder contract), and the command says so.
@@ -43,7 +43,7 @@ def test_replan_certifies_an_edited_puzzle_again(tmp_path):
     metadata["certificate_verified"] = False  # as the panel's Export leaves an edited puzzle
     folder.metadata.write_text(json.dumps(metadata))
     assert main(["replan", str(folder.path)]) == 0
-    assert "certificate_verified" not in read_puzzle_dir(folder.path).metadata
+    assert read_puzzle_dir(folder.path).record.certificate_verified
 
 
 def test_replan_that_finds_nothing_leaves_the_folder_as_it_was(tmp_path, capsys):

@@ -1,16 +1,17 @@
-"""``puzzle.json``: everything about a puzzle that the URDF does not say.
+"""``puzzle.json`` of a puzzle: the :class:`~phyrogen_core.record.PuzzleRecord` of a generated or
+imported :class:`~phyrogen_core.puzzle.Puzzle`, or of a chain edited from a stored one.
 
-Provenance (generator, parameters, seed, package versions) so the puzzle can
-be regenerated; the planning problem (joint order, limits, start, goal); the
-objects and the dependency graph; and the solution certificate. There is no
-timestamp: the same puzzle always gives the same bytes.
+Provenance (generator, parameters, seed, package versions, and for an imported
+puzzle its source and certifying planner) so the puzzle can be regenerated; the
+planning problem (joint order, limits, start, goal); the objects and the
+dependency graph; and the solution certificate. There is no timestamp: the
+same puzzle always gives the same bytes.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import enum
-import json
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -19,69 +20,70 @@ from ..actions import count_actions
 from ..chain import KinematicChain
 from ..dependencies import dependency_shape
 from ..puzzle import Puzzle
+from ..record import FORMAT_VERSION, DependencyGraph, JointLimit, ObjectRecord, PuzzleRecord
 
-FORMAT_VERSION = 1
-"""Bumped when a key changes meaning; readers check it."""
+__all__ = ["FORMAT_VERSION", "metadata_json", "puzzle_metadata", "puzzle_record", "record_for_chain", "start_state"]
 
 
-def puzzle_metadata(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> dict[str, Any]:
-    """The JSON-ready description of ``puzzle``.
+def puzzle_record(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> PuzzleRecord:
+    """The record of ``puzzle``.
 
     ``versions`` names the package versions to record; by default only
     PhyRoGen's own. Raises ValueError when the goal or the certificate do not
     fit the puzzle's joints, or a parameter cannot be written as JSON.
     """
     chain = puzzle.chain
-    joint_order = list(puzzle.joint_order)
+    joint_order = tuple(puzzle.joint_order)
     for joint_name in puzzle.goal.values:
         if joint_name not in joint_order:
-            raise ValueError(f"goal joint {joint_name!r} is not an active joint; valid: {joint_order}")
+            raise ValueError(f"goal joint {joint_name!r} is not an active joint; valid: {list(joint_order)}")
     for index, state in enumerate(puzzle.certificate):
         if len(state) != len(joint_order):
             raise ValueError(f"certificate state {index} has {len(state)} values, "
-                             f"expected {len(joint_order)} (one per joint in {joint_order})")
+                             f"expected {len(joint_order)} (one per joint in {list(joint_order)})")
     shape = dependency_shape(puzzle.dependencies, puzzle.goal.target)
-    return {
-        "format_version": FORMAT_VERSION,
-        "generator": puzzle.generator,
-        "name": puzzle.name,
-        "seed": puzzle.seed,
-        "parameters": _jsonable(_parameters_dict(puzzle.parameters), "parameters"),
-        "joint_order": joint_order,
-        "joint_limits": {
-            name: {"type": chain.joint(name).type.value, "lower": _float(chain.joint(name).lower),
-                   "upper": _float(chain.joint(name).upper)}
-            for name in joint_order
-        },
-        "start": [_float(v) for v in puzzle.start],
-        "goal": {
-            "target": puzzle.goal.target,
-            "values": {name: _float(v) for name, v in puzzle.goal.values.items()},
-            "tolerance": _float(puzzle.goal.tolerance),
-        },
-        "objects": [_object_entry(o, puzzle.margins) for o in puzzle.objects],
-        "dependency_graph": {
-            "nodes": [o.name for o in puzzle.objects if o.is_movable],  # scenery blocks nothing
-            "edges": [[str(blocker), str(blocked)] for blocker, blocked in puzzle.dependencies],
-            "depth": shape.depth,
-            "branching": shape.branching,
-        },
-        "certificate": [[_float(v) for v in state] for state in puzzle.certificate],
-        "certificate_actions": count_actions(puzzle.certificate, chain.factors),
-        "versions": dict(versions) if versions is not None else {"phyrogen": _phyrogen_version()},
-    }
+    return PuzzleRecord(
+        name=puzzle.name,
+        generator=puzzle.generator,
+        seed=puzzle.seed,
+        parameters=_jsonable(_parameters_dict(puzzle.parameters), "parameters"),
+        joint_order=joint_order,
+        joint_limits=_joint_limits(chain, joint_order),
+        start=tuple(_float(v) for v in puzzle.start),
+        goal=type(puzzle.goal)(puzzle.goal.target, {name: _float(v) for name, v in puzzle.goal.values.items()},
+                               _float(puzzle.goal.tolerance)),
+        objects=tuple(_object_record(o, puzzle.margins) for o in puzzle.objects),
+        dependency_graph=DependencyGraph(
+            nodes=tuple(o.name for o in puzzle.objects if o.is_movable),  # scenery blocks nothing
+            edges=tuple((str(blocker), str(blocked)) for blocker, blocked in puzzle.dependencies),
+            depth=shape.depth,
+            branching=shape.branching,
+        ),
+        certificate=tuple(tuple(_float(v) for v in state) for state in puzzle.certificate),
+        certificate_actions=count_actions(puzzle.certificate, chain.factors),
+        versions=dict(versions) if versions is not None else {"phyrogen": _phyrogen_version()},
+        provenance=puzzle.provenance,
+    )
 
 
-def _object_entry(obj, margins: Mapping[str, float]) -> dict[str, Any]:
-    entry = {"name": obj.name, "motion": obj.motion.value, "role": obj.role.value, "joints": list(obj.joint_names)}
-    if obj.name in margins:
-        entry["interlock_margin"] = _float(margins[obj.name])
-    return entry
+def puzzle_metadata(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> dict[str, Any]:
+    """The JSON data of :func:`puzzle_record`."""
+    return puzzle_record(puzzle, versions).to_dict()
+
+
+def _joint_limits(chain: KinematicChain, joint_order: tuple[str, ...]) -> tuple[JointLimit, ...]:
+    return tuple(JointLimit(name, chain.joint(name).type, _float(chain.joint(name).lower),
+                            _float(chain.joint(name).upper)) for name in joint_order)
+
+
+def _object_record(obj, margins: Mapping[str, float]) -> ObjectRecord:
+    margin = _float(margins[obj.name]) if obj.name in margins else None
+    return ObjectRecord(obj.name, obj.motion, obj.role, tuple(obj.joint_names), margin)
 
 
 def metadata_json(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> str:
-    """:func:`puzzle_metadata` as JSON text: sorted keys, indent 2, trailing newline."""
-    return json.dumps(puzzle_metadata(puzzle, versions), sort_keys=True, indent=2, allow_nan=False) + "\n"
+    """The text of ``puzzle.json`` for ``puzzle`` (:meth:`PuzzleRecord.to_json`)."""
+    return puzzle_record(puzzle, versions).to_json()
 
 
 def _phyrogen_version() -> str:
@@ -132,42 +134,43 @@ def _jsonable(value: Any, where: str) -> Any:
                      "valid: numbers, strings, booleans, None, lists, mappings, enums")
 
 
-def metadata_for_chain(stored: Mapping[str, Any], chain: KinematicChain) -> dict[str, Any]:
-    """``puzzle.json`` data for ``chain`` (e.g. a puzzle edited in Blender) from the metadata of the
-    puzzle it was made from.
+def start_state(chain: KinematicChain) -> tuple[float, ...]:
+    """The start state of a puzzle chain (joint order): every active joint at 0, clipped into its limits.
+
+    It is the state the planners start from
+    (:func:`solver.planning.problem.problem_for_chain`), the one generated puzzles
+    and :func:`record_for_chain` write, and the one a certificate must begin at.
+    """
+    return tuple(max(min(0.0, j.upper), j.lower) + 0.0 for j in chain.active_joints)
+
+
+def record_for_chain(stored: PuzzleRecord, chain: KinematicChain) -> PuzzleRecord:
+    """The record of ``chain`` (e.g. a puzzle edited in Blender) from the record of the puzzle it was
+    made from.
 
     Everything the URDF states is taken from ``chain``: joint order and
     limits, the start state they imply, which objects exist. The certificate and the dependency graph
     were found for the old chain, so they are kept (the certificate only
     while the joint order is unchanged, so it can be re-checked) but marked
     ``"certificate_verified": false``: ``phyrogen check`` or a new plan
-    decides whether they still hold.
+    decides whether they still hold. Raises ValueError when the goal moves a
+    joint the chain no longer has.
     """
-    data = json.loads(json.dumps(dict(stored)))  # a deep copy of plain JSON data
-    order = list(chain.joint_order)
-    same_joints = list(data.get("joint_order", [])) == order
-    data["joint_order"] = order
-    data["joint_limits"] = {
-        name: {"type": chain.joint(name).type.value, "lower": _float(chain.joint(name).lower),
-               "upper": _float(chain.joint(name).upper)}
-        for name in order
-    }
-    present = {link.name for link in chain.links}  # an object's body link carries its name
-    data["objects"] = [o for o in data.get("objects", []) if isinstance(o, Mapping) and o.get("name") in present]
-    graph = data.get("dependency_graph", {})
-    data["dependency_graph"] = {
-        "nodes": [n for n in graph.get("nodes", []) if n in present],
-        "edges": [e for e in graph.get("edges", []) if all(n in present for n in e)],
-    }
-    from .reader import start_state  # the reader imports this module
-
-    data["start"] = [_float(v) for v in start_state(chain)]
-    if not same_joints:
-        data["certificate"] = []
-    goal = data.get("goal", {})
-    missing = [n for n in goal.get("values", {}) if n not in order]
+    order = tuple(chain.joint_order)
+    missing = [n for n in stored.goal.values if n not in order]
     if missing:
         raise ValueError(f"the edited puzzle has no joint {missing[0]!r}, which the goal moves; "
-                         f"valid goal joints: {order}")
-    data["certificate_verified"] = False
-    return data
+                         f"valid goal joints: {list(order)}")
+    present = {link.name for link in chain.links}  # an object's body link carries its name
+    graph = stored.dependency_graph
+    return dataclasses.replace(
+        stored,
+        joint_order=order,
+        joint_limits=_joint_limits(chain, order),
+        objects=tuple(o for o in stored.objects if o.name in present),
+        dependency_graph=DependencyGraph(tuple(n for n in graph.nodes if n in present),
+                                         tuple(e for e in graph.edges if all(n in present for n in e))),
+        start=tuple(_float(v) for v in start_state(chain)),
+        certificate=stored.certificate if stored.joint_order == order else (),
+        certificate_verified=False,
+    )

@@ -53,16 +53,13 @@ from ..folder import METADATA_FILE, PuzzleFolder, PuzzleFormatError, name_proble
 from ..geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from ..objects import Motion
 from ..puzzle import Goal
+from ..record import MAX_MAGNITUDE, ObjectRecord, PuzzleRecord
 from ..xml_fields import XmlFields
-from .metadata import FORMAT_VERSION
+from .metadata import start_state
 from .obj import read_prism_piece
 from .urdf import MESH_NAME
 
 GOAL_LINK = "goal"
-MAX_MAGNITUDE = 1e6
-"""The largest magnitude of a number in the URDF, a mesh or a joint value of ``puzzle.json``
-(metres, radians, kilograms, ...). Puzzles are table- to room-sized (the largest generated
-number is below 100); the bound keeps every product the collision model forms far from overflow."""
 GOAL_TOLERANCE_SHARE = 0.1
 """A goal's tolerance must be less than this share of the range of each goal joint: the goal
 region then covers at most a fifth of the range, so reaching it takes a real move (generators use
@@ -78,11 +75,28 @@ class LoadedPuzzle:
     """A puzzle read from its folder: the chain plus the planning problem."""
 
     chain: KinematicChain
-    metadata: dict[str, Any]
-    start: tuple[float, ...]
-    goal: Goal
-    certificate: tuple[tuple[float, ...], ...]
-    joint_order: tuple[str, ...]
+    record: PuzzleRecord
+    """Everything ``puzzle.json`` says (:mod:`phyrogen_core.record`)."""
+
+    @property
+    def name(self) -> str:
+        return self.record.name
+
+    @property
+    def start(self) -> tuple[float, ...]:
+        return self.record.start
+
+    @property
+    def goal(self) -> Goal:
+        return self.record.goal
+
+    @property
+    def certificate(self) -> tuple[tuple[float, ...], ...]:
+        return self.record.certificate
+
+    @property
+    def joint_order(self) -> tuple[str, ...]:
+        return self.record.joint_order
 
 
 def read_puzzle_dir(path: str | Path) -> LoadedPuzzle:
@@ -98,45 +112,21 @@ def read_puzzle_dir(path: str | Path) -> LoadedPuzzle:
         what = "is a file, not a puzzle folder" if os.path.lexists(folder) else "no such puzzle folder"
         raise PuzzleFormatError(f"{folder}: {what}")
     json_path = folder / METADATA_FILE
-    metadata = _read_metadata(json_path, folder)
-    name = _field(metadata, "name", str, json_path)
-    problem = name_problem(name)
+    record = PuzzleRecord.from_dict(read_folder_json(json_path, folder, f"{json_path}: puzzle.json"), str(json_path))
+    problem = name_problem(record.name)
     if problem is not None:
-        raise PuzzleFormatError(f"{json_path}: name {name!r} {problem}")
-    joint_order = tuple(_string_list(metadata, "joint_order", json_path))
-    objects = _field(metadata, "objects", list, json_path)
-    urdf_path = PuzzleFolder(folder, name).urdf
-    chain = read_urdf(urdf_path, link_roles(objects, json_path), root=folder)
-    if chain.joint_order != joint_order:
-        raise PuzzleFormatError(f"{json_path}: joint_order {list(joint_order)} does not match the active "
+        raise PuzzleFormatError(f"{json_path}: name {record.name!r} {problem}")
+    urdf_path = PuzzleFolder(folder, record.name).urdf
+    chain = read_urdf(urdf_path, link_roles(record.objects), root=folder)
+    if chain.joint_order != record.joint_order:
+        raise PuzzleFormatError(f"{json_path}: joint_order {list(record.joint_order)} does not match the active "
                                 f"joints of {urdf_path.name}: {list(chain.joint_order)}")
-    _check_joint_limits(metadata, chain, json_path, urdf_path.name)
-    start = _state(metadata.get("start"), len(joint_order), "start", json_path)
-    _check_start(start, chain, json_path)
-    certificate = tuple(
-        _state(state, len(joint_order), f"certificate[{i}]", json_path)
-        for i, state in enumerate(_field(metadata, "certificate", list, json_path))
-    )
-    goal = _goal(metadata, joint_order, json_path)
-    targets = {entry["name"] for entry in objects}  # link_roles checked every entry
-    if goal.target not in targets:
-        raise PuzzleFormatError(f"{json_path}: goal.target {goal.target!r} is not one of the objects "
-                                f"{sorted(targets)}")
-    problems = goal_problems(goal, chain, start)
+    _check_joint_limits(record, chain, json_path, urdf_path.name)
+    _check_start(record.start, chain, json_path)
+    problems = goal_problems(record.goal, chain, record.start)
     if problems:
         raise PuzzleFormatError(f"{json_path}: goal: {problems[0]}")
-    return LoadedPuzzle(chain, metadata, start, goal, certificate, joint_order)
-
-
-def start_state(chain: KinematicChain) -> tuple[float, ...]:
-    """The start state of a puzzle chain (joint order): every active joint at 0, clipped into its limits.
-
-    It is the state the planners start from
-    (:func:`solver.planning.problem.problem_for_chain`), the one generated puzzles
-    and :func:`~phyrogen_core.export.metadata.metadata_for_chain` write,
-    and the one a certificate must begin at.
-    """
-    return tuple(max(min(0.0, j.upper), j.lower) + 0.0 for j in chain.active_joints)
+    return LoadedPuzzle(chain, record)
 
 
 def goal_problems(goal: Goal, chain: KinematicChain, start: Sequence[float] | None = None) -> list[str]:
@@ -176,24 +166,18 @@ def goal_problems(goal: Goal, chain: KinematicChain, start: Sequence[float] | No
     return problems
 
 
-def link_roles(objects: Sequence[Any], source: Path | str = "puzzle.json") -> dict[str, tuple[Role, str]]:
-    """Link name -> (role, object name), from the metadata's ``objects`` list.
+def link_roles(objects: Sequence[ObjectRecord]) -> dict[str, tuple[Role, str]]:
+    """Link name -> (role, object name), from the record's objects.
 
     An object's body link carries its name; SE(2) and R(2) objects add the
     helper links ``<object>_base_x`` and ``<object>_base_y``.
     """
     roles: dict[str, tuple[Role, str]] = {GOAL_LINK: (Role.GOAL_MARKER, GOAL_LINK)}
-    for index, entry in enumerate(objects):
-        where = f"objects[{index}]"
-        if not isinstance(entry, Mapping):
-            raise PuzzleFormatError(f"{source}: {where} must be an object with name, motion, role")
-        name = _field(entry, "name", str, source, where)
-        role = _enum(Role, _field(entry, "role", str, source, where), source, f"{where}.role")
-        motion = _enum(Motion, _field(entry, "motion", str, source, where), source, f"{where}.motion")
-        roles[name] = (role, name)
-        if motion in (Motion.SE2, Motion.R2):
-            roles[name + "_base_x"] = (Role.HELPER, name)
-            roles[name + "_base_y"] = (Role.HELPER, name)
+    for entry in objects:
+        roles[entry.name] = (entry.role, entry.name)
+        if entry.motion in (Motion.SE2, Motion.R2):
+            roles[entry.name + "_base_x"] = (Role.HELPER, entry.name)
+            roles[entry.name + "_base_y"] = (Role.HELPER, entry.name)
     return roles
 
 
@@ -452,35 +436,19 @@ class _UrdfReader(XmlFields):
             raise self.error(message if message.startswith(f"{where}:") else f"{where}: {message}") from None
 
 
-# -- puzzle.json -------------------------------------------------------------
-def _read_metadata(path: Path, folder: Path) -> dict[str, Any]:
-    metadata = read_folder_json(path, folder, f"{path}: puzzle.json")
-    if not isinstance(metadata, dict):
-        raise PuzzleFormatError(f"{path}: must hold a JSON object, got {type(metadata).__name__}")
-    version = metadata.get("format_version")
-    if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= FORMAT_VERSION:
-        raise PuzzleFormatError(f"{path}: format_version {version!r} is not supported; "
-                                f"valid: 1 to {FORMAT_VERSION}")
-    return metadata
-
-
-def _check_joint_limits(metadata: Mapping[str, Any], chain: KinematicChain, source: Path, urdf: str) -> None:
+# -- puzzle.json against the URDF -------------------------------------------------
+def _check_joint_limits(record: PuzzleRecord, chain: KinematicChain, source: Path, urdf: str) -> None:
     """``joint_limits`` must state each active joint of the URDF, with its type and limits, and nothing else."""
-    limits = _field(metadata, "joint_limits", dict, source)
-    if set(limits) != set(chain.joint_order):
-        raise PuzzleFormatError(f"{source}: joint_limits names the joints {sorted(limits)}; the active joints of "
+    named = sorted(limit.joint for limit in record.joint_limits)
+    if named != sorted(chain.joint_order):
+        raise PuzzleFormatError(f"{source}: joint_limits names the joints {named}; the active joints of "
                                 f"{urdf} are {sorted(chain.joint_order)}")
     for name in chain.joint_order:
-        label = f"joint_limits.{name}"
-        entry = limits[name]
-        if not isinstance(entry, Mapping):
-            raise PuzzleFormatError(f"{source}: {label} must be an object with type, lower, upper")
-        kind = _field(entry, "type", str, source, label)
-        lower, upper = (_number(entry.get(key), f"{label}.{key}", source) for key in ("lower", "upper"))
-        joint = chain.joint(name)
-        if (kind, lower, upper) != (joint.type.value, joint.lower, joint.upper):
-            raise PuzzleFormatError(f"{source}: {label} says {kind} [{lower!r}, {upper!r}], but {urdf} has "
-                                    f"{joint.type.value} [{joint.lower!r}, {joint.upper!r}]")
+        limit, joint = record.limit(name), chain.joint(name)
+        if (limit.type, limit.lower, limit.upper) != (joint.type, joint.lower, joint.upper):
+            raise PuzzleFormatError(f"{source}: joint_limits.{name} says {limit.type.value} [{limit.lower!r}, "
+                                    f"{limit.upper!r}], but {urdf} has {joint.type.value} [{joint.lower!r}, "
+                                    f"{joint.upper!r}]")
 
 
 def _check_start(start: Sequence[float], chain: KinematicChain, source: Path) -> None:
@@ -495,61 +463,8 @@ def _check_start(start: Sequence[float], chain: KinematicChain, source: Path) ->
                                     f"(each joint at 0 clipped into its limits, here {rest!r})")
 
 
-def _field(mapping: Mapping[str, Any], key: str, kind: type, source: Path | str, where: str = "") -> Any:
-    label = f"{where}.{key}" if where else key
-    if key not in mapping:
-        raise PuzzleFormatError(f"{source}: missing key {label!r}")
-    value = mapping[key]
-    if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
-        raise PuzzleFormatError(f"{source}: {label} must be a {kind.__name__}, got {_show(value)}")
-    return value
-
-
-def _string_list(mapping: Mapping[str, Any], key: str, source: Path) -> list[str]:
-    values = _field(mapping, key, list, source)
-    if not all(isinstance(v, str) for v in values):
-        raise PuzzleFormatError(f"{source}: {key} must be a list of strings, got {_show(values)}")
-    return values
-
-
-def _number(value: Any, label: str, source: Path) -> float:
-    """A joint value of ``puzzle.json``: a finite number within :data:`MAX_MAGNITUDE`."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise PuzzleFormatError(f"{source}: {label} must be a number, got {_show(value)}")
-    if not -MAX_MAGNITUDE <= value <= MAX_MAGNITUDE:  # also false for NaN
-        raise PuzzleFormatError(f"{source}: {label} = {value!r} must be a finite number within "
-                                f"+-{MAX_MAGNITUDE:g}")
-    return float(value)
-
-
-def _state(value: Any, size: int, label: str, source: Path) -> tuple[float, ...]:
-    if not isinstance(value, list) or len(value) != size:
-        raise PuzzleFormatError(f"{source}: {label} must be a list of {size} numbers (one per joint), "
-                                f"got {_show(value)}")
-    return tuple(_number(v, f"{label}[{i}]", source) for i, v in enumerate(value))
-
-
-def _goal(metadata: Mapping[str, Any], joint_order: Sequence[str], source: Path) -> Goal:
-    goal = _field(metadata, "goal", dict, source)
-    target = _field(goal, "target", str, source, "goal")
-    values = _field(goal, "values", dict, source, "goal")
-    for joint_name in values:
-        if joint_name not in joint_order:
-            raise PuzzleFormatError(f"{source}: goal joint {joint_name!r} is not in joint_order "
-                                    f"{list(joint_order)}")
-    tolerance = _number(goal.get("tolerance"), "goal.tolerance", source)
-    return Goal(target, {k: _number(v, f"goal.values.{k}", source) for k, v in values.items()}, tolerance)
-
-
 def _show(value: Any, width: int = 80) -> str:
     """``repr(value)``, cut to ``width`` characters: messages stay one short line whatever a file holds."""
     text = repr(value)
     return text if len(text) <= width else text[:width - 3] + "..."
 
-
-def _enum(kind, value: str, source: Path | str, label: str):
-    try:
-        return kind(value)
-    except ValueError:
-        valid = [member.value for member in kind]
-        raise PuzzleFormatError(f"{source}: {label} {_show(value)} is not valid; valid: {valid}") from None

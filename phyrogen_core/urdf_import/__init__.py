@@ -23,6 +23,7 @@ from pathlib import Path
 from ..chain import Role
 from ..export.reader import goal_problems, start_state
 from ..folder import name_problem
+from ..provenance import Imported, ImportedJoint, Provenance
 from ..puzzle import Goal, Puzzle
 from .goal import GoalChoice, goal_from_pose, goal_from_values
 from .objects import GOAL_LINK, ImportedObject, JointMap, scene_objects
@@ -89,10 +90,15 @@ def import_urdf(path: str | Path, *, target: str | None = None, goal: Sequence[f
     if problem is not None:
         raise UrdfImportError(f"puzzle name {title!r} {problem}; choose another with --name")
     notes = tuple(model.notes) + scene.notes
-    source = {"file": path.name, "sha256": hashlib.sha256(path.read_bytes()).hexdigest(), "robot": model.name}
-    parameters = {"source": source, "goal_from": choice.source, "notes": list(notes)}
+    # The import renames joints (a slider's door_joint becomes door_link, SE(2) chains <object>_x, _y,
+    # _yaw): the map keeps the way back to the source file.
+    joints = sorted((ImportedJoint(m.joint, m.urdf, float(m.sign) + 0.0, float(m.offset) + 0.0)
+                     for item in objects for m in item.joints),
+                    key=lambda joint: joint.joint)
+    source = Imported(path.name, hashlib.sha256(path.read_bytes()).hexdigest(), model.name, tuple(joints))
+    parameters = {"goal_from": choice.source, "notes": list(notes)}
     puzzle = ImportedPuzzle(tuple(item.obj for item in objects), Goal(choice.target, choice.values), GENERATOR, 0,
-                            parameters, title=title)
+                            parameters, provenance=Provenance(imported=source), title=title)
     try:
         puzzle.chain  # noqa: B018 (built to check: names of links and joints must not clash)
     except ValueError as exc:

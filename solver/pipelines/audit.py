@@ -122,26 +122,21 @@ def plan_audit(folders: Sequence[PuzzleFolder]) -> list[PuzzleToAudit]:
     out = []
     for folder in folders:
         loaded = read_puzzle_dir(folder.path)
-        metadata = loaded.metadata
-        seed = metadata.get("seed")
+        record = loaded.record
         movable = loaded.chain.object_names
         out.append(PuzzleToAudit(
-            str(folder.path), folder.name, str(metadata.get("generator", folder.generator)),
-            seed if isinstance(seed, int) and not isinstance(seed, bool) else folder.seed,
-            interlock_margin(metadata, folder.metadata), len(movable),
+            str(folder.path), folder.name, record.generator, record.seed,
+            interlock_margin(record.parameters, folder.metadata), len(movable),
             tuple(name for name in movable if name != loaded.goal.target),
             count_actions(loaded.certificate, loaded.chain.factors), loaded.joint_order,
-            metadata.get("certificate_verified") is False))
+            not record.certificate_verified))
     return out
 
 
-def interlock_margin(metadata: Mapping[str, Any], source: str | Path) -> float:
-    """``parameters.interlock_margin`` of a ``puzzle.json`` (:data:`DEFAULT_MARGIN` when absent):
+def interlock_margin(parameters: Mapping[str, Any], source: str | Path) -> float:
+    """The generator parameter ``interlock_margin`` of a puzzle (:data:`DEFAULT_MARGIN` when absent):
     metres in [0, :data:`~phyrogen_core.generators.kit.MAX_INTERLOCK_MARGIN`], as the generators
     accept. A larger one would shrink the 0.1 m walls to nothing and find every object superfluous."""
-    parameters = metadata.get("parameters", {})
-    if not isinstance(parameters, Mapping):
-        raise PuzzleFormatError(f"{source}: parameters must be an object, got {type(parameters).__name__}")
     value = parameters.get("interlock_margin", DEFAULT_MARGIN)
     if isinstance(value, bool) or not isinstance(value, int | float) or not 0 <= value <= MAX_INTERLOCK_MARGIN:
         raise PuzzleFormatError(f"{source}: parameters.interlock_margin = {value!r} must be a number of metres "

@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from phyrogen_core.actions import count_actions
+from phyrogen_core.provenance import PlannerRun
 from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.seeding import stable_seed
 from solver.planning.defragment import defragment_certificate
@@ -78,9 +79,8 @@ def certify_imported(puzzle: Puzzle, budget: int = IMPORT_BUDGET, seed: int = 0)
         return Certification(None, queries, budget, run_seed)
     certificate = defragment_certificate(chain, puzzle.goal, path)
     dependencies = dependency_graph(puzzle.objects, certificate)
-    certified_by = {"planner": "la_rrt_push", "budget": budget, "seed": run_seed, "queries": queries}
-    parameters = {**puzzle.parameters, "certified_by": certified_by}
-    certified = replace(puzzle, certificate=certificate, dependencies=dependencies, parameters=parameters)
+    provenance = replace(puzzle.provenance, certified=PlannerRun("la_rrt_push", budget, run_seed, queries))
+    certified = replace(puzzle, certificate=certificate, dependencies=dependencies, provenance=provenance)
     return Certification(certified, queries, budget, run_seed)
 
 

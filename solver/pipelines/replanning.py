@@ -14,11 +14,9 @@ off it. An edited puzzle's ``"certificate_verified": false`` goes away.
 
 from __future__ import annotations
 
-import json
 import shutil
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -26,6 +24,8 @@ from phyrogen_core.actions import count_actions
 from phyrogen_core.dependencies import dependency_shape
 from phyrogen_core.export.reader import LoadedPuzzle
 from phyrogen_core.folder import METADATA_FILE, PuzzleFolder, Stage, stage_directory, stage_entries
+from phyrogen_core.provenance import PlannerRun
+from phyrogen_core.record import DependencyGraph
 from phyrogen_core.seeding import stable_seed
 from solver.planning.defragment import defragment_certificate
 from solver.planning.la_rrt import la_rrt_within
@@ -74,7 +74,7 @@ def replan(loaded: LoadedPuzzle, budget: int = REPLAN_BUDGET, seed: int = 0) -> 
     """
     if not 1 <= budget <= MAX_REPLAN_BUDGET:
         raise ValueError(f"budget must be 1 to {MAX_REPLAN_BUDGET} collision queries, got {budget!r}")
-    chain, name = loaded.chain, loaded.metadata["name"]
+    chain, name = loaded.chain, loaded.name
     problem = problem_for_chain(chain, loaded.goal)
     if not problem.model.is_valid(problem.start):
         pairs = sorted(problem.model.colliding_objects(problem.start))
@@ -101,22 +101,19 @@ def replan(loaded: LoadedPuzzle, budget: int = REPLAN_BUDGET, seed: int = 0) -> 
 def replanned_metadata(loaded: LoadedPuzzle, result: Replan) -> str:
     """``puzzle.json`` of the folder with the new certificate, its action count and dependency graph."""
     if not result.solved:
-        raise ValueError(f"{loaded.metadata['name']}: no new certificate to store")
-    data: dict[str, Any] = json.loads(json.dumps(loaded.metadata))
-    target = loaded.goal.target
-    shape = dependency_shape(result.dependencies, target)
-    data["certificate"] = [list(state) for state in result.certificate]
-    data["certificate_actions"] = count_actions(result.certificate, loaded.chain.factors)
-    data["dependency_graph"] = {
-        "nodes": list(loaded.chain.factors),
-        "edges": [[blocker, blocked] for blocker, blocked in result.dependencies],
-        "depth": shape.depth,
-        "branching": shape.branching,
-    }
-    data["replanned_by"] = {"planner": result.planner, "budget": result.budget, "seed": result.seed,
-                            "queries": result.queries}
-    data.pop("certificate_verified", None)
-    return json.dumps(data, sort_keys=True, indent=2, allow_nan=False) + "\n"
+        raise ValueError(f"{loaded.name}: no new certificate to store")
+    record = loaded.record
+    shape = dependency_shape(result.dependencies, loaded.goal.target)
+    return replace(
+        record,
+        certificate=result.certificate,
+        certificate_actions=count_actions(result.certificate, loaded.chain.factors),
+        dependency_graph=DependencyGraph(tuple(loaded.chain.factors), tuple((a, b) for a, b in result.dependencies),
+                                         shape.depth, shape.branching),
+        certificate_verified=True,
+        provenance=replace(record.provenance,
+                           replanned=PlannerRun(result.planner, result.budget, result.seed, result.queries)),
+    ).to_json()
 
 
 def write_replanned(folder: str | Path, loaded: LoadedPuzzle, result: Replan, notices: list[str] | None = None) -> Path:
@@ -128,7 +125,7 @@ def write_replanned(folder: str | Path, loaded: LoadedPuzzle, result: Replan, no
     line saying so is appended to ``notices``.
     """
     metadata = replanned_metadata(loaded, result)
-    place = PuzzleFolder(Path(folder), loaded.metadata["name"])
+    place = PuzzleFolder(Path(folder), loaded.name)
     with stage_directory(place.path, Stage.EXPORT, place.name, notices) as temporary:
         for entry in stage_entries(Stage.EXPORT, place.name):
             source = place.path / entry

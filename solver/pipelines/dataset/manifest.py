@@ -99,14 +99,18 @@ def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
     from phyrogen_core.folder import PuzzleFormatError
 
     loaded = read_puzzle_dir(folder)
-    meta = loaded.metadata
-    expected = {"generator": entry.generator, "seed": entry.seed, "name": entry.name,
-                "parameters": json.loads(entry.parameters_json)}
-    for key, value in expected.items():
-        if meta.get(key) != value:
-            raise PuzzleFormatError(f"{folder}: puzzle.json {key} is {meta.get(key)!r}, the dataset asks for {value!r}")
-    graph = meta.get("dependency_graph", {})
-    margins = [o["interlock_margin"] for o in meta.get("objects", []) if "interlock_margin" in o]
+    stored = loaded.record
+    found = (("generator", stored.generator, entry.generator), ("seed", stored.seed, entry.seed),
+             ("name", stored.name, entry.name),
+             ("parameters", dict(stored.parameters), json.loads(entry.parameters_json)))
+    for key, value, wanted in found:
+        if value != wanted:
+            raise PuzzleFormatError(f"{folder}: puzzle.json {key} is {value!r}, the dataset asks for {wanted!r}")
+    graph = stored.dependency_graph
+    if graph.depth is None or graph.branching is None:
+        raise PuzzleFormatError(f"{folder}: puzzle.json has no dependency graph depth and branching (edited "
+                                "in Blender and not planned again)")
+    margins = list(stored.margins.values())
     row = base_row(entry, shard, record)
     row.update({
         "path": folder.relative_to(root).as_posix(), "status": "ok",
@@ -114,9 +118,9 @@ def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
         "canonical_hash": canonical_hash(loaded.chain, dict(zip(loaded.joint_order, loaded.start, strict=True)),
                                          loaded.goal.values),
         "movable_objects": len(loaded.chain.object_names),
-        "actions": int(meta["certificate_actions"]),
-        "depth": int(graph["depth"]), "branching": int(graph["branching"]),
-        "shape": DependencyShape(int(graph["depth"]), int(graph["branching"])).kind,
+        "actions": stored.certificate_actions,
+        "depth": graph.depth, "branching": graph.branching,
+        "shape": DependencyShape(graph.depth, graph.branching).kind,
         "interlock_margin": float(min(margins)) if margins else None,
     })
     return row
