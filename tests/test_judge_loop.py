@@ -43,6 +43,11 @@ def test_the_compiled_judge_run_is_the_python_run(generator):
             result, queries = la_rrt_within(problem, budget, rng, JUDGE_SETTINGS, compiled=compiled)
             runs.append((result.solved, result.path, result.rejected, queries, rng.random()))
         where = f"{generator} seed {seed}, fixed {fixed}, shrink {shrink}"
-        assert runs[0] == runs[1], where
+        # The same run: verdict, rejections, queries and random draws exactly. Path states may differ
+        # in the last bit (the compiled loop interpolates in scalar steps, numpy in whole arrays;
+        # seed 3023599 of Move N Times showed 4e-16): a diverging run would differ in queries and draws.
+        (solved, path, rejected, queries, draw), (solved_py, path_py, rejected_py, queries_py, draw_py) = runs
+        assert (solved, rejected, queries, draw) == (solved_py, rejected_py, queries_py, draw_py), where
+        assert len(path) == len(path_py) and np.allclose(path, path_py, rtol=0, atol=1e-12), where
         if not fixed and generator != "move_n_times":  # (its door moves need more than the judge's budget)
             assert runs[0][0], f"{where}: the puzzle itself was not solved: the test would miss the connections"
