@@ -19,7 +19,8 @@ import bpy
 RESULT, SCREENSHOT = sys.argv[sys.argv.index("--") + 1:][:2]
 PUZZLE = "simple_slider_1"
 state = {"clicks": [], "tab_clicks": [], "started": time.monotonic(), "errors": [], "drawn": False, "steps": [],
-         "step": 0, "attempt": 0, "clicked_at": None, "running_ticks": 0, "statuses": []}
+         "step": 0, "attempt": 0, "clicked_at": None, "running_ticks": 0, "statuses": [], "click": None,
+         "ticks_after_click": 0}
 
 
 class Step:
@@ -42,8 +43,15 @@ def edit_scene():
 STEPS = (Step("Generate", 0.5, (96, 88, 104)),
          Step("Re-plan", 0.5, (130, 124, 136), before=edit_scene),
          Step("Manipulate", 0.5, (188, 182, 194)))
-ATTEMPT_SECONDS = 6.0
-STEP_SECONDS = 180.0
+CLICK_TICKS = 10
+"""Timer ticks after xdotool has delivered a click before it counts as a miss. A tick runs at most once
+per pass of Blender's event loop, and one pass reads the click, runs the button's operator (which
+sets the job's status at once) and redraws: ten passes are plenty, however slowly a loaded machine
+runs them, where a wait in seconds was too short for a busy machine."""
+TICK = 0.1
+LIMIT_SECONDS = 300.0
+"""Against a hang only (the check takes about 50 s): below the test's 400 s, so that a hung check still
+writes its result, saying where it hung, rather than being killed."""
 
 
 def view3d():
@@ -93,13 +101,40 @@ def click_step(step):
 
 def click(x, y):
     # The pause lets Blender see the pointer over the button (it highlights it) before the click.
-    subprocess.Popen(["xdotool", "mousemove", "--sync", str(x), str(y), "sleep", "0.3", "click", "1"])
+    state["click"] = subprocess.Popen(["xdotool", "mousemove", "--sync", str(x), str(y), "sleep", "0.3", "click",
+                                       "1"])
+    state["ticks_after_click"] = 0
+
+
+def click_missed():
+    """Whether the last click has had CLICK_TICKS ticks since xdotool delivered it (and exited)."""
+    code = state["click"].poll()
+    if code is None:
+        return False
+    if code != 0:
+        raise RuntimeError(f"xdotool exited with {code}")
+    state["ticks_after_click"] += 1
+    return state["ticks_after_click"] > CLICK_TICKS
 
 
 def find_tab():
     """Click down the sidebar's tab column until the PhyRoGen panel draws (a wrong tab is harmless)."""
     if state["drawn"]:
         bpy.app.timers.register(poll, first_interval=1.0)
+        return None
+    if time.monotonic() - state["started"] > LIMIT_SECONDS:
+        last = state["click"] is not None and state["click"].poll() is None
+        state["errors"].append(f"hung: the PhyRoGen tab not found in {LIMIT_SECONDS:.0f} s, after "
+                               f"{len(state['tab_clicks'])} tab clicks (the last one's xdotool "
+                               f"{'still running' if last else 'done'})")
+        finish(False)
+        return None
+    try:
+        if state["click"] is not None and not click_missed():
+            return TICK  # the last tab's click: not yet delivered, or Blender has not drawn after it yet
+    except RuntimeError as exc:
+        state["errors"].append(f"clicking a tab: {exc}")
+        finish(False)
         return None
     window, _, region = view3d()
     top = window.height - (region.y + region.height)
@@ -111,7 +146,7 @@ def find_tab():
     x = region.x + region.width - 9
     click(x, top + offset)
     state["tab_clicks"].append([x, top + offset])
-    return 0.8
+    return TICK
 
 
 def poll():
@@ -119,24 +154,29 @@ def poll():
     not frozen) and go on to the next step when its outcome is in the panel."""
     settings = bpy.context.scene.phyrogen
     now = time.monotonic()
-    if now - state["started"] > 600:
-        state["errors"].append("the check took over 600 s")
+    step = STEPS[state["step"]]
+    if now - state["started"] > LIMIT_SECONDS:
+        clicked = "no click yet" if state["click"] is None else (
+            "its click not yet delivered" if state["click"].poll() is None
+            else f"{state['ticks_after_click']} ticks after its click")
+        state["errors"].append(f"hung: {step.label} not done in {LIMIT_SECONDS:.0f} s (attempt {state['attempt']}, "
+                               f"{clicked}, job status {settings.job_status!r}, {state['running_ticks']} ticks "
+                               f"running, panel {settings.result_label!r}: {settings.result_message!r})")
         finish(False)
         return None
-    step = STEPS[state["step"]]
     if state["clicked_at"] is None:
         if step.before is not None and state["attempt"] == 0:
             step.before()
-        if state["attempt"] == 0:
-            state["before"] = (settings.result_label, settings.result_message)
+        # Taken before every attempt: a neighbour's job that a missed click started changes it too.
+        state["before"] = (settings.result_label, settings.result_message)
         click_step(step)
         state["clicked_at"] = now
-        return 0.25
+        return TICK
     if settings.job_status:
         state["running_ticks"] += 1
         if not state["statuses"] or state["statuses"][-1] != settings.job_status:
             state["statuses"].append(settings.job_status)
-        return 0.25
+        return TICK
     outcome = (settings.result_label, settings.result_message)
     if settings.result_label.startswith(step.label) and outcome != state["before"]:
         state["steps"].append({"step": step.label, "state": settings.result_state,
@@ -152,13 +192,20 @@ def poll():
             bpy.app.timers.register(lambda: finish(True), first_interval=1.0)
             return None
         return 1.0
-    if now - state["clicked_at"] > (STEP_SECONDS if state["running_ticks"] else ATTEMPT_SECONDS):
+    try:
+        # A miss: a neighbour's job ran and ended (its outcome is not this step's), or no job started.
+        missed = state["running_ticks"] > 0 or outcome != state["before"] or click_missed()
+    except RuntimeError as exc:
+        state["errors"].append(f"clicking {step.label}: {exc}")
+        finish(False)
+        return None
+    if missed:
         if state["attempt"] + 1 >= len(step.offsets):
             state["errors"].append(f"no {step.label} job after clicking at every candidate offset")
             finish(False)
             return None
-        state.update(attempt=state["attempt"] + 1, clicked_at=None)
-    return 0.25
+        state.update(attempt=state["attempt"] + 1, clicked_at=None, running_ticks=0, statuses=[])
+    return TICK
 
 
 def start():

@@ -73,8 +73,10 @@ def test_panel_export_after_render_and_benchmark_keeps_their_files(tmp_path):
     root = tmp_path / "out"
     folder = PuzzleFolder.open(write_puzzle(generate_puzzle("simple_slider", 2), root, versions()))
     render_puzzles([folder.path], views=("top",))
-    run_benchmark([folder], ["la_rrt"], get_profile("quick", runs=1, time_limit=5.0), tmp_path / "bench",
-                  workers=1, plots=False, progress=False)
+    # LA-RRT (base seed 0) first solves Simple Slider 2 after 4,959 checks: 50,000 leaves ten times that,
+    # the same on a loaded machine; the time limit is only a backstop against a hang.
+    run_benchmark([folder], ["la_rrt"], get_profile("quick", runs=1, time_limit=300.0), tmp_path / "bench",
+                  workers=1, plots=False, progress=False, budget_checks=50_000)
     assert folder.images.is_dir() and folder.blend.is_file() and folder.best_solution.is_file()
     before = tree(folder.path)
 
@@ -98,7 +100,7 @@ def test_panel_export_after_render_and_benchmark_keeps_their_files(tmp_path):
     # The edit made another puzzle: its renders and solution move into stale/1, beside the puzzle they show.
     moved = [k for k in before if k.startswith(("images/", "solutions/")) or k == folder.blend.name]
     assert moved and all(k not in after and after[f"stale/1/{k}"] == before[k] for k in moved)
-    assert read_puzzle_dir(folder.path / "stale" / "1").record.to_json() == before["puzzle.json"]
+    assert read_puzzle_dir(folder.path / "stale" / "1").record.to_json().encode() == before["puzzle.json"]
     assert after[f"urdf/{folder.name}.urdf"] != before[f"urdf/{folder.name}.urdf"]
     loaded = read_puzzle_dir(folder.path)  # metadata and URDF agree: the strict reader accepts them
     assert loaded.chain == edited

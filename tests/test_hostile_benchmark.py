@@ -33,7 +33,11 @@ from solver.benchmark.runner import (
 )
 
 REPO = Path(__file__).resolve().parents[1]
-QUICK = ["--time-limit", "0.2", "--runs", "1", "--planners", "la_rrt", "--workers", "1", "--quiet"]
+QUICK = ["--budget-checks", "5000", "--time-limit", "300", "--runs", "1", "--planners", "la_rrt", "--workers", "1",
+         "--quiet"]
+"""A benchmark here ends on its check budget, the time limit only a backstop against a hang, so that
+what it finds does not depend on the machine's load: LA-RRT (base seed 0) solves each hostile puzzle
+with its first checks (89 at most until first, over 3 runs of each), well within 5,000."""
 
 
 @pytest.fixture(scope="module")
@@ -353,8 +357,9 @@ def sqlite_runs(database: Path):
 
 def _edit_metadata(folder: Path) -> None:
     data = json.loads((folder / "puzzle.json").read_text())
-    data["note"] = "edited by hand"  # still a valid puzzle, and another file
-    (folder / "puzzle.json").write_text(json.dumps(data))
+    # Saved by hand in another layout: the strict reader has no room for a new key, but other bytes are
+    # another file all the same.
+    (folder / "puzzle.json").write_text(json.dumps(data, indent=4))
 
 
 def _edit_urdf(folder: Path) -> None:
