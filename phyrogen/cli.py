@@ -484,6 +484,8 @@ def cmd_render(args) -> int:
 
 
 def cmd_benchmark(args) -> int:
+    if args.report is not None:
+        return benchmark_report(Path(args.report))
     from solver.benchmark.runner import get_profile, plan_benchmark, run_plan
     from solver.planning.registry import planner_names
 
@@ -512,11 +514,21 @@ def cmd_benchmark(args) -> int:
     with ray_connection(args.ray, args.workers):
         result = run_plan(plan, progress=not args.quiet, ray=args.ray)
     print((Path(args.out) / "summary.md").read_text(encoding="utf-8"))
-    print(f"database: {result.database}  figure: {Path(args.out) / 'fig4.png'}")
+    print(f"database: {result.database}  figure: {Path(args.out) / 'fig4.png'}  "
+          f"results page: {Path(args.out) / 'results.html'}")
     for line in result.unsaved_solutions:
         print(f"phyrogen: warning: {line}", file=sys.stderr)
     crashed = sum(1 for r in result.records if r.error)
     return 1 if crashed or result.unsaved_solutions else 0
+
+
+def benchmark_report(folder: Path) -> int:
+    """``phyrogen benchmark --report DIR``: the results page of a finished benchmark, made again from
+    its database; a missing or broken database is bad input (exit 2, nothing written)."""
+    from solver.benchmark.results_page import write_results_page
+
+    print(f"results page: {write_results_page(folder)}")
+    return 0
 
 
 def _progress(total: int, quiet: bool):
@@ -732,6 +744,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "the time limit becomes a backstop only")
     bench.add_argument("--no-solutions", action="store_true", help="do not save LA-RRT's best path per puzzle")
     bench.add_argument("--dry-run", action="store_true", help="print the job count and time estimate only")
+    bench.add_argument("--report", metavar="DIR",
+                       help="run nothing: write DIR/results.html again from the finished benchmark in DIR "
+                            "(its benchmark.db)")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     bench.set_defaults(func=cmd_benchmark)
     manipulate = sub.add_parser("manipulate", help="execute puzzles' solutions with a mobile KUKA iiwa in PyBullet")

@@ -79,7 +79,7 @@ def test_summary_and_curves_from_the_database(database, tmp_path):
     assert rows["LA-RRT"].median_action_cost == 3
     assert rows["RRT*"].success == 0.5 and rows["RRT*"].median_action_cost == 9
     text = summary_markdown(list(rows.values()))
-    assert "| toy_1 | 1 | 100 / 0.20 / 3 | 50 / 0.60 / 9 |" in text
+    assert "| toy_1 | 1 | 2/2 / 0.20 / 3 | 1/2 / 0.60 / 9 |" in text
     times, success, cost = curves(database, "toy_1", "LA-RRT", points=11)
     assert success[0] == 0 and success[-1] == 1.0
     assert cost[-1] == 3 and cost[6] == 5 and math.isnan(cost[0])  # medians of (2, 4) and (4, 6)
@@ -103,7 +103,7 @@ def test_until_first_and_planner_versions_reach_the_database_and_the_summary(tmp
     rows = summary_rows(db)
     text = summary_markdown(rows, until_first=True)
     assert "--until first" in text and "action cost of the first solution" in text
-    assert "| toy_1 | 1 | 100 / 0.10 / 2 | 100 / 0.05 / 2 |" in text
+    assert "| toy_1 | 1 | 1/1 / 0.10 / 2 | 1/1 / 0.05 / 2 |" in text
     assert plot_fig4(db, tmp_path / "fig.png", until_first=True).stat().st_size > 1000
 
 
@@ -214,6 +214,7 @@ def test_benchmark_end_to_end(tmp_path):
                         progress=False, budget_checks=END_TO_END_CHECKS)
     assert (tmp_path / "bench" / "logs" / "simple_slider_1.log").is_file()
     assert (tmp_path / "bench" / "fig4.png").is_file() and (tmp_path / "bench" / "summary.md").is_file()
+    assert (tmp_path / "bench" / "results.html").is_file()
     rows = summary_rows(out.database)
     assert {r.planner for r in rows} == {"LA-RRT", "LA-RRT+push (ours)", "RRT*"} and all(r.runs == 2 for r in rows)
     assert all(r.success == 1.0 for r in rows if r.planner.startswith("LA-RRT"))

@@ -21,6 +21,17 @@ from pathlib import Path
 
 import numpy as np
 
+from phyrogen_core.seeding import stable_rng
+from solver.benchmark.database import BenchmarkData, DatabaseRun, planner_key, read_benchmark
+from solver.benchmark.statistics import (
+    BOOTSTRAP_RESAMPLES,
+    CONFIDENCE,
+    CellStatistics,
+    Estimate,
+    Proportion,
+    cell_statistics,
+    planner_totals,
+)
 from solver.planning.registry import PLANNERS
 
 PLANNER_ORDER = tuple(spec.title for spec in PLANNERS.values())
@@ -47,6 +58,7 @@ class SummaryRow:
     success: float  # share of runs solved, 0..1
     median_first_solution: float | None  # seconds, over solved runs
     median_action_cost: float | None  # final best cost, over solved runs
+    statistics: CellStatistics | None = None  # intervals, solved all / any, medians over all runs
 
 
 def _connect(db_path: Path) -> sqlite3.Connection:
@@ -56,40 +68,85 @@ def _connect(db_path: Path) -> sqlite3.Connection:
 
 
 def _planner_key(name: str) -> tuple[int, str]:
-    # The live registry, not PLANNER_ORDER: a planner registered after this module loaded sorts in place.
-    order = [spec.title for spec in PLANNERS.values()]
-    return (order.index(name) if name in order else len(order), name)
+    return planner_key(name)
 
 
-def summary_rows(db_path: Path) -> list[SummaryRow]:
-    """Success rate, median time to first solution and median final action cost per puzzle and planner."""
-    with _connect(db_path) as db:
-        rows = db.execute(
-            """SELECT experiments.name, plannerConfigs.name, experiments.timelimit, runs.solved,
-                      runs.time_to_first_solution, runs.action_cost
-               FROM runs JOIN experiments ON runs.experimentid = experiments.id
-                         JOIN plannerConfigs ON runs.plannerid = plannerConfigs.id
-               ORDER BY experiments.id""").fetchall()
-    groups: dict[tuple[str, str], list[tuple]] = {}
-    limits: dict[str, float] = {}
-    for experiment, planner, limit, solved, first, cost in rows:
-        groups.setdefault((experiment, planner), []).append((solved, first, cost))
-        limits[experiment] = limit
-    order = list(dict.fromkeys(r[0] for r in rows))
+def checks_to_first(runs: Sequence[DatabaseRun]) -> list[int | None] | None:
+    """Each run's collision checks up to its first solution, or None when the runs did not record it:
+    only a run that stopped at its first solution (``--until first``) ends its count there."""
+    if not runs or not all(r.until_first for r in runs) or any(r.solved and r.checks is None for r in runs):
+        return None
+    return [r.checks for r in runs]
+
+
+def benchmark_statistics(data: BenchmarkData, method: str = "wilson") -> list[CellStatistics]:
+    """Per puzzle (in the database's order) and planner (the registry's), the statistics of its runs;
+    each bootstrap seeded from (puzzle, planner, quantity), so the numbers are the same on every machine."""
     out = []
-    for (experiment, planner), runs in sorted(groups.items(), key=lambda kv: (order.index(kv[0][0]),
-                                                                               _planner_key(kv[0][1]))):
-        solved = [r for r in runs if r[0]]
-        out.append(SummaryRow(
-            experiment, planner, len(runs), limits[experiment], len(solved) / len(runs),
-            statistics.median(r[1] for r in solved) if solved else None,
-            statistics.median(r[2] for r in solved) if solved else None))
+    for experiment in data.experiments:
+        for planner in data.planners:
+            runs = data.cell(experiment, planner)
+            if not runs:
+                continue
+            out.append(cell_statistics(
+                experiment, planner, [r.solved for r in runs], [r.first_solution_time for r in runs],
+                [r.action_cost for r in runs], checks_to_first(runs),
+                lambda quantity, e=experiment, p=planner: stable_rng("benchmark-bootstrap", e, p, quantity),
+                method))
     return out
 
 
+def summary_rows(db_path: Path, method: str = "wilson") -> list[SummaryRow]:
+    """Per puzzle and planner: success rate, median time to first solution and median final action
+    cost over the solved runs, and the full :class:`~solver.benchmark.statistics.CellStatistics`."""
+    data = read_benchmark(db_path)
+    out = []
+    for cell in benchmark_statistics(data, method):
+        runs = data.cell(cell.experiment, cell.planner)
+        solved = [r for r in runs if r.solved]
+        out.append(SummaryRow(
+            cell.experiment, cell.planner, len(runs), data.time_limits[cell.experiment], len(solved) / len(runs),
+            statistics.median(r.first_solution_time for r in solved) if solved else None,
+            statistics.median(r.action_cost for r in solved) if solved else None, cell))
+    return out
+
+
+def format_number(value: float, digits: int = 3) -> str:
+    """A number for a table: ``digits`` significant digits, ``∞`` for "not within the budget"."""
+    return "∞" if math.isinf(value) else f"{value:.{digits}g}"
+
+
+def format_estimate(estimate: Estimate | None, digits: int = 3) -> str:
+    """``median [low, high]``, or ``-`` when there is nothing to estimate."""
+    if estimate is None:
+        return "-"
+    return (f"{format_number(estimate.value, digits)} "
+            f"[{format_number(estimate.low, digits)}, {format_number(estimate.high, digits)}]")
+
+
+def format_rate(proportion: Proportion) -> str:
+    """``100 % [72, 100]``: the rate and its interval, in percent."""
+    return (f"{100 * proportion.rate:.0f} % [{100 * proportion.low:.0f}, {100 * proportion.high:.0f}]")
+
+
+INTERVAL_NAMES = {"wilson": "Wilson score", "clopper-pearson": "Clopper-Pearson"}
+
+
+def statistics_legend(method: str = "wilson") -> str:
+    """What the intervals and medians of the tables and the results page are, in one paragraph."""
+    return (f"Success rate: successes of runs with a {100 * CONFIDENCE:.0f} % {INTERVAL_NAMES[method]} interval. "
+            "Solved: in all runs (the paper's criterion) / in at least one run. Times and checks to the first "
+            "solution: median over all runs, a run without a solution counting as ∞ (not within its limit or "
+            f"budget); final action cost: median over the solved runs; each with a seeded percentile-bootstrap "
+            f"{100 * CONFIDENCE:.0f} % interval ({BOOTSTRAP_RESAMPLES} resamples). Checks to the first solution are "
+            "recorded only by runs that stop there (`--until first`); '-' otherwise.")
+
+
 def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: float | None = None,
-                     workers: int | None = None, reused: int = 0, until_first: bool = False) -> str:
-    """The summary table as Markdown, one line per puzzle, a column group per planner.
+                     workers: int | None = None, reused: int = 0, until_first: bool = False,
+                     method: str = "wilson") -> str:
+    """The summary as Markdown: an overview (one line per puzzle, a column per planner), then per
+    planner and puzzle the statistics with their intervals, then per planner the totals.
 
     ``reused``: runs of a resumed benchmark that an earlier session did (``wall_seconds`` is
     then this session's time only). ``until_first``: the runs stopped at their first solution,
@@ -97,6 +154,7 @@ def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: flo
     planners = sorted({r.planner for r in rows}, key=_planner_key)
     experiments = list(dict.fromkeys(r.experiment for r in rows))
     table = {(r.experiment, r.planner): r for r in rows}
+    cells = [r.statistics for r in rows if r.statistics is not None]
     lines = []
     if profile is not None:
         session = f" in this session; {reused} runs resumed from an earlier one" if reused else ""
@@ -105,11 +163,11 @@ def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: flo
                      + ".")
         lines.append("")
     if until_first:
-        lines.append("Runs stopped at their first solution (`--until first`). Cells: success % within the "
-                     "limit / median time to first solution [s] / median action cost of the first solution "
+        lines.append("Runs stopped at their first solution (`--until first`). Overview cells: runs solved within "
+                     "the limit / median time to first solution [s] / median action cost of the first solution "
                      "(medians over solved runs).")
     else:
-        lines.append("Cells: success % / median time to first solution [s] / median final action cost "
+        lines.append("Overview cells: runs solved / median time to first solution [s] / median final action cost "
                      "(medians over solved runs).")
     lines.append("")
     lines.append("| puzzle | limit [s] | " + " | ".join(planners) + " |")
@@ -120,20 +178,33 @@ def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: flo
             return "-"
         first = "-" if r.median_first_solution is None else f"{r.median_first_solution:.2f}"
         cost = "-" if r.median_action_cost is None else f"{r.median_action_cost:g}"
-        return f"{100 * r.success:.0f} / {first} / {cost}"
+        return f"{round(r.success * r.runs)}/{r.runs} / {first} / {cost}"
 
     for experiment in experiments:
         limit = next(r.time_limit for r in rows if r.experiment == experiment)
         lines.append(f"| {experiment} | {limit:g} | "
                      + " | ".join(cell(table.get((experiment, p))) for p in planners) + " |")
-    lines.append("")
-    for planner in planners:
-        mine = [r for r in rows if r.planner == planner]
-        full = sum(1 for r in mine if r.success >= 1.0)
-        firsts = [r.median_first_solution for r in mine if r.median_first_solution is not None]
-        lines.append(f"- {planner}: {full}/{len(mine)} puzzles at 100 % success"
-                     + (f"; median of per-puzzle median first-solution times {statistics.median(firsts):.2f} s"
-                        if firsts else "") + ".")
+    if cells:
+        cost_name = "first solution's action cost" if until_first else "final action cost"
+        lines += ["", f"Per planner and puzzle, with {100 * CONFIDENCE:.0f} % intervals. {statistics_legend(method)}",
+                  "",
+                  f"| puzzle | planner | runs solved | success rate [{100 * CONFIDENCE:.0f} % CI] | solved: all / any "
+                  f"| time to first solution [s] | checks to first solution | {cost_name} |",
+                  "|---|---|---:|---:|:-:|---:|---:|---:|"]
+        for c in cells:
+            lines.append(f"| {c.experiment} | {c.planner} | {c.success.successes}/{c.runs} | {format_rate(c.success)} "
+                         f"| {'yes' if c.solved_all else 'no'} / {'yes' if c.solved_any else 'no'} "
+                         f"| {format_estimate(c.time_to_first)} | {format_estimate(c.checks_to_first, 7)} "
+                         f"| {format_estimate(c.final_cost)} |")
+        lines += ["", "Per planner, over all puzzles (runs pooled; the puzzles differ, so the pooled rate is a "
+                  "summary, not one distribution):", "",
+                  "| planner | puzzles solved in all runs | in at least one run | runs solved | pooled success rate "
+                  f"[{100 * CONFIDENCE:.0f} % CI] | median of per-puzzle median times to first solution [s] |",
+                  "|---|---:|---:|---:|---:|---:|"]
+        for t in planner_totals(cells, method):
+            median_time = "-" if t.median_time_to_first is None else format_number(t.median_time_to_first)
+            lines.append(f"| {t.planner} | {t.solved_all}/{t.puzzles} | {t.solved_any}/{t.puzzles} "
+                         f"| {t.pooled.successes}/{t.pooled.runs} | {format_rate(t.pooled)} | {median_time} |")
     return "\n".join(lines) + "\n"
 
 
