@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import html
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -76,6 +77,11 @@ def _e(text: object) -> str:
     return html.escape(str(text), quote=True)
 
 
+def _code(text: str) -> str:
+    # The legend is written for Markdown; `x` becomes <code>x</code> here.
+    return re.sub(r"`([^`]+)`", r"<code>\1</code>", _e(text))
+
+
 def _f(value: float) -> str:
     # SVG coordinates: one decimal, the same text for the same number on every machine.
     return f"{value:.1f}"
@@ -84,7 +90,7 @@ def _f(value: float) -> str:
 def _success_figure(data: BenchmarkData, cells: Sequence[CellStatistics]) -> str:
     """One bar per planner and puzzle: the success rate, with its interval as a whisker."""
     by_cell = {(c.experiment, c.planner): c for c in cells}
-    label_width, column, row, top = 190.0, 150.0, 22.0, 34.0
+    label_width, column, row, top = 190.0, 150.0, 22.0, 44.0
     bar = column - 44.0  # room for the "k/n" text
     width = label_width + column * len(data.planners) + 10
     height = top + row * len(data.experiments) + 8
@@ -95,9 +101,9 @@ def _success_figure(data: BenchmarkData, cells: Sequence[CellStatistics]) -> str
         parts.append(f'<text x="{_f(x)}" y="14" font-size="12" font-weight="600">{_e(planner)}</text>')
         for share in (0.0, 0.5, 1.0):
             gx = x + share * bar
-            parts.append(f'<line class="grid" x1="{_f(gx)}" y1="{_f(top - 12)}" x2="{_f(gx)}" '
+            parts.append(f'<line class="grid" x1="{_f(gx)}" y1="{_f(top - 4)}" x2="{_f(gx)}" '
                          f'y2="{_f(height - 6)}"/>')
-            parts.append(f'<text x="{_f(gx)}" y="{_f(top - 14)}" font-size="9" text-anchor="middle" fill="#666">'
+            parts.append(f'<text x="{_f(gx)}" y="{_f(top - 8)}" font-size="9" text-anchor="middle" fill="#666">'
                          f'{100 * share:.0f}%</text>')
     for i, experiment in enumerate(data.experiments):
         y = top + i * row
@@ -131,7 +137,7 @@ def _decades(low: float, high: float) -> list[float]:
 def _ecdf_figure(title: str, unit: str, series: dict[str, list[float]], css_class: str) -> str:
     """Empirical CDFs on a log axis: per planner, the share of its runs with a solution by x (inf: none)."""
     finite = [v for values in series.values() for v in values if math.isfinite(v)]
-    width, height, left, right, top, bottom = 520.0, 300.0, 48.0, 12.0, 12.0, 40.0
+    width, height, left, right, top, bottom = 520.0, 300.0, 48.0, 28.0, 12.0, 40.0
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" class="{css_class}" width="{_f(width)}" height="{_f(height)}" '
              f'viewBox="0 0 {_f(width)} {_f(height)}" role="img" aria-label="{_e(title)}">']
     plot_w, plot_h = width - left - right, height - top - bottom
@@ -296,7 +302,7 @@ def results_page_html(data: BenchmarkData, method: str = "wilson") -> str:
 <p class="note">{len(data.experiments)} puzzles x {len(data.planners)} planners, {runs_text} runs per planner and
 puzzle ({len(data.runs)} runs), from <code>{_e(data.path.name)}</code>. {_e(data.setup.strip())}</p>
 <p class="legend">{legend}</p>
-<p class="note">{_e(statistics_legend(method))}</p>
+<p class="note">{_code(statistics_legend(method))}</p>
 
 <h2>Per planner</h2>
 <table><tr><th>planner</th><th>puzzles solved in all runs</th><th>in at least one run</th><th>runs solved</th>
