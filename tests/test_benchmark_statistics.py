@@ -262,6 +262,14 @@ def test_a_missing_or_broken_database_is_refused_with_one_line_and_nothing_writt
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and str(folder) in err, err
     assert sorted(p.name for p in empty.iterdir()) == ["benchmark.db"] and not (tmp_path / "nowhere").exists()
+    # A folder of the user's named results.html is not replaced (control: a file of ours is).
+    occupied = write_toy_benchmark(tmp_path / "occupied")
+    (occupied / RESULTS_PAGE).mkdir()
+    (occupied / RESULTS_PAGE / "mine.txt").write_text("keep me")
+    capsys.readouterr()
+    assert main(["benchmark", "--report", str(occupied)]) == 2
+    assert (occupied / RESULTS_PAGE / "mine.txt").read_text() == "keep me"
+    assert main(["benchmark", "--report", str(write_toy_benchmark(tmp_path / "free"))]) == 0
 
 
 def test_report_makes_the_page_again_from_a_finished_benchmark(toy, capsys):

@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import html
 import math
+import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
 
-from phyrogen_core.folder import write_file_atomic
+from phyrogen_core.folder import OutputError, require_writable_dir, write_file_atomic
 from solver.benchmark.database import DATABASE, BenchmarkData, BenchmarkDataError, read_benchmark
 from solver.benchmark.plots import (
     INTERVAL_NAMES,
@@ -337,9 +338,16 @@ def write_results_page(folder: str | Path, method: str = "wilson", database: str
     """Write ``folder/results.html`` (atomically) from ``folder/benchmark.db`` (or ``database``).
 
     Raises :class:`~solver.benchmark.database.BenchmarkDataError` (one line naming the file), with
-    nothing written, when the folder or its database is missing or is not a benchmark database."""
+    nothing written, when the folder or its database is missing or is not a benchmark database;
+    :class:`~phyrogen_core.folder.OutputError` when the folder cannot be written or ``results.html``
+    there is a link or a folder (not ours to replace)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise BenchmarkDataError(f"{folder}: not a benchmark folder (no such directory)")
+    require_writable_dir(folder, "benchmark folder")
+    page = folder / RESULTS_PAGE
+    if os.path.lexists(page) and (page.is_symlink() or not page.is_file()):
+        # Not ours to replace: a link or a folder someone put there.
+        raise OutputError(f"{page} exists and is not a file; move it away or choose another folder")
     data = read_benchmark(folder / DATABASE if database is None else database)
-    return write_file_atomic(folder / RESULTS_PAGE, results_page_html(data, method).encode("utf-8"))
+    return write_file_atomic(page, results_page_html(data, method).encode("utf-8"))
