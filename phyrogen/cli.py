@@ -89,16 +89,27 @@ def cmd_generate(args) -> int:
     from phyrogen_core.folder import require_writable_dir
     from solver.pipelines.generation import Job, run_jobs
 
-    names = _generators(args.generator)
     seeds = parse_seeds(args.seeds)
-    overrides = parse_overrides(args.set or [])
-    if overrides and len(names) > 1:
-        raise UsageError("--set applies to one generator; name it with --generator")
+    difficulty = difficulty_settings(args)
+    if args.suite is not None:
+        from phyrogen_core.suites import get_suite
+
+        if args.generator is not None or args.set:
+            raise UsageError("--suite names its generators and their parameters; give no --generator or --set with it")
+        suite = get_suite(args.suite)
+        names = [entry.generator for entry in suite]
+        overrides_of = {entry.generator: dict(entry.overrides) for entry in suite}
+    else:
+        names = _generators(args.generator or "all")
+        overrides = parse_overrides(args.set or [])
+        if overrides and len(names) > 1:
+            raise UsageError("--set applies to one generator; name it with --generator")
+        overrides_of = {name: overrides for name in names}
     registry = all_generators()
     count = sum(len(r) for r in seeds)
     for name in names:  # fail fast on bad parameters, before any work
         spec = registry[name]
-        params = spec.parse_params(overrides)
+        params = spec.parse_params(overrides_of[name])
         # Seed-dependent sizes (n = seed, n_objects = seed + 1) only grow with the seed, so
         # a range's two ends stand for it.
         for r in seeds:
@@ -109,7 +120,8 @@ def cmd_generate(args) -> int:
         require_writable_dir(out / name)
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
-    jobs = (Job(name, seed, overrides, mjcf=args.mjcf) for name in names for r in seeds for seed in r)
+    jobs = (Job(name, seed, overrides_of[name], mjcf=args.mjcf, difficulty=difficulty)
+            for name in names for r in seeds for seed in r)
     progress = _progress(count * len(names), args.quiet)
 
     def show_running(running: list) -> None:
@@ -178,7 +190,8 @@ def cmd_dataset(args) -> int:
         seeds = (range(start, start + args.count),)
     # Everything is checked before the first file is written: the request, every entry's size
     # (feasible for its generator), and the folder (writable; empty, or this request's dataset).
-    request = make_request(names, seeds, args.set or [], args.sweep, args.shard_size, args.mjcf)
+    request = make_request(names, seeds, args.set or [], args.sweep, args.shard_size, args.mjcf,
+                           difficulty_settings(args))
     root = check_dataset_root(request, Path(args.out))
     progress = _progress(request.size, args.quiet)
 
@@ -588,6 +601,33 @@ def add_ray_option(parser, what: str) -> None:
                              "must see the puzzle folders at the same paths (docs/datasets.md#ray)")
 
 
+def add_difficulty_options(parser) -> None:
+    parser.add_argument("--difficulty", action="store_true",
+                        help="measure each puzzle's difficulty (BIT*'s success rate and median checks to a first "
+                             "solution over seeded runs within a check budget) and write it into puzzle.json")
+    parser.add_argument("--difficulty-runs", type=difficulty_runs_option, metavar="K",
+                        help="runs per puzzle with --difficulty (default 8)")
+    parser.add_argument("--difficulty-checks", type=budget_checks_option, metavar="N",
+                        help="collision checks per run with --difficulty (default 20000)")
+
+
+def difficulty_runs_option(text: str) -> int:
+    from solver.benchmark.difficulty import MAX_RUNS as MAX_DIFFICULTY_RUNS
+
+    return _whole_number(text, 1, MAX_DIFFICULTY_RUNS)
+
+
+def difficulty_settings(args):
+    """The --difficulty settings, or None without --difficulty (then the other two may not be given)."""
+    if not args.difficulty:
+        if args.difficulty_runs is not None or args.difficulty_checks is not None:
+            raise UsageError("--difficulty-runs and --difficulty-checks go with --difficulty")
+        return None
+    from solver.benchmark.difficulty import DEFAULT_BUDGET_CHECKS, DEFAULT_RUNS, DifficultySettings
+
+    return DifficultySettings(args.difficulty_runs or DEFAULT_RUNS, args.difficulty_checks or DEFAULT_BUDGET_CHECKS)
+
+
 def workers_option(text: str) -> int:
     return _whole_number(text, 1, max_workers(), f" ({WORKERS_PER_CORE} per usable core)")
 
@@ -657,13 +697,16 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the registered generators and their parameters").set_defaults(func=cmd_list)
     gen = sub.add_parser("generate", help="generate certified puzzles")
-    gen.add_argument("--generator", default="all", help="a name, comma-separated names, or 'all' (the paper's six)")
+    gen.add_argument("--generator", help="a name, comma-separated names, or 'all' (the paper's six; the default)")
+    gen.add_argument("--suite", help="every generator of a named suite, with its parameters: hard "
+                                     "(phyrogen_core/suites.py)")
     gen.add_argument("--seed", "--seeds", dest="seeds", default="1-4", help="seed, range or list (default 1-4)")
     gen.add_argument("--set", action="append", metavar="KEY=VALUE", help="generator parameter override")
     gen.add_argument("--out", default="output", help="output folder (default: output)")
     gen.add_argument("--workers", type=workers_option, default=2,
                      help="worker processes (default 2; at most 4 per usable core)")
     gen.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
+    add_difficulty_options(gen)
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.set_defaults(func=cmd_generate)
     data = sub.add_parser("dataset", help="generate a sharded, resumable dataset with a Parquet manifest "
@@ -681,6 +724,7 @@ def build_parser() -> argparse.ArgumentParser:
     data.add_argument("--shard-size", type=shard_size_option, default=1000,
                       help="puzzle folders per shard (default 1000)")
     data.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
+    add_difficulty_options(data)
     data.add_argument("--workers", type=workers_option, default=2,
                       help="worker processes (default 2; at most 4 per usable core)")
     add_ray_option(data, "puzzles")

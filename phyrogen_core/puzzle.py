@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from .chain import GOAL_GREEN, Geometry, Joint, JointType, KinematicChain, Link, Role
+from .difficulty import Difficulty
 from .objects import Motion, PuzzleObject, build_chain
 from .provenance import Provenance
 
@@ -69,7 +70,8 @@ class Puzzle:
     ``margins`` maps each movable object but the target to its measured
     interlock margin (metres; see :mod:`phyrogen_core.maker`). ``provenance``
     says where an imported puzzle came from and who certified it (empty for a
-    generated one: generator, parameters and seed say it all).
+    generated one: generator, parameters and seed say it all). ``difficulty`` is measured only on
+    request (``phyrogen generate --difficulty``; :mod:`solver.benchmark.difficulty`).
     """
 
     objects: tuple[PuzzleObject, ...]
@@ -81,6 +83,7 @@ class Puzzle:
     certificate: tuple[tuple[float, ...], ...] = ()
     margins: Mapping[str, float] = field(default_factory=dict)
     provenance: Provenance = field(default_factory=Provenance)
+    difficulty: Difficulty | None = None
 
     @property
     def name(self) -> str:

@@ -21,6 +21,11 @@ puzzle, ``replanned_by`` at the top level); reading moves them into
 ``provenance``. A record is written as version 1 while it has no provenance
 (the two versions are then the same text, so a regenerated puzzle keeps its
 bytes), else as version 2.
+
+Version 3 adds ``difficulty`` (:class:`~phyrogen_core.difficulty.Difficulty`), written only when it
+was measured (``phyrogen generate --difficulty``): a record without it is written exactly as before,
+and a reader that knows only versions 1-2 refuses the file by its version rather than by an
+unknown key.
 """
 
 from __future__ import annotations
@@ -33,15 +38,18 @@ from types import MappingProxyType
 from typing import Any
 
 from .chain import JointType, Role
+from .difficulty import Difficulty
 from .errors import PuzzleFormatError
 from .objects import Motion
 from .provenance import Imported, ImportedJoint, PlannerRun, Provenance
 from .puzzle import Goal
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 """The newest ``puzzle.json`` format; bumped when a key changes meaning. Readers accept 1 to this."""
 PROVENANCE_VERSION = 2
 """The first version with the ``provenance`` key (and without ``replanned_by``, ``parameters.certified_by``)."""
+DIFFICULTY_VERSION = 3
+"""The first version with the ``difficulty`` key."""
 MAX_MAGNITUDE = 1e6
 """The largest magnitude of a number in the URDF, a mesh or a joint value of ``puzzle.json``
 (metres, radians, kilograms, ...). Puzzles are table- to room-sized (the largest generated
@@ -53,8 +61,10 @@ their ``parameters.source`` was provenance."""
 _KEYS = frozenset({
     "format_version", "generator", "name", "seed", "parameters", "joint_order", "joint_limits", "start", "goal",
     "objects", "dependency_graph", "certificate", "certificate_actions", "versions", "certificate_verified",
-    "provenance",
+    "provenance", "difficulty",
 })
+_DIFFICULTY_KEYS = frozenset({"planner", "planner_version", "runs", "budget_checks", "successes", "success_rate",
+                              "success_interval", "median_checks_to_first"})
 
 
 @dataclass(frozen=True)
@@ -110,6 +120,8 @@ class PuzzleRecord:
     certificate_verified: bool = True
     """False after an edit in Blender: the certificate was found for the puzzle before the edit."""
     provenance: Provenance = field(default_factory=Provenance)
+    difficulty: Difficulty | None = None
+    """Measured only on request (a measurement of the puzzle, not part of it: :meth:`same_puzzle` ignores it)."""
 
     def __post_init__(self) -> None:
         # Read-only views of copies: a record cannot change under a caller that holds it.
@@ -121,6 +133,8 @@ class PuzzleRecord:
     @property
     def format_version(self) -> int:
         """The version the file is written as: the oldest that holds everything in the record."""
+        if self.difficulty is not None:
+            return DIFFICULTY_VERSION
         return PROVENANCE_VERSION if self.provenance else 1
 
     def limit(self, joint: str) -> JointLimit:
@@ -135,8 +149,9 @@ class PuzzleRecord:
         return {o.name: o.interlock_margin for o in self.objects if o.interlock_margin is not None}
 
     def same_puzzle(self, other: PuzzleRecord) -> bool:
-        """Whether ``other`` describes the same puzzle, made by any package versions."""
-        return replace(self, versions={}) == replace(other, versions={})
+        """Whether ``other`` describes the same puzzle, made by any package versions and whether or not
+        its difficulty was measured (renders and solutions of the one hold for the other)."""
+        return replace(self, versions={}, difficulty=None) == replace(other, versions={}, difficulty=None)
 
     # -- text ----------------------------------------------------------------
     def to_json(self) -> str:
@@ -178,6 +193,8 @@ class PuzzleRecord:
             data["certificate_verified"] = False
         if self.provenance:
             data["provenance"] = _provenance_dict(self.provenance)
+        if self.difficulty is not None:
+            data["difficulty"] = _difficulty_dict(self.difficulty)
         return data
 
     @classmethod
@@ -245,6 +262,14 @@ def _provenance_dict(provenance: Provenance) -> dict[str, Any]:
     return data
 
 
+def _difficulty_dict(difficulty: Difficulty) -> dict[str, Any]:
+    return {"planner": difficulty.planner, "planner_version": difficulty.planner_version, "runs": difficulty.runs,
+            "budget_checks": difficulty.budget_checks, "successes": difficulty.successes,
+            "success_rate": difficulty.success_rate,
+            "success_interval": [difficulty.success_low, difficulty.success_high],
+            "median_checks_to_first": difficulty.median_checks_to_first}
+
+
 # -- reading -------------------------------------------------------------------
 class _Parser:
     """One strict parse; holds the source for error messages."""
@@ -298,6 +323,7 @@ class _Parser:
             versions=versions,
             certificate_verified=verified,
             provenance=self.provenance(data.get("provenance", {})),
+            difficulty=None if "difficulty" not in data else self.difficulty(data["difficulty"]),
         )
 
     def upgraded(self, data: dict[str, Any]) -> dict[str, Any]:
@@ -305,6 +331,9 @@ class _Parser:
         version = data.get("format_version", 1)
         if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= FORMAT_VERSION:
             raise self.error(f"format_version {version!r} is not supported; valid: 1 to {FORMAT_VERSION}")
+        if "difficulty" in data and version < DIFFICULTY_VERSION:
+            raise self.error(f"difficulty is a key of format_version {DIFFICULTY_VERSION}; this file is version "
+                             f"{version}")
         if version >= PROVENANCE_VERSION:
             return data
         if "provenance" in data:
@@ -405,6 +434,34 @@ class _Parser:
                                 self.field(entry, "robot", str, where),
                                 tuple(sorted(joints, key=lambda j: j.joint)))
         return Provenance(runs["certified"], runs["replanned"], imported)
+
+    def difficulty(self, data: object) -> Difficulty:
+        where = "difficulty"
+        if not isinstance(data, dict):
+            raise self.error(f"{where} must be a dict, got {_show(data)}")
+        self.known(data, set(_DIFFICULTY_KEYS), where)
+        interval = self.field(data, "success_interval", list, where)
+        if len(interval) != 2:
+            raise self.error(f"{where}.success_interval must be [low, high], got {_show(interval)}")
+        if "median_checks_to_first" not in data:
+            raise self.error(f"missing key '{where}.median_checks_to_first'")
+        median = data["median_checks_to_first"]
+        if median is not None and (isinstance(median, bool) or not isinstance(median, int | float)
+                                   or not 0 <= median < math.inf):
+            raise self.error(f"{where}.median_checks_to_first must be a finite number of checks or null, "
+                             f"got {_show(median)}")
+        runs, successes = self.integer(data, "runs", where, low=1), self.integer(data, "successes", where, low=0)
+        rate = self.number(data.get("success_rate"), f"{where}.success_rate")
+        if successes > runs or rate != successes / runs:
+            raise self.error(f"{where}: success_rate {rate!r} with {successes} successes of {runs} runs "
+                             "does not add up")
+        try:
+            return Difficulty(self.field(data, "planner", str, where), self.field(data, "planner_version", str, where),
+                              runs, self.integer(data, "budget_checks", where, low=1), successes,
+                              *(self.number(v, f"{where}.success_interval") for v in interval),
+                              None if median is None else float(median))
+        except ValueError as exc:
+            raise self.error(str(exc)) from None
 
     def run(self, data: object, where: str) -> PlannerRun:
         if not isinstance(data, dict):

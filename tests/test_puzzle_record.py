@@ -19,7 +19,7 @@ from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import read_puzzle_dir, write_puzzle
 from phyrogen_core.export.metadata import metadata_json, puzzle_record
 from phyrogen_core.provenance import PlannerRun
-from phyrogen_core.record import FORMAT_VERSION, PuzzleRecord
+from phyrogen_core.record import FORMAT_VERSION, PROVENANCE_VERSION, PuzzleRecord
 from phyrogen_core.registry import all_generators, get_generator
 from solver.pipelines.generation import generate_here
 
@@ -127,7 +127,7 @@ def test_a_record_with_provenance_is_written_as_the_new_format(puzzles):
     run = PlannerRun("rrt_connect", 1000, 7, 250)
     replanned = dataclasses.replace(record, provenance=dataclasses.replace(record.provenance, replanned=run))
     data = json.loads(replanned.to_json())
-    assert data["format_version"] == FORMAT_VERSION == 2
+    assert data["format_version"] == PROVENANCE_VERSION == 2  # (version 3 only with a difficulty)
     assert data["provenance"] == {"replanned": {"planner": "rrt_connect", "budget": 1000, "seed": 7, "queries": 250}}
     assert PuzzleRecord.from_json(replanned.to_json()) == replanned
 
@@ -190,7 +190,7 @@ def _refused(data: dict, key: str) -> str:
     (lambda d: d["joint_limits"]["obj_00"].__setitem__("type", "continuous"), "joint_limits.obj_00.type"),
     (lambda d: d["dependency_graph"]["edges"].append(["a"]), "dependency_graph.edges"),
     (lambda d: d["versions"].__setitem__("numpy", 2), "versions.numpy"),
-    (lambda d: d.__setitem__("format_version", 3), "format_version"),
+    (lambda d: d.__setitem__("format_version", FORMAT_VERSION + 1), "format_version"),
     (lambda d: d.__setitem__("provenance", {"replanned": {"planner": "x", "budget": 1, "seed": 1,
                                                           "queries": "many"}}), "provenance.replanned.queries"),
     (lambda d: d.pop("certificate_actions"), "'certificate_actions'"),

@@ -63,6 +63,7 @@ def puzzle_record(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> 
         certificate_actions=count_actions(puzzle.certificate, chain.factors),
         versions=dict(versions) if versions is not None else {"phyrogen": _phyrogen_version()},
         provenance=puzzle.provenance,
+        difficulty=puzzle.difficulty,
     )
 
 
@@ -153,7 +154,8 @@ def record_for_chain(stored: PuzzleRecord, chain: KinematicChain) -> PuzzleRecor
     were found for the old chain, so they are kept (the certificate only
     while the joint order is unchanged, so it can be re-checked) but marked
     ``"certificate_verified": false``: ``phyrogen check`` or a new plan
-    decides whether they still hold. Raises ValueError when the goal moves a
+    decides whether they still hold. A measured difficulty is dropped: it was measured on
+    the puzzle before the edit. Raises ValueError when the goal moves a
     joint the chain no longer has.
     """
     order = tuple(chain.joint_order)
@@ -173,4 +175,5 @@ def record_for_chain(stored: PuzzleRecord, chain: KinematicChain) -> PuzzleRecor
         start=tuple(_float(v) for v in start_state(chain)),
         certificate=stored.certificate if stored.joint_order == order else (),
         certificate_verified=False,
+        difficulty=None,  # measured on the puzzle before the edit
     )

@@ -13,7 +13,7 @@ from __future__ import annotations
 import time
 import traceback
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sized
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,7 @@ from phyrogen_core.objects import build_chain
 from phyrogen_core.puzzle import Puzzle
 from phyrogen_core.registry import ParameterError, get_generator
 from phyrogen_core.seeding import stable_seed
+from solver.benchmark.difficulty import DifficultySettings, measure_difficulty
 from solver.parallel.pool import deferred_signals, fresh_process_pool
 from solver.planning.defragment import defragment_certificate
 from solver.planning.ompl_setup import seed_ompl
@@ -87,6 +88,7 @@ class Job:
     overrides: Mapping[str, str] = field(default_factory=dict)
     params: Any = None  # a parameter dataclass instance; takes precedence over ``overrides``
     mjcf: bool = False  # also write the MJCF (``mjcf/<name>.xml``) into the folder
+    difficulty: DifficultySettings | None = None  # measure it and write it into puzzle.json
 
 
 @dataclass(frozen=True)
@@ -110,6 +112,9 @@ def _run_job(job: Job, out_root: str | None) -> Report:
         spec = get_generator(job.generator)
         params = job.params if job.params is not None else spec.parse_params(job.overrides)
         puzzle = generate_here(job.generator, job.seed, params)
+        if job.difficulty is not None:
+            puzzle = replace(puzzle, difficulty=measure_difficulty(puzzle.chain, puzzle.goal, puzzle.name,
+                                                                   job.difficulty))
         folder = None
         notices: list[str] = []
         if out_root is not None:

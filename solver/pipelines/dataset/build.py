@@ -38,7 +38,7 @@ import shutil
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +53,7 @@ from phyrogen_core.folder import (
 )
 from phyrogen_core.maker import GenerationError
 from phyrogen_core.registry import ParameterError, get_generator
+from solver.benchmark.difficulty import DifficultySettings, measure_difficulty
 from solver.parallel.pool import deferred_signals
 from solver.parallel.ray_pool import LOCAL
 from solver.parallel.tasks import task_pool
@@ -84,6 +85,7 @@ class EntryTask:
     params: Any
     shard_dir: str
     mjcf: bool = False  # also write the puzzle's MJCF
+    difficulty: DifficultySettings | None = None  # measure it into puzzle.json
 
     @property
     def name(self) -> str:
@@ -117,6 +119,9 @@ def make_entry(task: EntryTask) -> EntryOutcome:
     error = None
     try:
         puzzle = generate_here(task.generator, task.seed, task.params, stats=stats)
+        if task.difficulty is not None:
+            puzzle = replace(puzzle, difficulty=measure_difficulty(puzzle.chain, puzzle.goal, puzzle.name,
+                                                                   task.difficulty))
     except (ParameterError, GenerationError) as exc:
         error = str(exc)
     except Exception as exc:  # a bug: keep the traceback in the manifest
@@ -410,7 +415,7 @@ def _scan_shard(request: DatasetRequest, root: Path, shard: int,
         else:
             state.waiting.add(entry.index)
             todo.append(EntryTask(entry.index, entry.generator, entry.seed, entry.params, str(shard_dir),
-                                  request.mjcf))
+                                  request.mjcf, request.difficulty))
     return state, todo
 
 

@@ -54,6 +54,15 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
                                    "necessity judging, certifying): a machine-independent generation cost"),
     ("generation_seconds", "float64", "wall time of generating the puzzle in its worker process [s] (a timing "
                                       "column: differs between runs and machines)"),
+    ("difficulty_runs", "int32", "runs of the difficulty measurement (puzzle.json difficulty; null unless the "
+                                 "dataset was made with --difficulty)"),
+    ("difficulty_budget_checks", "int64", "collision checks per difficulty run (null without --difficulty)"),
+    ("difficulty_success_rate", "float64", "the reference planner's (BIT*) share of runs solved within the "
+                                           "budget (null without --difficulty)"),
+    ("difficulty_success_low", "float64", "lower end of the success rate's 95 % Wilson interval"),
+    ("difficulty_success_high", "float64", "upper end of the success rate's 95 % Wilson interval"),
+    ("difficulty_median_checks", "float64", "median collision checks to the first solution over the solved runs "
+                                            "(null when none solved, or without --difficulty)"),
 )
 """The manifest's columns: (name, Arrow type, meaning). docs/datasets.md lists them too."""
 TIMING_COLUMNS = ("generation_seconds",)
@@ -79,6 +88,8 @@ def base_row(entry: Entry, shard: int, record: Mapping[str, Any] | None) -> dict
         "content_hash": None, "canonical_hash": None, "movable_objects": None, "actions": None, "depth": None,
         "branching": None, "shape": None, "interlock_margin": None,
         "validation_checks": record.get("validation_checks"), "generation_seconds": record.get("seconds"),
+        "difficulty_runs": None, "difficulty_budget_checks": None, "difficulty_success_rate": None,
+        "difficulty_success_low": None, "difficulty_success_high": None, "difficulty_median_checks": None,
     }
 
 
@@ -123,6 +134,12 @@ def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
         "shape": DependencyShape(graph.depth, graph.branching).kind,
         "interlock_margin": float(min(margins)) if margins else None,
     })
+    if stored.difficulty is not None:
+        measured = stored.difficulty
+        row.update({"difficulty_runs": measured.runs, "difficulty_budget_checks": measured.budget_checks,
+                    "difficulty_success_rate": measured.success_rate, "difficulty_success_low": measured.success_low,
+                    "difficulty_success_high": measured.success_high,
+                    "difficulty_median_checks": measured.median_checks_to_first})
     return row
 
 

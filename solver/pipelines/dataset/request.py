@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from phyrogen_core.registry import MAX_SEED, get_generator, merge_seed_spans
+from solver.benchmark.difficulty import DifficultySettings
 
 FORMAT_VERSION = 1
 """The version of ``dataset.json`` and of the manifest's columns; bumped when one changes meaning."""
@@ -107,6 +108,7 @@ class DatasetRequest:
     sweep_mode: str = "cross"
     shard_size: int = DEFAULT_SHARD_SIZE
     mjcf: bool = False  # each puzzle's MJCF written beside its URDF (``mjcf/<name>.xml``)
+    difficulty: DifficultySettings | None = None  # each puzzle's difficulty measured into its puzzle.json
 
     # -- size and order -------------------------------------------------------------
     @property
@@ -191,6 +193,8 @@ class DatasetRequest:
             "mjcf": self.mjcf,
             "entries": self.size,
             "shards": self.shard_count,
+            # Only when asked: a request without it keeps the dataset.json it always had.
+            **({} if self.difficulty is None else {"difficulty": _difficulty_json(self.difficulty)}),
         }
 
     def check_feasible(self) -> None:
@@ -217,7 +221,8 @@ class DatasetRequest:
 
 def make_request(generators: Sequence[str], seeds: Sequence[tuple[int, int]] | Sequence[range],
                  settings: Sequence[str] = (), sweep_mode: str = "cross",
-                 shard_size: int = DEFAULT_SHARD_SIZE, mjcf: bool = False) -> DatasetRequest:
+                 shard_size: int = DEFAULT_SHARD_SIZE, mjcf: bool = False,
+                 difficulty: DifficultySettings | None = None) -> DatasetRequest:
     """A checked :class:`DatasetRequest`.
 
     ``seeds``: inclusive (low, high) spans or ranges; ``settings``: ``key=value`` texts as given
@@ -242,7 +247,7 @@ def make_request(generators: Sequence[str], seeds: Sequence[tuple[int, int]] | S
         raise DatasetError("--set applies to one generator; name it with --generator")
     fixed, sweeps = _parse_settings(names[0], settings) if settings else ((), ())
     request = DatasetRequest(names, spans, fixed, sweeps, sweep_mode if len(sweeps) > 1 else "cross", shard_size,
-                             bool(mjcf))
+                             bool(mjcf), difficulty)
     if request.size > MAX_ENTRIES:
         raise DatasetError(f"{request.size} puzzles requested; a dataset holds at most {MAX_ENTRIES:,} "
                            "(make several datasets)")
@@ -353,10 +358,14 @@ def _sweep_texts(spec, key: str, text: str) -> list[str]:
 def request_difference(stored: Mapping[str, Any], request: DatasetRequest) -> str | None:
     """How the request stored in a ``dataset.json`` differs from ``request`` (None: the same)."""
     wanted = request.to_json()
-    for key, value in wanted.items():
-        if stored.get(key) != value:
-            return f"{key} {_short(stored.get(key))} there, {_short(value)} now"
+    for key in (*wanted, "difficulty"):  # (difficulty: also when only the stored request has it)
+        if stored.get(key) != wanted.get(key):
+            return f"{key} {_short(stored.get(key))} there, {_short(wanted.get(key))} now"
     return None
+
+
+def _difficulty_json(settings: DifficultySettings) -> dict[str, Any]:
+    return {"planner": settings.planner, "runs": settings.runs, "budget_checks": settings.budget_checks}
 
 
 def _short(value: Any) -> str:
@@ -373,7 +382,10 @@ def load_request(data: Mapping[str, Any]) -> DatasetRequest:
         return DatasetRequest(tuple(data["generators"]), tuple((int(a), int(b)) for a, b in data["seeds"]),
                               tuple(sorted(data["set"].items())),
                               tuple(Sweep(s["key"], tuple(s["values"])) for s in data["sweeps"]),
-                              data["sweep_mode"], int(data["shard_size"]), bool(data.get("mjcf", False)))
+                              data["sweep_mode"], int(data["shard_size"]), bool(data.get("mjcf", False)),
+                              None if data.get("difficulty") is None else DifficultySettings(
+                                  int(data["difficulty"]["runs"]), int(data["difficulty"]["budget_checks"]),
+                                  str(data["difficulty"]["planner"])))
     except (KeyError, TypeError, AttributeError, ValueError) as exc:
         if isinstance(exc, DatasetError):
             raise

@@ -1,0 +1,122 @@
+"""A puzzle's difficulty in machine-independent units: a reference planner's success rate and checks.
+
+``measure_difficulty`` runs the reference planner (OMPL's BIT*, from the
+planner registry) ``runs`` times on the puzzle, each run ended at its first
+solution that holds at fine resolution or after ``budget_checks`` collision
+checks, and reports how many runs succeeded (with the rate's 95 % Wilson
+interval) and the median checks to the first solution among the successes
+(:class:`phyrogen_core.difficulty.Difficulty`).
+
+Run ``r`` is seeded exactly as run ``r`` of ``phyrogen benchmark --planners
+bit_star --until first --budget-checks N`` on the same puzzle (the planner's
+seed and the shared goal sampler's seed from the puzzle's name and the run
+index, :func:`solver.planning.registry.run_seed`, :func:`solver.planning.goal_sampling.goal_seed`,
+OMPL's global RNG re-seeded before each run), so the two agree run for run.
+Nothing here reads the clock to decide anything: the same puzzle, run count
+and budget give the same numbers on any machine under any load. The clock is
+only a backstop against a planner that stops checking; a run that reaches it
+makes the measurement fail (:class:`DifficultyError`) rather than depend on
+the machine.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from dataclasses import dataclass
+
+from phyrogen_core.chain import KinematicChain
+from phyrogen_core.difficulty import Difficulty
+from phyrogen_core.puzzle import Goal
+from solver.planning.anytime import PlanResult, check_budget_checks
+from solver.planning.goal_sampling import goal_seed
+from solver.planning.registry import get_planner, run_seed
+
+REFERENCE_PLANNER = "bit_star"
+"""The registry name of the planner whose runs measure difficulty."""
+DEFAULT_RUNS = 8
+"""Runs per puzzle by default (``--difficulty-runs``)."""
+DEFAULT_BUDGET_CHECKS = 20_000
+"""Collision checks per run by default (``--difficulty-checks``): cheap enough to measure every
+puzzle of a dataset; the hard suite's budgets are the paper's (:mod:`phyrogen_core.suites`)."""
+MAX_RUNS = 10_000
+BACKSTOP_SECONDS = 600.0
+"""A run's wall-clock backstop, at the least; it grows with the budget (:func:`backstop_seconds`)."""
+WILSON_Z = 1.959963984540054
+"""The standard normal quantile of a two-sided 95 % interval."""
+
+
+class DifficultyError(RuntimeError):
+    """The measurement would depend on the machine (a run ended on its wall-clock backstop)."""
+
+
+@dataclass(frozen=True)
+class DifficultySettings:
+    """What to measure: ``runs`` runs of ``planner``, each of at most ``budget_checks`` checks."""
+
+    runs: int = DEFAULT_RUNS
+    budget_checks: int = DEFAULT_BUDGET_CHECKS
+    planner: str = REFERENCE_PLANNER
+
+    def __post_init__(self) -> None:
+        if isinstance(self.runs, bool) or not isinstance(self.runs, int) or not 1 <= self.runs <= MAX_RUNS:
+            raise ValueError(f"difficulty runs must be a whole number from 1 to {MAX_RUNS}, got {self.runs!r}")
+        check_budget_checks(self.budget_checks)
+        get_planner(self.planner)  # an unknown name is refused here, naming the valid ones
+
+
+def backstop_seconds(budget_checks: int) -> float:
+    """The wall-clock backstop of a run of ``budget_checks`` checks: 100 checks a second, far below
+    any planner's rate on any puzzle measured, and at least :data:`BACKSTOP_SECONDS`."""
+    return max(BACKSTOP_SECONDS, budget_checks / 100.0)
+
+
+def wilson_interval(successes: int, runs: int, z: float = WILSON_Z) -> tuple[float, float]:
+    """The Wilson score interval of a success rate (95 % by default), clipped to [0, 1] and made to
+    hold the observed rate exactly (rounding could put 0 successes a hair above 0).
+
+    A private copy: ``solver/benchmark/statistics.py`` is to hold the project's one; use that
+    once it exists."""
+    if runs < 1 or not 0 <= successes <= runs:
+        raise ValueError(f"need 0 <= successes <= runs and runs >= 1, got {successes} of {runs}")
+    rate = successes / runs
+    denominator = 1.0 + z * z / runs
+    centre = (rate + z * z / (2 * runs)) / denominator
+    half = z * math.sqrt(rate * (1 - rate) / runs + z * z / (4 * runs * runs)) / denominator
+    return min(max(0.0, centre - half), rate), max(min(1.0, centre + half), rate)
+
+
+def difficulty_run(chain: KinematicChain, goal: Goal, name: str, run: int, settings: DifficultySettings) -> PlanResult:
+    """Run ``run`` of the measurement on the puzzle ``name`` (seeded as the benchmark's run ``run``)."""
+    from solver.planning.problem import problem_for_chain
+
+    spec = get_planner(settings.planner)
+    seed = run_seed(settings.planner, name, run)
+    if spec.uses_ompl_rng:
+        from solver.planning.ompl_setup import seed_ompl
+
+        seed_ompl(seed)
+    problem = problem_for_chain(chain, goal)
+    return spec.plan(problem, backstop_seconds(settings.budget_checks), seed, 1.0, True, goal_seed(name, run),
+                     settings.budget_checks)
+
+
+def summarize(results: list[PlanResult], settings: DifficultySettings) -> Difficulty:
+    """The difficulty of a puzzle from its measurement runs (in run order)."""
+    backstop = backstop_seconds(settings.budget_checks)
+    for run, result in enumerate(results):
+        if not result.solved and result.checks < settings.budget_checks and result.time >= backstop:
+            raise DifficultyError(f"difficulty run {run} ended on its {backstop:g} s backstop after "
+                                  f"{result.checks} of {settings.budget_checks} checks; the measurement "
+                                  "would depend on the machine")
+    checks = [result.checks for result in results if result.solved]
+    low, high = wilson_interval(len(checks), len(results))
+    return Difficulty(settings.planner, get_planner(settings.planner).version, len(results), settings.budget_checks,
+                      len(checks), low, high, float(statistics.median(checks)) if checks else None)
+
+
+def measure_difficulty(chain: KinematicChain, goal: Goal, name: str,
+                       settings: DifficultySettings | None = None) -> Difficulty:
+    """The difficulty of the puzzle ``name`` (its chain and goal), in this process, run after run."""
+    settings = DifficultySettings() if settings is None else settings
+    return summarize([difficulty_run(chain, goal, name, run, settings) for run in range(settings.runs)], settings)
