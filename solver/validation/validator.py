@@ -36,7 +36,7 @@ from solver.planning.problem import (
     problem_for_objects,
     verify_certificate,
 )
-from solver.validation.judge import JUDGE_BUDGET, judge
+from solver.validation.judge import JUDGE_BUDGET, SECOND_JUDGE_BUDGET, Necessity, judge
 
 DEFAULT_BUDGET = 4000
 """Collision queries (motion checks plus single-state checks) RRT-Connect may spend
@@ -89,6 +89,8 @@ class OmplValidator:
         self._blocked: dict[tuple[PuzzleObject, ...], np.ndarray] = {}
         self._alone: tuple[tuple, CollisionModel] | None = None
         self._fine: set[tuple[PuzzleObject, ...]] = set()
+        self.second_judge_budget = SECOND_JUDGE_BUDGET  # 0: the first judge alone (tests' controls)
+        self.verdicts: list[Necessity] = []  # every necessity verdict, in the Maker's order
 
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult:
         objects = tuple(objects)
@@ -377,12 +379,17 @@ class OmplValidator:
 
     def necessity(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], margin: float, *,
                   budget_scale: float = 1.0) -> float | None:
-        """The Maker's FixJoint: :func:`solver.validation.judge.judge` with ``budget_scale`` times
-        :data:`~solver.validation.judge.JUDGE_BUDGET`; None when the objects ``fixed`` are superfluous, else
-        their measured margin. (The judge's budget does not grow with :attr:`budget`: LA-RRT's
-        pushes need no larger search where RRT-Connect does, as in Move N Times.)"""
-        verdict = judge(build_chain(tuple(objects)), goal, fixed, margin, int(JUDGE_BUDGET * budget_scale), self.rng)
-        self.checks += verdict.queries
+        """The Maker's FixJoint: :func:`solver.validation.judge.judge`, both judges, with ``budget_scale``
+        times :data:`~solver.validation.judge.JUDGE_BUDGET` and
+        :data:`~solver.validation.judge.SECOND_JUDGE_BUDGET`; None when the objects ``fixed`` are
+        superfluous, else their measured margin. Each verdict, with the judges' goal accounting, is
+        kept in :attr:`verdicts`. (The budgets do not grow with :attr:`budget`: LA-RRT's pushes need
+        no larger search where RRT-Connect does, as in Move N Times.)"""
+        second = max(1, int(self.second_judge_budget * budget_scale)) if self.second_judge_budget else 0
+        verdict = judge(build_chain(tuple(objects)), goal, fixed, margin, int(JUDGE_BUDGET * budget_scale), self.rng,
+                        second_budget=second)
+        self.checks += verdict.queries + verdict.second_checks
+        self.verdicts.append(verdict)
         return verdict.margin if verdict.necessary else None
 
     def _extend_previous(self, objects: tuple[PuzzleObject, ...], goal: Goal):
