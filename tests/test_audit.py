@@ -29,6 +29,7 @@ from solver.pipelines.audit import (
     report_markdown,
 )
 from solver.pipelines.generation import Job, run_jobs
+from solver.validation.judge import NO_GOAL_STATE, NO_PATH
 
 BUDGET = "3000"
 """Queries per attempt in these tests: a simple slider with one object too many is solved in far
@@ -69,6 +70,13 @@ def test_a_generated_puzzle_passes(generated, tmp_path, capsys):
     assert puzzle["ok"] and puzzle["superfluous"] == []
     assert [o["name"] for o in puzzle["objects"]] == ["obj_01", "obj_02", "obj_03", "obj_04", "obj_05"]
     assert all(not o["superfluous"] and o["path"] == [] for o in puzzle["objects"])
+    # Both judges ran on every object, and each necessary one says why (goal region empty or no path).
+    assert report["settings"]["judges"] == ["la_rrt_push", "la_rrt_paper"]
+    for o in puzzle["objects"]:
+        assert o["solved_by"] == [] and o["necessity"] in (NO_GOAL_STATE, NO_PATH), o["necessity"]
+        second = o["second_judge"]
+        assert 0 < second["checks"] <= second["budget"] + 8 and second["budget"] == int(BUDGET)
+        assert (second["goals"]["states"] == 0) == (o["necessity"] == NO_GOAL_STATE), second
     assert puzzle["certificate"]["replay"]["deepest_penetration"] <= PENETRATION_TOLERANCE
     assert puzzle["certificate"]["replay"]["states"] > 1000  # densified at 2 mm
     assert (out / "audit.md").read_text().splitlines()[0] == MARKDOWN_MARKER
@@ -96,8 +104,10 @@ def test_a_superfluous_object_fails_the_audit_and_is_named_with_its_path(generat
     first = (out / "audit.json").read_bytes()
     (puzzle,) = _report(out)["puzzles"]
     assert puzzle["superfluous"] == ["obj_99"] and not puzzle["ok"]
+    assert [o["necessity"] for o in puzzle["objects"]].count("superfluous") == 1
     assert puzzle["certificate"]["replay_ok"], "the certificate itself is fine"
     found = next(o for o in puzzle["objects"] if o["name"] == "obj_99")
+    assert "la_rrt_push" in found["solved_by"], found["solved_by"]
     loaded = read_puzzle_dir(folder)
     column = loaded.joint_order.index("obj_99")
     path = found["path"]

@@ -10,13 +10,18 @@ same questions of the exported folder, harder, and with a second referee:
    import PyBullet) on the exported URDF; the deepest penetration between
    two objects must stay within the referee's tolerance.
 2. **Every object is necessary.** For each movable object except the target,
-   LA-RRT with pushes tries to solve the puzzle with that object fixed and
-   every shape shrunk by the puzzle's ``interlock_margin``
-   (:func:`solver.validation.judge.attempt_fixed`, the Maker's own question), with a
-   budget of collision queries far larger than the Maker's
-   (:data:`DEFAULT_BUDGET`). A solved attempt names a superfluous object; its
-   path is kept and replayed by the referee, judged twice: at the exact
-   geometry and at the shrunk geometry it was planned for.
+   both of the Maker's judges try to solve the puzzle with that object fixed
+   and every shape shrunk by the puzzle's ``interlock_margin``, each with a
+   budget far larger than the Maker's: LA-RRT with pushes
+   (:func:`solver.validation.judge.attempt_fixed`, :data:`DEFAULT_BUDGET`
+   queries) and the second judge, the paper's LA-RRT with goal states from
+   its own goal sampler (:func:`solver.validation.judge.attempt_second`,
+   :func:`second_budget` checks, goal sampling included). An object that
+   EITHER judge solves the puzzle without is superfluous; the path is kept and
+   replayed by the referee, judged twice: at the exact geometry and at the
+   shrunk geometry it was planned for. Each object's record carries the
+   second judge's goal accounting: a necessary object whose fixing left no
+   valid goal state found is told apart from one with goal states and no path.
 
 Determinism: budgets are counted in collision queries and each attempt's
 rng is seeded from the puzzle's and the object's names
@@ -51,7 +56,16 @@ from phyrogen_core.folder import (
 from phyrogen_core.generators.kit import MAX_INTERLOCK_MARGIN
 from phyrogen_core.seeding import stable_seed
 from solver.parallel.pool import fresh_process_pool
-from solver.validation.judge import JUDGE_BUDGET, attempt_fixed
+from solver.planning.goal_sampling import GoalAccount
+from solver.validation.judge import (
+    FIRST_JUDGE,
+    JUDGE_BUDGET,
+    NO_GOAL_STATE,
+    NO_PATH,
+    SECOND_JUDGE,
+    attempt_fixed,
+    attempt_second,
+)
 
 BUDGET_FACTOR = 25
 """The audit's budget per attempt, as a multiple of the Maker's :data:`~solver.validation.judge.JUDGE_BUDGET`."""
@@ -149,6 +163,18 @@ def attempt_seed(puzzle: str, obj: str) -> int:
     return stable_seed("audit", puzzle, obj)
 
 
+def second_attempt_seed(puzzle: str, obj: str) -> int:
+    """The seed of the second judge's attempt with object ``obj`` of puzzle ``puzzle`` fixed."""
+    return stable_seed("audit", puzzle, obj, SECOND_JUDGE)
+
+
+def second_budget(budget: int) -> int:
+    """The second judge's checks per attempt for a first-judge ``budget`` of queries: as many checks
+    as the first judge has queries (100 000 by default, 50x the Maker's second judge, whose budget
+    was halved to keep generation cheap; the audit keeps the larger one), so ``--budget`` scales both."""
+    return budget
+
+
 # -- results ------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class CertificateAudit:
@@ -183,6 +209,19 @@ class ObjectAudit:
     exact_threshold: float = 0.0  # the referee's tolerance: the path holds for the exported shapes
     robust_threshold: float = 0.0  # plus 2 x shrink: the path holds for the shapes it was planned with
     error: str | None = None
+    solved_by: tuple[str, ...] = ()  # the judges that solved it (the path is the first one's)
+    second_budget: int = 0
+    second_checks: int = 0  # the second judge's collision checks, goal sampling included
+    second_goals: GoalAccount | None = None  # the second judge's goal sampling
+
+    @property
+    def necessity(self) -> str:
+        """Why the object counts as necessary (:data:`~solver.validation.judge.NO_GOAL_STATE`: the second
+        judge found no valid goal state with it fixed; :data:`~solver.validation.judge.NO_PATH`: it
+        found some, and no judge a path), or "superfluous"."""
+        if self.superfluous:
+            return "superfluous"
+        return NO_GOAL_STATE if self.second_goals is not None and self.second_goals.states == 0 else NO_PATH
 
     @property
     def exact_ok(self) -> bool | None:
@@ -220,6 +259,10 @@ class PuzzleAudit:
         return sum(o.queries for o in self.objects)
 
     @property
+    def second_checks(self) -> int:
+        return sum(o.second_checks for o in self.objects)
+
+    @property
     def ok(self) -> bool:
         return self.certificate.ok and all(o.ok for o in self.objects)
 
@@ -242,7 +285,8 @@ class PuzzleAudit:
                 out.append(f"{name}: the attempt with {o.name} fixed crashed: {o.error}")
             elif o.superfluous:
                 out.append(f"{name}: {o.name} is superfluous: solved with it fixed, shapes shrunk by "
-                           f"{o.shrink:g} m, in {o.queries} queries ({len(o.path)} states); {_verdict(o)}")
+                           f"{o.shrink:g} m, by {' and '.join(o.solved_by)} (first judge {o.queries} queries, "
+                           f"second {o.second_checks} checks; {len(o.path)} states); {_verdict(o)}")
         return out
 
 
@@ -297,7 +341,7 @@ def _crashed(task: _Task, error: str) -> CertificateAudit | ObjectAudit:
     if task.obj is None:
         return CertificateAudit(tolerance=task.referee.tolerance, error=error)
     return ObjectAudit(task.obj, attempt_seed(task.puzzle.name, task.obj), task.budget, task.puzzle.margin,
-                       error=error)
+                       error=error, second_budget=second_budget(task.budget))
 
 
 def _lost(task: _Task, how: str) -> tuple[int, str | None, CertificateAudit | ObjectAudit]:
@@ -315,12 +359,19 @@ def audit_certificate(chain: KinematicChain, goal, start, certificate, urdf: str
 
 def audit_object(chain: KinematicChain, goal, obj: str, puzzle: str, margin: float, budget: int,
                  urdf: str | Path, referee: Referee) -> ObjectAudit:
-    """Try to solve the puzzle with ``obj`` fixed, shapes shrunk by ``margin``; replay a found path."""
+    """Both judges try to solve the puzzle with ``obj`` fixed, shapes shrunk by ``margin`` (the second
+    with :func:`second_budget` checks, always, so every object has its goal accounting); replay a
+    found path (the first judge's when both found one)."""
     seed = attempt_seed(puzzle, obj)
-    attempt = attempt_fixed(chain, goal, [obj], margin, budget, np.random.default_rng(seed))
-    replay = referee.replay(urdf, chain, attempt.path) if attempt.solved else None
-    return ObjectAudit(obj, seed, budget, margin, attempt.queries, attempt.solved, attempt.path, replay,
-                       referee.tolerance, referee.tolerance + 2.0 * margin)
+    first = attempt_fixed(chain, goal, [obj], margin, budget, np.random.default_rng(seed))
+    checks = second_budget(budget)
+    second = attempt_second(chain, goal, [obj], margin, checks, second_attempt_seed(puzzle, obj))
+    solved_by = tuple(a.judge for a in (first, second) if a.solved)
+    path = first.path if first.solved else second.path
+    replay = referee.replay(urdf, chain, path) if solved_by else None
+    return ObjectAudit(obj, seed, budget, margin, first.queries, bool(solved_by), path, replay,
+                       referee.tolerance, referee.tolerance + 2.0 * margin, None, solved_by, checks, second.queries,
+                       second.goals)
 
 
 def check_budget(budget: object) -> int:
@@ -391,10 +442,11 @@ def report_data(audits: Sequence[PuzzleAudit], settings: AuditSettings, total: i
     total = len(audits) if total is None else total
     return {
         "format": REPORT_FORMAT,
-        "format_version": 1,
+        "format_version": 2,  # 2: the second judge and the goal accounting
         "complete": len(audits) == total,
         "puzzles_total": total,
         "settings": {**asdict(settings), "budget_factor_of_maker": settings.budget / JUDGE_BUDGET,
+                     "judges": [FIRST_JUDGE, SECOND_JUDGE], "second_budget": second_budget(settings.budget),
                      "exact_threshold": settings.tolerance,
                      "robust_threshold": "exact_threshold + 2 x the puzzle's interlock_margin"},
         "failed": sum(not a.ok for a in audits),
@@ -409,13 +461,17 @@ def _puzzle_data(audit: PuzzleAudit) -> dict[str, Any]:
         "interlock_margin": p.margin, "movable_objects": p.movable, "certificate_actions": p.actions,
         "certificate_edited": p.edited, "joint_order": list(p.joint_order), "ok": audit.ok,
         "failures": audit.failures(), "superfluous": list(audit.superfluous), "queries": audit.queries,
+        "second_checks": audit.second_checks,
         "certificate": {"problems": list(cert.problems), "replay": _replay_data(cert.replay),
                         "replay_ok": cert.replay_ok, "error": cert.error},
         "objects": [{"name": o.name, "seed": o.seed, "budget": o.budget, "shrink": o.shrink, "queries": o.queries,
                      "superfluous": o.superfluous, "path": [list(s) for s in o.path],
                      "replay": _replay_data(o.replay), "exact_ok": o.exact_ok, "robust_ok": o.robust_ok,
                      "exact_threshold": o.exact_threshold, "robust_threshold": o.robust_threshold,
-                     "error": o.error} for o in audit.objects],
+                     "error": o.error, "solved_by": list(o.solved_by), "necessity": o.necessity,
+                     "second_judge": {"budget": o.second_budget, "checks": o.second_checks,
+                                      "goals": None if o.second_goals is None else asdict(o.second_goals)}}
+                    for o in audit.objects],
     }
 
 
@@ -433,26 +489,35 @@ def report_markdown(audits: Sequence[PuzzleAudit], settings: AuditSettings, tota
     cut = f"**Incomplete: the audit stopped after {len(audits)} of {total} puzzles.** " if len(audits) < total else ""
     lines = [
         MARKDOWN_MARKER, "", "# Puzzle audit", "",
-        f"{cut}{len(audits) - len(failed)} of {len(audits)} puzzles pass. Each attempt may spend {settings.budget} "
-        f"collision queries ({settings.budget / JUDGE_BUDGET:g} x the Maker's judge); paths are replayed in "
+        f"{cut}{len(audits) - len(failed)} of {len(audits)} puzzles pass. Each object is tried by two judges: "
+        f"{FIRST_JUDGE} with {settings.budget} collision queries ({settings.budget / JUDGE_BUDGET:g} x the Maker's "
+        f"judge) and {SECOND_JUDGE} with {second_budget(settings.budget)} checks, goal sampling included; an object "
+        "either one solves the puzzle without is superfluous. A necessary object is counted under 'no goal state' "
+        "when the second judge found no valid goal state with it fixed, else under 'no path'. Paths are replayed in "
         f"{settings.referee} every {settings.resolution * 1000:g} mm. A certificate may penetrate at most "
         f"{_mm(settings.tolerance)}; a path found with an object fixed is judged at the exact geometry (the same "
         f"{_mm(settings.tolerance)}) and at the geometry it was planned for (plus 2 x the puzzle's "
         "interlock margin). Found paths are in `audit.json`.", "",
         "| generator | seed | movable objects | certificate actions | deepest replay penetration [mm] | replay ok "
-        "| objects attempted | superfluous objects | queries | result |",
-        "|---|---:|---:|---:|---:|---|---:|---|---:|---|",
+        "| objects attempted | superfluous objects | necessary: no goal state / no path | queries "
+        "| second judge checks | result |",
+        "|---|---:|---:|---:|---:|---|---:|---|---|---:|---:|---|",
     ]
     for a in audits:
         p, cert = a.puzzle, a.certificate
         depth = f"{cert.replay.depth * 1000:.3f}" if cert.replay is not None and cert.replay.problem is None else "-"
         lines.append(f"| {p.generator} | {p.seed} | {p.movable} | {p.actions} | {depth} | "
                      f"{'yes' if cert.replay_ok else 'no'} | {len(p.attempted)} | {', '.join(a.superfluous) or '-'} "
-                     f"| {a.queries} | {'ok' if a.ok else 'FAILED'} |")
+                     f"| {_necessity_counts(a)} | {a.queries} | {a.second_checks} | {'ok' if a.ok else 'FAILED'} |")
     if failed:
         lines += ["", "## Failures", ""]
         lines += [f"- {line.splitlines()[0]}" for a in failed for line in a.failures()]
     return "\n".join(lines) + "\n"
+
+
+def _necessity_counts(audit: PuzzleAudit) -> str:
+    reasons = [o.necessity for o in audit.objects if o.error is None]
+    return f"{reasons.count(NO_GOAL_STATE)} / {reasons.count(NO_PATH)}"
 
 
 def check_report_folder(out: str | Path) -> Path:
