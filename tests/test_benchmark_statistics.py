@@ -208,9 +208,25 @@ def test_summary_table_shows_counts_intervals_solved_all_and_any_and_medians(toy
     assert "| toy_2 | LA-RRT | 0/5 | 0 % [0, 43] | no / no | ∞ [∞, ∞] | ∞ [∞, ∞] | - |" in text
     assert "| LA-RRT+push (ours) | 2/2 | 2/2 | 10/10 | 100 % [72, 100] |" in text
     assert "| LA-RRT | 0/2 | 1/2 | 4/10 | 40 % [17, 69] |" in text
-    # Runs that went on past their first solution did not count the checks to it: '-', not a guess.
+    # Runs that went on past their first solution, without the run property "checks to first
+    # solution", did not count the checks to it: '-', not a guess (a cell with no solved run: all ∞).
     limit = write_toy_benchmark(toy.parent / "limit", until_first=False)
-    assert all(c.checks_to_first is None for c in benchmark_statistics(read_benchmark(limit / "benchmark.db")))
+    unknown = benchmark_statistics(read_benchmark(limit / "benchmark.db"))
+    assert all((c.checks_to_first is None) == c.solved_any for c in unknown)
+    # Control: with the property recorded (here filled in by hand) the same runs have their counts.
+    with sqlite3.connect(limit / "benchmark.db") as db:
+        if "checks_to_first_solution" not in {row[1] for row in db.execute("PRAGMA table_info(runs)")}:
+            db.execute("ALTER TABLE runs ADD COLUMN checks_to_first_solution INTEGER")
+        db.execute("UPDATE runs SET checks_to_first_solution = collision_checks - 7 WHERE solved = 1")
+    known = {(c.experiment, c.planner): c for c in benchmark_statistics(read_benchmark(limit / "benchmark.db"))}
+    assert all(c.checks_to_first is not None for c in known.values())
+    assert known[("toy_1", "LA-RRT")].checks_to_first.value == 253  # 260 - 7: the property, not the total
+    # A database from before runs counted their checks (no such column) reads, with '-' too.
+    assert all(c.checks_to_first is not None for c in benchmark_statistics(read_benchmark(toy / "benchmark.db")))
+    with sqlite3.connect(toy / "benchmark.db") as db:
+        db.execute("ALTER TABLE runs DROP COLUMN collision_checks")
+    older = benchmark_statistics(read_benchmark(toy / "benchmark.db"))
+    assert len(older) == 6 and all((c.checks_to_first is None) == c.solved_any for c in older)
 
 
 def bars_of(page: str) -> dict[tuple[str, str], tuple[int, int]]:

@@ -4,6 +4,8 @@ The database is the one OMPL's ``readBenchmarkLog`` built from our logs (Planner
 ``experiments`` (one per puzzle, with its time limit), ``plannerConfigs`` (a planner's name and
 its common properties as text: ``until_first``, ``budget_checks``, ``version``), ``runs`` (one
 column per run property of :data:`solver.benchmark.runner.RUN_PROPERTIES`) and ``progress``.
+Columns added to the run properties over time (``collision_checks``, ``checks_to_first_solution``)
+may be missing from an older database; they read as None.
 Anything else (a missing file, a file that is not SQLite, a database without those tables or
 without runs) is refused with :class:`BenchmarkDataError`, one line naming the file.
 """
@@ -40,6 +42,17 @@ class DatabaseRun:
     checks: int | None  # None in databases (or runs) from before collision checks were recorded
     until_first: bool  # the run stopped at its first solution: its checks are those to the first solution
     budget_checks: int | None
+    first_solution_checks: int | None = None  # run property "checks to first solution", where recorded
+
+    @property
+    def checks_to_first_solution(self) -> int | None:
+        """Collision checks spent up to the first solution: the run's own count where it recorded one,
+        else all its checks if it stopped there (``until_first``), else unknown (None)."""
+        if not self.solved:
+            return None
+        if self.first_solution_checks is not None:
+            return self.first_solution_checks
+        return self.checks if self.until_first else None
 
 
 @dataclass(frozen=True)
@@ -98,10 +111,11 @@ def read_benchmark(db_path: str | Path) -> BenchmarkData:
                 missing = ", ".join(sorted(required - columns))
                 raise BenchmarkDataError(f"{path}: not a PhyRoGen benchmark database (its runs table lacks {missing})")
             checks = "runs.collision_checks" if "collision_checks" in columns else "NULL"
+            first_checks = "runs.checks_to_first_solution" if "checks_to_first_solution" in columns else "NULL"
             experiments = db.execute("SELECT name, timelimit, setup FROM experiments ORDER BY id").fetchall()
             rows = db.execute(
                 f"""SELECT experiments.name, plannerConfigs.name, plannerConfigs.settings, runs.solved, runs.time,
-                           runs.time_to_first_solution, runs.action_cost, {checks}
+                           runs.time_to_first_solution, runs.action_cost, {checks}, {first_checks}
                     FROM runs JOIN experiments ON runs.experimentid = experiments.id
                               JOIN plannerConfigs ON runs.plannerid = plannerConfigs.id
                     ORDER BY runs.id""").fetchall()
@@ -110,14 +124,15 @@ def read_benchmark(db_path: str | Path) -> BenchmarkData:
     if not rows:
         raise BenchmarkDataError(f"{path}: the benchmark database holds no runs")
     runs = []
-    for experiment, planner, settings, solved, seconds, first, cost, spent in rows:
+    for experiment, planner, settings, solved, seconds, first, cost, spent, spent_first in rows:
         properties = parse_settings(settings)
         if seconds is None:
             raise BenchmarkDataError(f"{path}: a run of {planner} on {experiment} has no time")
         runs.append(DatabaseRun(experiment, planner, bool(solved), float(seconds),
                                 None if first is None else float(first), None if cost is None else int(cost),
                                 None if spent is None else int(spent), properties.get("until_first") == "1",
-                                _whole_or_none(properties.get("budget_checks"))))
+                                _whole_or_none(properties.get("budget_checks")),
+                                None if spent_first is None else int(spent_first)))
     names = tuple(dict.fromkeys(name for name, _, _ in experiments if any(r.experiment == name for r in runs)))
     limits = {name: float(limit) for name, limit, _ in experiments}
     planners = tuple(sorted({r.planner for r in runs}, key=planner_key))

@@ -37,8 +37,9 @@ from solver.planning.registry import PLANNERS
 PLANNER_ORDER = tuple(spec.title for spec in PLANNERS.values())
 """Planner titles in the registry's order: the paper's LA-RRT, ours, RRT*, LBT-RRT, BIT*."""
 COLORS = {"LA-RRT": "tab:green", "LA-RRT+push (ours)": "tab:purple", "RRT*": "tab:blue", "LBT-RRT": "tab:orange",
-          "BIT*": "tab:red"}
-"""The paper's colours for its four planners; any other planner gets one of :data:`SPARE_COLORS`."""
+          "BIT*": "tab:red", "LA-RRT, original segment check": "tab:olive", "LA-RRT, fixed factor order": "tab:cyan"}
+"""The paper's colours for its four planners, ours and the paper LA-RRT's two ablations (green's
+neighbours); any other planner gets one of :data:`SPARE_COLORS`."""
 SPARE_COLORS = ("tab:brown", "tab:pink", "tab:gray", "tab:olive", "tab:cyan")
 
 
@@ -72,11 +73,11 @@ def _planner_key(name: str) -> tuple[int, str]:
 
 
 def checks_to_first(runs: Sequence[DatabaseRun]) -> list[int | None] | None:
-    """Each run's collision checks up to its first solution, or None when the runs did not record it:
-    only a run that stopped at its first solution (``--until first``) ends its count there."""
-    if not runs or not all(r.until_first for r in runs) or any(r.solved and r.checks is None for r in runs):
+    """Each run's collision checks up to its first solution (None for a run without one), or None
+    when a solved run's count is unknown (:attr:`~solver.benchmark.database.DatabaseRun.checks_to_first_solution`)."""
+    if not runs or any(r.solved and r.checks_to_first_solution is None for r in runs):
         return None
-    return [r.checks for r in runs]
+    return [r.checks_to_first_solution for r in runs]
 
 
 def benchmark_statistics(data: BenchmarkData, method: str = "wilson") -> list[CellStatistics]:
@@ -138,8 +139,9 @@ def statistics_legend(method: str = "wilson") -> str:
             "Solved: in all runs (the paper's criterion) / in at least one run. Times and checks to the first "
             "solution: median over all runs, a run without a solution counting as ∞ (not within its limit or "
             f"budget); final action cost: median over the solved runs; each with a seeded percentile-bootstrap "
-            f"{100 * CONFIDENCE:.0f} % interval ({BOOTSTRAP_RESAMPLES} resamples). Checks to the first solution are "
-            "recorded only by runs that stop there (`--until first`); '-' otherwise.")
+            f"{100 * CONFIDENCE:.0f} % interval ({BOOTSTRAP_RESAMPLES} resamples). Checks to the first solution: "
+            "the run property `checks to first solution`, or in runs without it all the checks of a run that "
+            "stopped there (`--until first`); '-' where a solved run's count is unknown.")
 
 
 def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: float | None = None,

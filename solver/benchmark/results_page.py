@@ -276,12 +276,12 @@ def results_page_html(data: BenchmarkData, method: str = "wilson") -> str:
             if counted is None and runs:
                 checks_missing.append((experiment, planner))
             elif counted is not None:
-                checks[planner] += [float(v) if r.solved else math.inf for v, r in zip(counted, runs, strict=True)]
+                checks[planner] += [math.inf if v is None else float(v) for v in counted]
     if checks_missing:
-        checks_figure = ('<p class="note">Checks to the first solution are recorded only by runs that stop there '
-                         f'(<code>--until first</code>); {len(checks_missing)} of '
-                         f'{len(cells)} planner-puzzle '
-                         'cells ran on past it, so this figure is left out.</p>')
+        checks_figure = ('<p class="note">No figure of the checks to the first solution: in '
+                         f'{len(checks_missing)} of {len(cells)} planner-puzzle cells a solved run does not say '
+                         'how many checks its first solution took (runs recorded before the run property '
+                         '<code>checks to first solution</code> that did not stop there).</p>')
     else:
         figure = _ecdf_figure("checks to first solution", "collision checks", checks, "ecdf-checks")
         checks_figure = (f'<figure>{figure}'
