@@ -15,9 +15,35 @@ import os
 import tempfile
 from pathlib import Path
 
-from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
+from phyrogen_core.folder import OutputError, PuzzleFolder, find_puzzle_folders
 
 from .views import DEFAULT_VIEWS, GALLERY_VIEW, VIEWS, animation_name, image_name
+
+GALLERY_FILE = "index.html"
+GALLERY_MARKER = '<meta name="generator" content="phyrogen render gallery">'
+"""The line every gallery page holds, as ``audit.json`` its ``format`` key: the page at an output
+root is replaced only when it carries it, so a user's own ``index.html`` there is never overwritten."""
+
+
+def check_gallery_target(out_root: str | Path) -> Path:
+    """``<out_root>/index.html``, checked before any work: missing, or a regular file (not a link)
+    that holds :data:`GALLERY_MARKER` within its first 4 KiB. Raises
+    :class:`~phyrogen_core.folder.OutputError` naming the file otherwise."""
+    target = Path(out_root) / GALLERY_FILE
+    if not os.path.lexists(target):
+        return target
+    if target.is_symlink() or not target.is_file():
+        raise OutputError(f"{target} is not a gallery page phyrogen render wrote (a link or not a file); "
+                          "move it, or render into another folder")
+    try:
+        with open(target, "rb") as stream:
+            head = stream.read(4096)
+    except OSError as exc:
+        raise OutputError(f"{target} cannot be read: {exc.strerror or exc}") from None
+    if GALLERY_MARKER.encode() not in head:
+        raise OutputError(f"{target} was not written by phyrogen render (no gallery marker); move it, or render "
+                          "into another folder, and the gallery is written there")
+    return target
 
 
 def write_gallery(out_root: str | Path, views: tuple[str, ...] = DEFAULT_VIEWS) -> Path:
@@ -42,8 +68,8 @@ def write_gallery(out_root: str | Path, views: tuple[str, ...] = DEFAULT_VIEWS) 
                                                                seed, views))
         rows.append("<tr>" + "".join(row) + "</tr>")
     header = "".join(f"<th>{html.escape(titles.get(g, g))}</th>" for g in generators)
-    page = _PAGE.format(count=len(cells), header=header, rows="\n".join(rows))
-    target = root / "index.html"
+    page = _PAGE.format(marker=GALLERY_MARKER, count=len(cells), header=header, rows="\n".join(rows))
+    target = check_gallery_target(root)
     descriptor, temporary = tempfile.mkstemp(prefix=".index.", suffix=".html.tmp", dir=root)
     with os.fdopen(descriptor, "w", encoding="utf-8") as stream:
         stream.write(page)
@@ -95,6 +121,7 @@ _PAGE = """<!DOCTYPE html>
 <html lang="en">
 <head>
 <meta charset="utf-8">
+{marker}
 <title>PhyRoGen puzzles</title>
 <style>
 body {{ font-family: sans-serif; margin: 1em; background: #fff; color: #222; }}

@@ -39,7 +39,7 @@ def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple
     import bpy
 
     from phyrogen_core.export import read_puzzle_dir
-    from phyrogen_core.folder import PuzzleFolder, atomic_directory
+    from phyrogen_core.folder import PuzzleFolder, Stage, owned_directory, stage_owns
 
     from . import render
     from .animation import frames_per_action_for, keyframe_solution
@@ -55,7 +55,8 @@ def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple
     # An edited puzzle keeps its old certificate, marked unverified: it may not fit the puzzle any more.
     animation = animation and len(loaded.certificate) >= 2 and loaded.record.certificate_verified
     animation_seconds = None
-    with atomic_directory(place.images) as images:
+    # Only the render stage's own images are replaced; a user's file in images/ stays.
+    with owned_directory(place.images, lambda path: stage_owns(Stage.RENDER, place.name, f"images/{path}")) as images:
         paths = render.render_views(scene, built.collection, images, place.name, views)
         if animation:
             started = time.perf_counter()

@@ -112,7 +112,7 @@ def check_render_folders(puzzle_dirs: Sequence[str | Path], writable: bool = Tru
     a folder, no permission to write), one line each.
     """
     from phyrogen_core.export import read_puzzle_dir
-    from phyrogen_core.folder import OutputError, PuzzleFolder, require_writable_dir
+    from phyrogen_core.folder import OutputError, PuzzleFolder, require_stage_folder
 
     folders = [Path(p) for p in puzzle_dirs]
     for folder in folders:
@@ -120,9 +120,10 @@ def check_render_folders(puzzle_dirs: Sequence[str | Path], writable: bool = Tru
         if not writable:
             continue
         place = PuzzleFolder.open(folder)
-        require_writable_dir(place.path, "puzzle folder")
-        if os.path.lexists(place.images) and not place.images.is_dir():
+        if os.path.lexists(place.images) and not place.images.is_symlink() and not place.images.is_dir():
             raise OutputError(f"{place.images} is not a folder; the render stage writes its images there")
+        # The puzzle folder and images/ real folders: a link would send the renders elsewhere.
+        require_stage_folder(place.images, "images folder", root=place.path)
         if place.blend.is_dir():
             raise OutputError(f"{place.blend} is a folder; the render stage writes the Blender scene there")
     return folders

@@ -586,14 +586,16 @@ class PHYROGEN_OT_render(bpy.types.Operator):  # noqa: N801
 
     @staticmethod
     def render(context) -> str:
-        from phyrogen_core.folder import atomic_directory
+        from phyrogen_core.folder import Stage, owned_directory, stage_owns
 
         from .render import render_views, setup_stage
 
         settings = context.scene.phyrogen
         collection = current_collection(context)
         setup_stage(context.scene, collection, settings.engine, (480, 360))
-        with atomic_directory(puzzle_folder(settings, collection).images) as folder:
+        # Only the render stage's own images are replaced; a user's file in images/ stays.
+        owns = lambda path: stage_owns(Stage.RENDER, collection.name, f"images/{path}")  # noqa: E731
+        with owned_directory(puzzle_folder(settings, collection).images, owns) as folder:
             paths = render_views(context.scene, collection, folder, collection.name)
         return f"rendered {len(paths)} views of {collection.name}"
 

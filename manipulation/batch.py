@@ -71,6 +71,8 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
     or :class:`~phyrogen_core.folder.OutputError`, one line naming the path, or ValueError naming
     a puzzle too large for the base's floor at its scale.
     """
+    from phyrogen_core.folder import require_stage_folder
+
     runs = runs or {}
     settings = settings or ExecutionSettings()
     out_root = require_writable_dir(out_root, "manipulation output folder")
@@ -86,5 +88,6 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
         for solution in candidate_solutions(Path(folder), loaded, runs.get(Path(folder), ())):
             scene_placement(loaded, solution.path, settings)
         target = out_root / loaded.name
-        if os.path.lexists(target) and not target.is_dir():
+        if os.path.lexists(target) and not target.is_symlink() and not target.is_dir():
             raise OutputError(f"{target} is not a folder; the outputs of puzzle {target.name} go there")
+        require_stage_folder(target, "manipulation output folder")  # a link would be swapped away

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
-from phyrogen_core.export import atomic_directory
+from phyrogen_core.folder import owned_directory
 
 from .execution import ManipulationReport, Recording, SceneSetup
 from .media import Renderer, write_frames, write_video
@@ -17,12 +18,18 @@ def write_outputs(out_root: Path, report: ManipulationReport, recording: Recordi
                   video: bool = True) -> Path:
     """``<out_root>/<puzzle>/``: frames/frame_1..4.png, <puzzle>.mp4, report.json (written atomically)."""
     final = Path(out_root) / report.puzzle
-    with atomic_directory(final) as folder, Renderer(setup) as renderer:
+    with owned_directory(final, lambda path: owns_output(report.puzzle, path)) as folder, Renderer(setup) as renderer:
         write_frames(renderer, recording, folder / "frames")
         if video:
             write_video(renderer, recording, folder / f"{report.puzzle}.mp4")
         (folder / "report.json").write_text(report_json(report), encoding="utf-8")
     return final
+
+
+def owns_output(puzzle: str, path: str) -> bool:
+    """Whether ``path`` (inside ``<out_root>/<puzzle>/``) is a file :func:`write_outputs` writes: only
+    these are replaced, and any other file a user keeps there stays."""
+    return path in ("report.json", f"{puzzle}.mp4") or re.fullmatch(r"frames/frame_\d+\.png", path) is not None
 
 
 def report_json(report: ManipulationReport) -> str:

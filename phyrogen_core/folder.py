@@ -8,10 +8,14 @@ A puzzle lives in one folder, ``<out>/<generator>/<name>/``::
     mjcf/, phobos/                                                interop (MJCF; the add-on's Export with Phobos)
     stale/<n>/                                                    export, when the puzzle changed
 
-Every stage writes only the entries it owns and keeps every other entry,
-another stage's or a user's file, as it was (:func:`stage_directory`); only
-renders and solutions of a puzzle that was regenerated differently move, into
-``stale/<n>/`` beside it, with the puzzle they were made for. This
+Every stage writes only the files it owns, by exact name (:func:`stage_owns`),
+and keeps every other entry, another stage's or a user's file, even one inside
+a folder the stage writes, as it was (:func:`stage_directory`,
+:func:`owned_directory`); only renders and solutions of a puzzle that was
+regenerated differently move, into ``stale/<n>/`` beside it, with the puzzle
+they were made for. No stage writes through a symbolic link
+(:func:`require_stage_folder`) or copies a file that is not a regular file
+inside the folder (:func:`require_self_contained`). This
 module is the one place that knows the layout: other layers ask a
 :class:`PuzzleFolder` for paths and :func:`find_puzzle_folders` for folders.
 """
@@ -22,6 +26,7 @@ import errno
 import json
 import math
 import os
+import re
 import shutil
 import stat
 import tempfile
@@ -89,21 +94,7 @@ def read_folder_file(path: str | Path, root: str | Path, label: str | None = Non
     """
     path = Path(path)
     label = str(path) if label is None else label
-    try:
-        real_root = Path(os.path.realpath(root))
-        real = Path(os.path.realpath(path))
-    except (OSError, ValueError) as exc:
-        raise PuzzleFormatError(f"{label} cannot be resolved: {_reason(exc)}") from None
-    if not real.is_relative_to(real_root):
-        raise PuzzleFormatError(f"{label} resolves to {real}, outside the puzzle folder {real_root}; "
-                                "a puzzle folder must be self-contained")
-    try:
-        info = os.stat(real)
-    except FileNotFoundError:
-        raise PuzzleFormatError(f"{label} is missing") from None
-    except (OSError, ValueError) as exc:
-        raise PuzzleFormatError(f"{label} cannot be read: {_reason(exc)}") from None
-    _require_regular(info, label, limit)
+    real = require_folder_file(path, root, label, limit)
     try:
         # O_NONBLOCK: should the entry be swapped for a FIFO after the stat, opening it still returns at once.
         descriptor = os.open(real, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0)
@@ -127,6 +118,61 @@ def read_folder_file(path: str | Path, root: str | Path, label: str | None = Non
     if size > limit:
         raise PuzzleFormatError(f"{label} grew past {_size(limit)} while being read")
     return b"".join(chunks)
+
+
+def require_folder_file(path: str | Path, root: str | Path, label: str | None = None,
+                        limit: int = MAX_FILE_BYTES, what: str = "puzzle folder") -> Path:
+    """:func:`read_folder_file`'s rule, asked of the file system only (nothing is opened): ``path``
+    resolves to a regular file of at most ``limit`` bytes inside ``root`` (a ``what``). Returns the
+    resolved path; raises :class:`PuzzleFormatError` ``"<label>: <what is wrong>"``."""
+    path = Path(path)
+    label = str(path) if label is None else label
+    try:
+        real_root = Path(os.path.realpath(root))
+        real = Path(os.path.realpath(path))
+    except (OSError, ValueError) as exc:
+        raise PuzzleFormatError(f"{label} cannot be resolved: {_reason(exc)}") from None
+    if not real.is_relative_to(real_root):
+        raise PuzzleFormatError(f"{label} resolves to {real}, outside the {what} {real_root}; "
+                                f"a {what} must be self-contained")
+    try:
+        info = os.stat(real)
+    except FileNotFoundError:
+        raise PuzzleFormatError(f"{label} is missing") from None
+    except (OSError, ValueError) as exc:
+        raise PuzzleFormatError(f"{label} cannot be read: {_reason(exc)}") from None
+    _require_regular(info, label, limit)
+    return real
+
+
+def require_self_contained(root: str | Path, entries: Iterable[str], what: str = "puzzle folder") -> None:
+    """Every file under the entries ``entries`` of the folder ``root`` keeps :func:`require_folder_file`'s
+    rule (its folders too, which must lie inside ``root``): for a stage that copies whole entries, so
+    that a link to a file elsewhere, a FIFO or a device among them is bad input found before any work,
+    not read, blocked on or streamed. Missing entries are fine. Raises :class:`PuzzleFormatError`."""
+    root = Path(root)
+    pending = [root / entry for entry in entries if os.path.lexists(root / entry)]
+    seen: set[Path] = set()
+    while pending:
+        path = pending.pop()
+        try:
+            is_folder = path.is_dir()
+        except OSError:
+            is_folder = False
+        if not is_folder:
+            require_folder_file(path, root, what=what)
+            continue
+        real = Path(os.path.realpath(path))
+        if real in seen:  # a link back to a folder already walked
+            continue
+        seen.add(real)
+        if not real.is_relative_to(Path(os.path.realpath(root))):
+            raise PuzzleFormatError(f"{path} resolves to {real}, outside the {what} {os.path.realpath(root)}; "
+                                    f"a {what} must be self-contained")
+        try:
+            pending += sorted(path.iterdir())
+        except OSError as exc:
+            raise PuzzleFormatError(f"{path} cannot be read: {_reason(exc)}") from None
 
 
 def read_folder_json(path: str | Path, root: str | Path, label: str | None = None) -> object:
@@ -217,6 +263,78 @@ def stage_entries(stage: Stage, name: str) -> tuple[str, ...]:
         Stage.RENDER: ("images", f"{name}.blend"),
         Stage.INTEROP: ("mjcf", "phobos"),
     }[stage]
+
+
+MESH_FILE = re.compile(r"[^/]+_(?:visual|collision)_\d+_\d+\.obj")
+"""The name of a mesh file the export stage writes (``<link>_<visual|collision>_<geometry>_<piece>.obj``)."""
+
+
+def stage_owns(stage: Stage, name: str, relative: str) -> bool:
+    """Whether ``relative`` (a POSIX path inside puzzle ``name``'s folder) is a file ``stage`` writes.
+
+    Ownership is by file, not by folder: a stage replaces, and moves into ``stale/``, only files
+    of its own exact names; any other file, even one inside a folder the stage writes (a user's
+    ``urdf/my_robot.urdf`` or ``images/notes.txt``), is a user's and stays where it is.
+    """
+    parts = relative.split("/")
+    inner = parts[1] if len(parts) == 2 else None
+    if stage is Stage.EXPORT:
+        return (relative in (METADATA_FILE, f"urdf/{name}.urdf", f"srdf/{name}.srdf")
+                or (parts[0] == "meshes" and inner is not None and MESH_FILE.fullmatch(inner) is not None))
+    if stage is Stage.BENCHMARK:
+        return relative == BEST_SOLUTION.as_posix()
+    if stage is Stage.RENDER:
+        # blender_addon.views.image_name and animation_name
+        return relative == f"{name}.blend" or (
+            parts[0] == "images" and inner is not None
+            and re.fullmatch(rf"{re.escape(name)}_(?:\d{{2,}}\.png|solution\.webp)", inner) is not None)
+    # The add-on's Phobos export replaces its folder whole (blender_addon.phobos).
+    return relative == f"mjcf/{name}.xml" or parts[0] == "phobos"
+
+
+def owned_files(folder: str | Path, stage: Stage, name: str) -> list[str]:
+    """The files of ``stage`` (:func:`stage_owns`) present in ``folder``, as POSIX paths inside it, sorted.
+    A symbolic link stands for itself: a linked folder is not walked."""
+    folder = Path(folder)
+    found = []
+    for entry in stage_entries(stage, name):
+        path = folder / entry
+        if not os.path.lexists(path):
+            continue
+        if stage_owns(stage, name, entry):
+            found.append(entry)
+        elif path.is_dir() and not path.is_symlink():
+            try:
+                children = os.listdir(path)
+            except OSError:
+                continue
+            found += [f"{entry}/{child}" for child in children
+                      if stage_owns(stage, name, f"{entry}/{child}")
+                      and ((path / child).is_symlink() or not (path / child).is_dir())]
+    return sorted(found)
+
+
+def _carry(old: Path, new: Path, leave: Callable[[str], bool], walk: Callable[[str], bool],
+           relative: str = "") -> None:
+    """Hard-link (or copy) into ``new`` every entry of the folder ``old`` that ``leave`` does not
+    claim and ``new`` does not hold yet, at the same place: what a user (or another stage) made
+    stays. Folders that ``walk`` names are entered, so that single files in them can be left; an
+    entered folder that ends up empty is not made, unless it was empty already."""
+    try:
+        names = sorted(os.listdir(old / relative) if relative else os.listdir(old))
+    except OSError:
+        return
+    if not names and relative:
+        (new / relative).mkdir(parents=True, exist_ok=True)
+    for child in names:
+        path = f"{relative}/{child}" if relative else child
+        source = old / path
+        if leave(path):
+            continue
+        if source.is_dir() and not source.is_symlink() and walk(path):
+            _carry(old, new, leave, walk, path)
+        elif not os.path.lexists(new / path):
+            _link_or_copy(source, new / path)
 
 
 @dataclass(frozen=True)
@@ -346,44 +464,66 @@ def stage_directory(final: str | Path, stage: Stage, name: str,
     """Yield an empty temporary folder for ``stage``'s entries of puzzle ``name``'s folder ``final``.
 
     When the block succeeds, ``final`` becomes the temporary folder's entries
-    plus every entry of the old ``final`` that ``stage`` does not own (another
-    stage's files or a user's, hard-linked or copied over), swapped in
-    atomically (:func:`atomic_directory`). The stage's own old entries are
-    replaced as a whole. If the block raises or is interrupted, ``final`` is
-    left as it was.
+    plus every file of the old ``final`` that ``stage`` does not own
+    (:func:`stage_owns`: another stage's files or a user's, even inside
+    ``urdf/``, hard-linked or copied over to the same place), swapped in
+    atomically (:func:`atomic_directory`). The stage's own old files are
+    replaced. If the block raises or is interrupted, ``final`` is left as it was.
 
-    Entries of the stages computed from ``stage``'s (:func:`derived_stages`:
+    Files of the stages computed from ``stage``'s (:func:`derived_stages`:
     an exported puzzle's renders and solutions) are kept only while they still
-    belong to it: when the new entries describe another puzzle
+    belong to it: when the new files describe another puzzle
     (:func:`same_stage_entries` is false), they move into ``stale/<n>/`` of the
-    new folder together with the old entries they were made from, a complete
+    new folder together with the old files they were made from, a complete
     puzzle folder of its own, and a one-line notice saying where is appended
-    to ``notices``. Nothing but the stage's own old entries is ever deleted.
+    to ``notices``; a user's files stay where they were. Nothing but the
+    stage's own old files is ever deleted. Raises :class:`OutputError` when
+    ``final`` is a symbolic link.
     """
     final = Path(final)
-    owned = set(stage_entries(stage, name))
-    derived = {entry for other in derived_stages(stage) for entry in stage_entries(other, name)}
+    owned = stage_entries(stage, name)
+    derived = derived_stages(stage)
+    # Folders holding single files of some stage: entered file by file, so a user's file in them stays.
+    shared = {entry for other in Stage for entry in stage_entries(other, name) if not stage_owns(other, name, entry)}
 
     def merge(temporary: Path) -> None:
         # Runs while this writer holds the swap lock, so ``final`` is the folder the swap replaces.
-        old = sorted(final.iterdir()) if final.is_dir() else []
-        stale = [entry.name for entry in old if entry.name in derived]
-        moving = bool(stale) and not same_stage_entries(final, temporary, owned)
-        for entry in old:
-            if entry.name in owned or (moving and entry.name in derived) or os.path.lexists(temporary / entry.name):
-                continue
-            _link_or_copy(entry, temporary / entry.name)
+        if not final.is_dir():
+            return
+        own = owned_files(final, stage, name)
+        made_from_it = [path for other in derived for path in owned_files(final, other, name)]
+        moving = bool(made_from_it) and not same_stage_entries(
+            final, temporary, owned, owns=lambda path: stage_owns(stage, name, path))
+        leave = set(own) | (set(made_from_it) if moving else set())
+        _carry(final, temporary, leave.__contains__, shared.__contains__)
         if moving:
             slot = _stale_slot(temporary)
             (temporary / slot).mkdir(parents=True)
-            for entry in old:
-                if entry.name in owned or entry.name in derived:
-                    _link_or_copy(entry, temporary / slot / entry.name)
+            for path in own + made_from_it:
+                _link_or_copy(final / path, temporary / slot / path)
             if notices is not None:
-                notices.append(f"{final}: puzzle changed; its previous {', '.join(stale)} moved to {final / slot}, "
+                moved = sorted({path.split("/")[0] for path in made_from_it})
+                notices.append(f"{final}: puzzle changed; its previous {', '.join(moved)} moved to {final / slot}, "
                                "with the puzzle they were made for")
 
     with _atomic_directory(final, merge) as temporary:
+        yield temporary
+
+
+@contextmanager
+def owned_directory(final: str | Path, owns: Callable[[str], bool]) -> Iterator[Path]:
+    """:func:`atomic_directory` for a folder a stage shares with its user (``images/``, ``mjcf/``,
+    a puzzle's manipulation outputs): when the block succeeds, the old folder's files that ``owns``
+    names (POSIX paths inside ``final``) are replaced by the temporary folder's, and every other
+    entry of it is carried into the new folder where it was. Raises :class:`OutputError` when
+    ``final`` is a symbolic link."""
+    final = Path(final)
+
+    def keep(temporary: Path) -> None:
+        if final.is_dir():
+            _carry(final, temporary, owns, lambda path: True)
+
+    with _atomic_directory(final, keep) as temporary:
         yield temporary
 
 
@@ -396,8 +536,12 @@ def derived_stages(stage: Stage) -> tuple[Stage, ...]:
     return (Stage.BENCHMARK, Stage.RENDER, Stage.INTEROP) if stage is Stage.EXPORT else ()
 
 
-def same_stage_entries(old: str | Path, new: str | Path, names: Iterable[str]) -> bool:
+def same_stage_entries(old: str | Path, new: str | Path, names: Iterable[str],
+                       owns: Callable[[str], bool] | None = None) -> bool:
     """Whether the entries ``names`` of the folders ``old`` and ``new`` describe the same puzzle.
+
+    With ``owns`` (a stage's :func:`stage_owns`), only the files it names count inside a folder
+    entry: a user's file dropped into ``urdf/`` changes no puzzle.
 
     The same files with the same bytes, except that ``puzzle.json`` is compared
     as a record without its package versions (:meth:`PuzzleRecord.same_puzzle`: a
@@ -408,8 +552,28 @@ def same_stage_entries(old: str | Path, new: str | Path, names: Iterable[str]) -
     beside a puzzle they may not show.
     """
     old, new = Path(old), Path(new)
-    return all(_same_metadata(old / n, new / n) if n == METADATA_FILE else _same_tree(old / n, new / n)
-               for n in names)
+    if owns is None:
+        return all(_same_metadata(old / n, new / n) if n == METADATA_FILE else _same_tree(old / n, new / n)
+                   for n in names)
+    for n in names:
+        if n == METADATA_FILE:
+            if not _same_metadata(old / n, new / n):
+                return False
+            continue
+        before, after = _owned_in(old, n, owns), _owned_in(new, n, owns)
+        if before != after or not all(_same_tree(old / path, new / path) for path in before):
+            return False
+    return True
+
+
+def _owned_in(folder: Path, entry: str, owns: Callable[[str], bool]) -> list[str]:
+    path = folder / entry
+    if path.is_dir() and not path.is_symlink():
+        try:
+            return sorted(p for p in (f"{entry}/{child}" for child in os.listdir(path)) if owns(p))
+        except OSError:
+            return [entry]  # unreadable: differs from any readable folder
+    return [entry] if os.path.lexists(path) else []
 
 
 def _same_metadata(old: Path, new: Path) -> bool:
@@ -509,6 +673,10 @@ the swap lock (another file system's semantics, an old version) can make it retr
 @contextmanager
 def _atomic_directory(final: Path, prepare: Callable[[Path], None] | None = None) -> Iterator[Path]:
     """:func:`atomic_directory`; ``prepare(temporary)`` runs just before the swap, under the swap lock."""
+    if final.is_symlink():
+        # Swapping would replace the link itself, and writing through it would write elsewhere.
+        raise OutputError(f"output folder {final} is a symbolic link; a stage writes only into real folders "
+                          "(put the folder itself there)")
     if os.path.lexists(final) and not final.is_dir():
         raise OutputError(f"output folder {final} exists and is not a folder; remove it or choose another path")
     try:
@@ -624,6 +792,41 @@ def require_writable_dir(path: str | Path, label: str = "output folder") -> Path
     except OSError as exc:
         raise OutputError(f"{label} {path}: cannot write in {probe}: {_reason(exc)}") from None
     return path
+
+
+def require_stage_folder(path: str | Path, label: str, root: str | Path | None = None) -> Path:
+    """A folder a stage replaces or writes its files into (a puzzle folder; its ``images/``,
+    ``solutions/`` or ``mjcf/``; a puzzle's manipulation outputs), checked before any work:
+    :func:`require_writable_dir`, and neither it nor a folder between ``root`` and it is a
+    symbolic link, which would send the stage's files outside (or be swapped away for a folder).
+    Raises :class:`OutputError`, one line naming the path."""
+    path = Path(path)
+    stop = None if root is None else Path(root)
+    probe = path
+    while True:
+        if probe.is_symlink():
+            where = "is" if probe == path else f"lies in {probe}, which is"
+            raise OutputError(f"{label} {path} {where} a symbolic link; a stage writes only into real folders "
+                              "(put the folder itself there)")
+        if stop is None or probe == stop or probe.parent == probe:
+            break
+        probe = probe.parent
+    return require_writable_dir(path, label)
+
+
+TEMPORARY_NAME = re.compile(r"\.(?P<entry>.+)\.[a-z0-9_]{6,12}(?:\.[A-Za-z0-9]+)?\.tmp(?:\.[a-z]+)?(?:\.old\d+)?")
+"""The names of this module's temporary entries: ``.<entry>.<random characters><suffix>`` as
+:func:`tempfile.mkstemp` and :func:`tempfile.mkdtemp` make them (eight today; six to twelve are
+taken), the suffix ``.tmp``, ``.<format>.tmp`` or ``.tmp.<format>``, and the ``.old<n>`` asides
+of :func:`_swap_in`."""
+
+
+def temporary_entry(name: str) -> str | None:
+    """The entry the temporary name ``name`` of an atomic write stands for (``.manifest.parquet.k3j_x9ab.tmp``
+    -> ``manifest.parquet``), else None. A caller that removes leftovers removes only those of its own
+    entries, by this exact pattern: a user's ``.notes.tmp`` is no temporary of ours."""
+    match = TEMPORARY_NAME.fullmatch(name)
+    return None if match is None else match.group("entry")
 
 
 @contextmanager

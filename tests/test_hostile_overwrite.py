@@ -168,17 +168,23 @@ def test_a_user_file_called_stale_is_left_alone(tmp_path):
 
 
 @pytest.mark.parametrize("entry", ["meshes", "urdf"])
-def test_a_hand_edited_or_extra_file_in_an_export_entry_counts_as_a_change(tmp_path, entry):
+def test_a_hand_edited_file_in_an_export_entry_counts_as_a_change_and_an_extra_one_stays(tmp_path, entry):
+    """An export file edited by hand is a change (it moves to stale/ with the renders); a user's
+    extra file beside it is no file of the export's, changes no puzzle and stays where it is."""
     place = PuzzleFolder.open(write_puzzle(hostile_puzzle(), tmp_path))
     add_other_files(place)
-    edited = sorted((place.path / entry).iterdir())[0]
-    edited.write_bytes(edited.read_bytes() + b"# touched by hand\n")
     (place.path / entry / "extra.txt").write_text("dropped here by a user")
     notices: list[str] = []
     write_puzzle(hostile_puzzle(), tmp_path, None, notices)
+    assert notices == [] and (place.path / entry / "extra.txt").read_text() == "dropped here by a user"
+
+    edited = sorted(p for p in (place.path / entry).iterdir() if p.name != "extra.txt")[0]
+    edited.write_bytes(edited.read_bytes() + b"# touched by hand\n")
+    write_puzzle(hostile_puzzle(), tmp_path, None, notices)
     stale = place.path / "stale" / "1"
     assert len(notices) == 1 and (stale / "images").is_dir()
-    assert (stale / entry / "extra.txt").read_text() == "dropped here by a user"
+    assert (place.path / entry / "extra.txt").read_text() == "dropped here by a user"
+    assert not (stale / entry / "extra.txt").exists()
     assert (stale / entry / edited.name).read_bytes().endswith(b"# touched by hand\n")
 
 

@@ -21,7 +21,7 @@ def _folder(root, generator="grid_world", seed=3) -> PuzzleFolder:
 def test_replan_stores_a_valid_certificate_the_same_on_every_run(tmp_path, capsys):
     first, second = _folder(tmp_path / "a"), _folder(tmp_path / "b")
     (first.images).mkdir()
-    (first.images / "view.png").write_bytes(b"made for the old certificate")
+    (first.images / "grid_world_3_00.png").write_bytes(b"made for the old certificate")  # a render's name
     urdf = first.urdf.read_bytes()
     assert main(["replan", str(first.path)]) == 0
     assert main(["replan", str(second.path)]) == 0
@@ -33,7 +33,7 @@ def test_replan_stores_a_valid_certificate_the_same_on_every_run(tmp_path, capsy
     assert first.metadata.read_bytes() == second.metadata.read_bytes()  # seeded: the same search everywhere
     assert first.urdf.read_bytes() == urdf  # the puzzle itself is unchanged
     # Renders made for the old certificate move aside with it (the folder contract), and the command says so.
-    assert (first.path / "stale" / "1" / "images" / "view.png").is_file() and not first.images.exists()
+    assert (first.path / "stale" / "1" / "images" / "grid_world_3_00.png").is_file() and not first.images.exists()
     assert "moved to" in out.err
 
 

@@ -42,12 +42,14 @@ byte-identical files. A puzzle folder holds the file as
 from __future__ import annotations
 
 import itertools
+import os
 from pathlib import Path
 
 import numpy as np
 
 from ..chain import Geometry, JointType, KinematicChain, Link, Role
-from ..folder import atomic_directory, name_problem
+from ..errors import PuzzleFormatError
+from ..folder import OutputError, name_problem, owned_directory, read_folder_file, require_stage_folder
 from ..geometry import Box, ConvexPrism, Cylinder, Pose
 from .formatting import attribute, number, numbers
 from .urdf import color_name, link_inertia
@@ -56,6 +58,11 @@ MJCF_FOLDER = "mjcf"
 """The puzzle folder's entry holding the MJCF file: ``mjcf/<name>.xml``."""
 
 _JOINT_TYPES = {JointType.PRISMATIC: "slide", JointType.REVOLUTE: "hinge"}
+
+
+_HEAD = ('<?xml version="1.0"?>', '  <compiler angle="radian" eulerseq="XYZ" inertiafromgeom="false"/>')
+"""The first and third lines of every MJCF file written here (the model's name between them): how
+:func:`check_mjcf_target` knows a file as one of its own."""
 
 
 def chain_to_mjcf(chain: KinematicChain) -> str:
@@ -71,8 +78,7 @@ def chain_to_mjcf(chain: KinematicChain) -> str:
     """
     writer = _Writer(chain)
     body = writer.body_lines(chain.root, 2)
-    lines = ['<?xml version="1.0"?>', f"<mujoco model={attribute(chain.name)}>",
-             '  <compiler angle="radian" eulerseq="XYZ" inertiafromgeom="false"/>',
+    lines = [_HEAD[0], f"<mujoco model={attribute(chain.name)}>", _HEAD[1],
              "  <option>",
              # Contacts between a body and its parent body are kept: see the module's docstring.
              '    <flag filterparent="disable"/>',
@@ -106,20 +112,41 @@ def mjcf_path(folder: str | Path, name: str) -> Path:
 def write_mjcf(folder: str | Path, chain: KinematicChain, name: str) -> Path:
     """Write ``chain``'s MJCF into the puzzle folder ``folder`` as ``mjcf/<name>.xml``; return its path.
 
-    The ``mjcf/`` entry is replaced as a whole and atomically
-    (:func:`~phyrogen_core.folder.atomic_directory`): a reader finds the old
+    The ``mjcf/`` entry is swapped in atomically
+    (:func:`~phyrogen_core.folder.owned_directory`): a reader finds the old
     file, the new one or, for the moment of the swap, none, never a part, and
-    an interrupted run leaves the old one. Every other entry of the folder is
-    left as it was. The text is made before anything is written, so an
-    unwritable chain writes nothing.
+    an interrupted run leaves the old one. Only ``<name>.xml`` is replaced, and
+    only when this function wrote it (:func:`check_mjcf_target`); a user's other
+    files in ``mjcf/`` and every other entry of the folder are left as they were.
+    The text is made before anything is written, so an unwritable chain writes nothing.
     """
     problem = name_problem(name)
     if problem is not None:
         raise ValueError(f"{name!r} cannot name an MJCF file: it {problem}")
     data = chain_to_mjcf(chain).encode("utf-8")
-    with atomic_directory(Path(folder) / MJCF_FOLDER) as temporary:
+    check_mjcf_target(folder, name)
+    with owned_directory(Path(folder) / MJCF_FOLDER, f"{name}.xml".__eq__) as temporary:
         (temporary / f"{name}.xml").write_bytes(data)
     return mjcf_path(folder, name)
+
+
+def check_mjcf_target(folder: str | Path, name: str) -> None:
+    """Whether :func:`write_mjcf` may write puzzle ``name``'s file into the puzzle folder ``folder``,
+    checked before any work: ``mjcf/`` a real folder inside it (not a link), and an existing
+    ``mjcf/<name>.xml`` a file this module wrote (it opens as every file of :func:`chain_to_mjcf`
+    does), not a user's scene of that name. Raises :class:`~phyrogen_core.folder.OutputError`."""
+    target = mjcf_path(folder, name)
+    require_stage_folder(target.parent, "MJCF folder", root=folder)
+    if not os.path.lexists(target):
+        return
+    try:
+        head = read_folder_file(target, folder).split(b"\n", 3)[:3]
+    except PuzzleFormatError as exc:
+        raise OutputError(f"{exc}; phyrogen export writes only files of its own there") from None
+    if len(head) < 3 or head[0] != _HEAD[0].encode() or not head[1].startswith(b"<mujoco model=") \
+            or head[2] != _HEAD[1].encode():
+        raise OutputError(f"{target} was not written by phyrogen export (it does not begin as its MJCF files "
+                          "do); move it or rename it, and the export writes its own file there")
 
 
 def object_of_link(link: Link) -> str:

@@ -14,7 +14,6 @@ off it. An edited puzzle's ``"certificate_verified": false`` goes away.
 
 from __future__ import annotations
 
-import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -23,7 +22,17 @@ import numpy as np
 from phyrogen_core.actions import count_actions
 from phyrogen_core.dependencies import dependency_shape
 from phyrogen_core.export.reader import LoadedPuzzle
-from phyrogen_core.folder import METADATA_FILE, PuzzleFolder, Stage, stage_directory, stage_entries
+from phyrogen_core.folder import (
+    METADATA_FILE,
+    PuzzleFolder,
+    Stage,
+    owned_files,
+    read_folder_file,
+    require_self_contained,
+    require_stage_folder,
+    stage_directory,
+    stage_entries,
+)
 from phyrogen_core.provenance import PlannerRun
 from phyrogen_core.record import DependencyGraph
 from phyrogen_core.seeding import stable_seed
@@ -126,11 +135,24 @@ def write_replanned(folder: str | Path, loaded: LoadedPuzzle, result: Replan, no
     """
     metadata = replanned_metadata(loaded, result)
     place = PuzzleFolder(Path(folder), loaded.name)
+    check_replan_folder(place.path, place.name)
+    # Only the export stage's own files are copied, each by the folder's reading rule; a user's
+    # file beside them stays where it is (stage_directory carries it over, unread).
+    kept = {path: read_folder_file(place.path / path, place.path)
+            for path in owned_files(place.path, Stage.EXPORT, place.name) if path != METADATA_FILE}
     with stage_directory(place.path, Stage.EXPORT, place.name, notices) as temporary:
-        for entry in stage_entries(Stage.EXPORT, place.name):
-            source = place.path / entry
-            if entry == METADATA_FILE:
-                (temporary / entry).write_text(metadata, encoding="utf-8")
-            elif source.is_dir():
-                shutil.copytree(source, temporary / entry, symlinks=False)
+        (temporary / METADATA_FILE).write_text(metadata, encoding="utf-8")
+        for path, data in kept.items():
+            (temporary / path).parent.mkdir(parents=True, exist_ok=True)
+            (temporary / path).write_bytes(data)
     return place.metadata
+
+
+def check_replan_folder(folder: str | Path, name: str) -> None:
+    """What :func:`write_replanned` needs of the puzzle folder, checked before any work: a real,
+    writable folder (not a link), and every file of its export entries (``urdf/``, ``srdf/``,
+    ``meshes/``) a regular file inside it, referenced or not: a link to a file elsewhere, a FIFO
+    or a device there is bad input. Raises :class:`~phyrogen_core.folder.OutputError` or
+    :class:`~phyrogen_core.folder.PuzzleFormatError`, one line naming the path."""
+    require_stage_folder(folder, "puzzle folder")
+    require_self_contained(folder, stage_entries(Stage.EXPORT, name))

@@ -34,6 +34,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import time
 import traceback
@@ -49,6 +50,7 @@ from phyrogen_core.folder import (
     read_folder_json,
     require_writable_dir,
     shard_name,
+    temporary_entry,
     write_file_atomic,
 )
 from phyrogen_core.maker import GenerationError
@@ -58,6 +60,7 @@ from solver.parallel.pool import deferred_signals
 from solver.parallel.ray_pool import LOCAL
 from solver.parallel.tasks import task_pool
 from solver.pipelines.dataset.manifest import (
+    MANIFEST_FILE,
     PARTS_FOLDER,
     failed_row,
     part_is_complete,
@@ -288,7 +291,7 @@ def check_dataset_root(request: DatasetRequest, root: str | Path) -> Path:
         if difference is not None:
             raise DatasetError(f"{root} holds a dataset of another request ({difference}); run the same "
                                "command as before to resume it, or choose another --out")
-    elif root.is_dir() and any(not _temporary(name) for name in os.listdir(root)):
+    elif root.is_dir() and any(not _root_temporary(name) for name in os.listdir(root)):
         raise DatasetError(f"{root} is not empty and holds no {DATASET_FILE}; choose an empty or new folder for "
                            "the dataset")
     return root
@@ -321,8 +324,8 @@ def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *
         if not (root / DATASET_FILE).is_file():
             stored = json.dumps({**request.to_json(), "versions": versions()}, sort_keys=True, indent=2) + "\n"
             write_file_atomic(root / DATASET_FILE, stored.encode())
-        _remove_temporary_files(root)
-        _remove_temporary_files(root / PARTS_FOLDER)
+        _remove_temporary_files(root, _ROOT_FILES.__contains__)
+        _remove_temporary_files(root / PARTS_FOLDER, _PART_FILE.fullmatch)
         pending = []
         for shard in range(request.shard_count):
             if part_is_complete(part_path(root, shard), request.shard_entries(shard)):
@@ -423,8 +426,8 @@ def _clean_shard(request: DatasetRequest, root: Path, shard: int) -> Path:
     """Remove what killed writers left in a shard's folder; returns the folder."""
     shard_dir = root / shard_name(shard)
     for generator in request.generators:
-        _remove_temporary_files(shard_dir / generator, prefix=f".{generator}_")
-    _remove_temporary_files(shard_dir / RECORDS_FOLDER)
+        _remove_temporary_files(shard_dir / generator, re.compile(rf"{re.escape(generator)}_\d+").fullmatch)
+    _remove_temporary_files(shard_dir / RECORDS_FOLDER, lambda entry: entry.endswith(".json"))
     return shard_dir
 
 
@@ -444,15 +447,18 @@ def _read_record(shard_dir: Path, entry: Entry) -> dict[str, Any] | None:
     return record if same else None
 
 
-def _remove_temporary_files(folder: Path, prefix: str = ".") -> None:
-    """Remove what killed writers left in ``folder``: dot-prefixed temporary files and folders
-    (``.<name>.<random>.tmp`` and their ``.old<n>`` asides). Nothing else is touched."""
+def _remove_temporary_files(folder: Path, own: Callable[[str], object]) -> None:
+    """Remove what killed writers left in ``folder``: the temporary entries of atomic writes
+    (:func:`~phyrogen_core.folder.temporary_entry`: ``.<entry>.<8 random characters>.tmp`` and
+    their ``.old<n>`` asides) of the entries ``own`` names, this stage's own. Nothing else is
+    touched: a user's ``.notes.tmp`` or ``.draft.tmp.tex`` is no temporary of ours."""
     try:
         names = os.listdir(folder)
     except OSError:
         return
     for name in names:
-        if not (name.startswith(prefix) and _temporary(name)):
+        entry = temporary_entry(name)
+        if entry is None or not own(entry):
             continue
         path = folder / name
         if path.is_dir() and not path.is_symlink():
@@ -462,9 +468,13 @@ def _remove_temporary_files(folder: Path, prefix: str = ".") -> None:
                 path.unlink()
 
 
-def _temporary(name: str) -> bool:
-    """Whether ``name`` is a temporary entry of an atomic write (:mod:`phyrogen_core.folder`)."""
-    return name.startswith(".") and ".tmp" in name
+_ROOT_FILES = (DATASET_FILE, MANIFEST_FILE)
+_PART_FILE = re.compile(r"shard-\d{5,}\.parquet")
+
+
+def _root_temporary(name: str) -> bool:
+    """Whether ``name`` in a dataset root is a temporary entry of this stage's own files."""
+    return temporary_entry(name) in _ROOT_FILES
 
 
 @contextlib.contextmanager

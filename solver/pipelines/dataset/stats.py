@@ -8,6 +8,7 @@ actions, dependency depth), drawn as text and into ``<root>/plots/difficulty.png
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -85,6 +86,7 @@ def dataset_stats(root: str | Path) -> DatasetStats:
     root = Path(root)
     if not (root / DATASET_FILE).is_file():
         raise FileNotFoundError(f"{root}: no dataset here (no {DATASET_FILE}; make one with `phyrogen dataset`)")
+    check_dataset_files(root)
     columns = ["generator", "status", "canonical_hash", "generation_seconds", *(c for c, _ in HISTOGRAMS)]
     table, complete = read_manifest(root, columns)
     order = {name: i for i, name in enumerate(all_generators())}
@@ -104,6 +106,41 @@ def dataset_stats(root: str | Path) -> DatasetStats:
         out.append(GeneratorStats(name, mine.num_rows, ok.num_rows, mine.num_rows - ok.num_rows, int(distinct),
                                   seconds, histograms))
     return DatasetStats(root, complete, tuple(out))
+
+
+def check_dataset_files(root: Path) -> None:
+    """What ``--stats`` reads and writes, checked before it reads: ``dataset.json`` a JSON object
+    written by ``phyrogen dataset``, it and the manifest (or its parts) regular files inside the
+    dataset (:func:`~phyrogen_core.folder.require_folder_file`: a link to another dataset's file is
+    refused), and ``plots/`` a real folder inside it. Raises
+    :class:`~phyrogen_core.folder.PuzzleFormatError` or :class:`~phyrogen_core.folder.OutputError`."""
+    from phyrogen_core.folder import (
+        DATASET_FILE,
+        PuzzleFormatError,
+        read_folder_json,
+        require_folder_file,
+        require_stage_folder,
+    )
+    from solver.pipelines.dataset.manifest import MANIFEST_FILE, PARTS_FOLDER
+
+    request = root / DATASET_FILE
+    require_folder_file(request, root, what="dataset")
+    data = read_folder_json(request, root)
+    if not isinstance(data, dict) or "generators" not in data:
+        raise PuzzleFormatError(f"{request}: not a dataset request written by phyrogen dataset")
+    if os.path.lexists(root / MANIFEST_FILE):
+        files = [root / MANIFEST_FILE]
+    else:
+        files = sorted((root / PARTS_FOLDER).glob("shard-*.parquet")) if (root / PARTS_FOLDER).is_dir() else []
+    if os.path.lexists(root / PARTS_FOLDER):
+        require_stage_folder(root / PARTS_FOLDER, "dataset parts folder", root=root)
+    for path in files:
+        require_folder_file(path, root, limit=MAX_MANIFEST_BYTES, what="dataset")
+    require_stage_folder(root / PLOT_FILE.parent, "plots folder", root=root)
+
+
+MAX_MANIFEST_BYTES = 2**40
+"""No real bound on a manifest's size (a billion rows is a few GiB): only its kind and place are checked."""
 
 
 def plot_stats(stats: DatasetStats, out_path: str | Path | None = None) -> Path:

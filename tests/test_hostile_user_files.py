@@ -1,0 +1,364 @@
+"""Nothing a user made is deleted, and no stage writes or reads through a link out of its folder.
+
+Each stage replaces only files of its own exact names (:func:`phyrogen_core.folder.stage_owns`):
+a user's file beside them, even inside ``urdf/``, ``images/`` or ``mjcf/``, stays where it is, and
+only the stage's own earlier outputs move into ``stale/``. A file at one of a stage's own names
+that the stage did not write (a user's ``index.html``, ``mjcf/<name>.xml``) is refused up front.
+Every folder a stage writes into is a real folder inside the puzzle (or dataset) folder, and every
+file it copies a regular file inside it: otherwise exit 2, one line naming the path, nothing
+written, before any work. Each test has its negative control beside it: the stage's own files are
+still replaced, moved or removed, and a clean folder still passes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from hostile_support import PARAMETERS, hostile_puzzle
+
+from phyrogen.cli import main
+from phyrogen_core.export import read_puzzle_dir, write_mjcf, write_puzzle
+from phyrogen_core.folder import OutputError, PuzzleFolder, Stage, atomic_directory
+
+USER = b"a user's own file"
+
+
+def snapshot(root: Path) -> dict[str, object]:
+    """Every path under ``root`` with its bytes (a link's target, None for a folder or a FIFO)."""
+    def content(path: Path) -> object:
+        if path.is_symlink():
+            return ("link", os.readlink(path))
+        return path.read_bytes() if path.is_file() else None
+
+    return {p.relative_to(root).as_posix(): content(p) for p in sorted(root.rglob("*"))}
+
+
+def refused(argv: list[str], capsys, root: Path, *fragments: str) -> str:
+    """``phyrogen argv``: exit 2, nothing on stdout, one stderr line holding ``fragments``, ``root`` unchanged."""
+    before = snapshot(root)
+    code = main(argv)
+    out, err = capsys.readouterr()
+    assert (code, out) == (2, ""), (code, out, err)
+    assert err.count("\n") == 1 and err.startswith("phyrogen: error: ") and "Traceback" not in err, err
+    for fragment in fragments:
+        assert fragment in err, (fragment, err)
+    assert snapshot(root) == before
+    return err
+
+
+@pytest.fixture
+def place(tmp_path) -> PuzzleFolder:
+    """The hostile puzzle's folder under ``tmp_path/out``: hostile/hostile_1."""
+    return PuzzleFolder.open(write_puzzle(hostile_puzzle(), tmp_path / "out"))
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """The commands' work (planning, Blender workers, simulation, benchmark runs) fails the test if it starts."""
+    import blender_addon.rendering
+    import manipulation.batch
+    import solver.benchmark.runner
+    import solver.pipelines.generation
+    import solver.pipelines.replanning
+
+    def started(*args, **kwargs):
+        raise AssertionError("work started before the input was checked")
+
+    monkeypatch.setattr(solver.pipelines.generation, "run_jobs", started)
+
+    monkeypatch.setattr(solver.pipelines.replanning, "replan", started)
+    monkeypatch.setattr(blender_addon.rendering, "_run_workers", started)
+    monkeypatch.setattr(manipulation.batch, "execute_puzzle", started)
+    monkeypatch.setattr(solver.benchmark.runner, "run_plan", started)
+
+
+def put(path: Path, data: bytes = USER) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data)
+    return path
+
+
+# -- A. a user's files inside a stage's folders ----------------------------------------------------
+USER_FILES = ("urdf/MY_URDF_NOTES.txt", "urdf/my_robot.urdf", "srdf/mine.srdf", "meshes/my_part.obj",
+              "meshes/sub/deeper.txt", "images/notes.txt", "solutions/my_path.json", "mjcf/my_scene_with_robot.xml")
+
+
+@pytest.mark.parametrize("rendered", [False, True], ids=["alone", "with renders"])
+def test_regenerating_a_changed_puzzle_keeps_a_users_files_inside_its_folders(place, tmp_path, rendered):
+    for path in USER_FILES:
+        put(place.path / path, USER + path.encode())
+    if rendered:
+        put(place.images / "hostile_1_00.png", b"render")
+        put(place.best_solution, b"{}")
+    old_urdf = place.urdf.read_bytes()
+    notices: list[str] = []
+    write_puzzle(replace(hostile_puzzle(), parameters={**PARAMETERS, "size": 2.0}), tmp_path / "out", None, notices)
+    for path in USER_FILES:  # where they were, as they were: not deleted, not moved
+        assert (place.path / path).read_bytes() == USER + path.encode(), path
+    stale = place.path / "stale" / "1"
+    if rendered:  # negative control: the stage's own earlier outputs do move, and only they
+        from phyrogen_core.folder import stage_owns
+
+        assert (stale / "images" / "hostile_1_00.png").read_bytes() == b"render"
+        assert (stale / "urdf" / "hostile_1.urdf").read_bytes() == old_urdf
+        assert not (place.images / "hostile_1_00.png").exists() and not place.best_solution.exists()
+        moved = sorted(p.relative_to(stale).as_posix() for p in stale.rglob("*") if p.is_file())
+        assert all(stage_owns(Stage.EXPORT, place.name, p) or p in ("images/hostile_1_00.png",
+                                                                     "solutions/la_rrt_best.json") for p in moved)
+        assert "solutions/la_rrt_best.json" in moved and any(p.startswith("meshes/") for p in moved)
+        assert len(notices) == 1
+    else:
+        assert notices == [] and not (place.path / "stale").exists()
+    assert read_puzzle_dir(place.path).record.parameters["size"] == 2.0
+
+
+def test_a_stage_still_replaces_and_removes_its_own_files(place, tmp_path):
+    """Negative control: an own mesh the new puzzle no longer has goes; a user's file in meshes/ stays."""
+    from phyrogen_core.folder import stage_owns
+
+    put(place.meshes / "my_part.obj")
+    own = sorted(p.name for p in place.meshes.glob("*_*_*_*.obj"))
+    assert own and all(stage_owns(Stage.EXPORT, place.name, f"meshes/{name}") for name in own)
+    put(place.meshes / "gone_visual_9_9.obj", b"an old export's piece")  # the stage's own name pattern
+    write_puzzle(hostile_puzzle(), tmp_path / "out")
+    assert not (place.meshes / "gone_visual_9_9.obj").exists()
+    assert (place.meshes / "my_part.obj").read_bytes() == USER
+    assert sorted(p.name for p in place.meshes.glob("*_*_*_*.obj")) == own
+
+
+def test_replan_keeps_a_users_files_in_place_and_moves_only_old_renders(place, capsys):
+    put(place.path / "MY_NOTES.txt")
+    put(place.path / "notes" / "day1.txt")
+    put(place.path / "urdf" / "MY_URDF_NOTES.txt")
+    put(place.images / "hostile_1_00.png", b"made for the old certificate")
+    assert main(["replan", str(place.path)]) == 0
+    assert "moved to" in capsys.readouterr().err
+    for path in ("MY_NOTES.txt", "notes/day1.txt", "urdf/MY_URDF_NOTES.txt"):
+        assert (place.path / path).read_bytes() == USER, path
+    stale = place.path / "stale" / "1"
+    assert not any(stale.rglob("MY_NOTES.txt")) and not (stale / "notes").exists()
+    # Negative control: the render made for the old certificate did move.
+    assert (stale / "images" / "hostile_1_00.png").read_bytes() == b"made for the old certificate"
+
+
+def test_dataset_removes_only_its_own_temporaries(tmp_path, capsys):
+    root = tmp_path / "data"
+    argv = ["dataset", "--generator", "grid_world", "--seeds", "9100-9101", "--set", "n_objects=2", "--out",
+            str(root), "--workers", "1", "--quiet"]
+    assert main(argv) == 0
+    shard = root / "shard-00000"
+    users = [put(root / ".my_notes.tmp"), put(root / ".thesis_draft.tmp.tex"),
+             put(root / ".notes.abcdefgh.tmp"),  # our pattern, but no entry of ours
+             put(root / "parts" / ".my.parquet.tmp"), put(shard / "grid_world" / ".my_notes.tmp"),
+             put(shard / "grid_world" / ".draft.abcdefgh.tmp")]
+    leftovers = [put(root / ".manifest.parquet.k1ll3d00.tmp", b"PAR1"),
+                 put(root / ".dataset.json.k1ll3d00.tmp", b"{"),
+                 put(root / "parts" / ".shard-00000.parquet.k1ll3d00.tmp", b"PAR1"),
+                 put(shard / "grid_world" / ".grid_world_9100.k1ll3d00.tmp" / "urdf" / "x.urdf", b"<rob").parent.parent]
+    assert main(argv) == 0  # resumed: finds everything done, cleans up
+    capsys.readouterr()
+    for path in users:
+        assert path.read_bytes() == USER, path
+    for path in leftovers:  # negative control: what a killed writer of ours left is removed
+        assert not os.path.lexists(path), path
+
+
+@pytest.mark.parametrize("name, entry", [(".manifest.parquet.k1ll3d00.tmp", "manifest.parquet"),
+                                         (".grid_world_7.abcd_123.tmp.old3", "grid_world_7"),
+                                         (".difficulty.png.x1y2z3w4.tmp.png", "difficulty.png"),
+                                         (".index.x1y2z3w4.html.tmp", "index"),
+                                         (".my_notes.tmp", None), (".thesis_draft.tmp.tex", None),
+                                         ("notes.abcdefgh.tmp", None), (".a.b.tmp", None)])
+def test_temporary_names_follow_one_exact_pattern(name, entry):
+    from phyrogen_core.folder import temporary_entry
+
+    assert temporary_entry(name) == entry
+
+
+def gallery(out: Path) -> Path:
+    return out / "index.html"
+
+
+def test_render_refuses_a_users_own_index_html_before_any_work(place, tmp_path, capsys, no_work):
+    out = tmp_path / "out"
+    put(gallery(out), b"<html>my own page</html>")
+    for argv in (["render", "--out", str(out), "--quiet"], ["render", "--out", str(out), "--gallery-only"]):
+        refused(argv, capsys, tmp_path, str(gallery(out)), "not written by phyrogen render")
+    link = tmp_path / "elsewhere.html"
+    put(link, b"<html>elsewhere</html>")
+    gallery(out).unlink()
+    gallery(out).symlink_to(link)
+    refused(["render", "--out", str(out), "--gallery-only"], capsys, tmp_path, str(gallery(out)), "a link")
+
+
+def test_render_rewrites_a_gallery_it_wrote(place, tmp_path, capsys):
+    """Negative control: the page phyrogen render wrote is replaced, twice over."""
+    out = tmp_path / "out"
+    for _ in range(2):
+        assert main(["render", "--out", str(out), "--gallery-only"]) == 0
+    assert b"hostile_1" in gallery(out).read_bytes()
+    capsys.readouterr()
+
+
+def test_export_mjcf_keeps_a_users_files_and_refuses_one_of_its_name(place, tmp_path, capsys):
+    put(place.path / "mjcf" / "my_scene_with_robot.xml")
+    assert main(["export", str(place.path), "--format", "mjcf"]) == 0
+    ours = place.path / "mjcf" / "hostile_1.xml"
+    assert (place.path / "mjcf" / "my_scene_with_robot.xml").read_bytes() == USER
+    assert ours.read_bytes().startswith(b'<?xml version="1.0"?>\n<mujoco model=')
+    assert main(["export", str(place.path), "--format", "mjcf"]) == 0  # negative control: its own file
+    capsys.readouterr()
+    ours.write_bytes(b'<mujoco model="mine"><worldbody/></mujoco>\n')  # the user's own scene, of our name
+    refused(["export", str(place.path), "--format", "mjcf"], capsys, tmp_path, str(ours), "not written by")
+
+
+def test_an_output_folder_shared_with_a_user_keeps_the_users_files(tmp_path):
+    """``owned_directory``, as manipulate (``manipulation.outputs.owns_output``) and render use it."""
+    from manipulation.outputs import owns_output
+    from phyrogen_core.folder import owned_directory
+
+    final = tmp_path / "runs" / "hostile_1"
+    put(final / "my_analysis.md")
+    put(final / "frames" / "my_sketch.png")
+    put(final / "frames" / "frame_9.png", b"an old run's frame")
+    put(final / "report.json", b"old report")
+    with owned_directory(final, lambda path: owns_output("hostile_1", path)) as folder:
+        put(folder / "report.json", b"new report")
+        put(folder / "frames" / "frame_1.png", b"new frame")
+    assert (final / "my_analysis.md").read_bytes() == USER and (final / "frames" / "my_sketch.png").read_bytes() == USER
+    # Negative control: the stage's own files are replaced, and its old ones it did not write again go.
+    assert (final / "report.json").read_bytes() == b"new report" and not (final / "frames" / "frame_9.png").exists()
+    # The plain atomic_directory replaces the folder whole: what owned_directory is there to prevent.
+    with atomic_directory(final) as folder:
+        put(folder / "report.json", b"whole")
+    assert not (final / "my_analysis.md").exists()
+
+
+# -- B. links and special files -------------------------------------------------------------------
+def _outside_file(tmp_path: Path) -> Path:
+    return put(tmp_path / "secret.txt", b"outside the puzzle folder")
+
+
+def _unreferenced_link_outside(place, tmp_path):
+    (place.path / "urdf" / "extra.urdf").symlink_to(_outside_file(tmp_path))
+    return str(place.path / "urdf" / "extra.urdf"), "outside the puzzle folder"
+
+
+def _unreferenced_fifo(place, tmp_path):
+    os.mkfifo(place.meshes / "pipe.obj")
+    return str(place.meshes / "pipe.obj"), "is a FIFO"
+
+
+def _link_to_dev_zero(place, tmp_path):
+    (place.path / "srdf" / "zero.srdf").symlink_to("/dev/zero")
+    return str(place.path / "srdf" / "zero.srdf"), "/dev/zero"
+
+
+def _linked_meshes_folder(place, tmp_path):
+    outside = tmp_path / "meshes_elsewhere"
+    place.meshes.rename(outside)
+    place.meshes.symlink_to(outside, target_is_directory=True)
+    return str(place.path), "outside the puzzle folder"  # found by the reader already, naming the URDF
+
+
+@pytest.mark.parametrize("damage", [_unreferenced_link_outside, _unreferenced_fifo, _link_to_dev_zero,
+                                    _linked_meshes_folder], ids=lambda f: f.__name__.strip("_"))
+def test_replan_refuses_links_out_and_special_files_before_any_work(place, tmp_path, capsys, no_work, damage):
+    path, fragment = damage(place, tmp_path)
+    refused(["replan", str(place.path)], capsys, tmp_path, path, fragment)
+
+
+def test_replan_follows_links_inside_the_folder(place, tmp_path):
+    """Negative control: a link to a file inside the puzzle folder is no escape."""
+    from solver.pipelines.replanning import check_replan_folder
+
+    put(place.path / "library" / "notes.txt")
+    (place.path / "urdf" / "notes.txt").symlink_to(Path("..") / "library" / "notes.txt")
+    check_replan_folder(place.path, place.name)
+
+
+def test_dataset_stats_refuses_files_outside_the_dataset_and_a_folder_that_is_no_dataset(tmp_path, capsys):
+    import pyarrow.parquet as pq
+
+    from solver.pipelines.dataset.manifest import schema
+
+    root = tmp_path / "data"
+    put(root / "dataset.json", json.dumps({"generators": ["grid_world"]}).encode())
+    pq.write_table(schema().empty_table(), tmp_path / "elsewhere.parquet")
+    (root / "manifest.parquet").symlink_to(tmp_path / "elsewhere.parquet")
+    refused(["dataset", "--stats", str(root)], capsys, tmp_path, str(root / "manifest.parquet"), "outside")
+    (root / "manifest.parquet").unlink()
+    (root / "plots").symlink_to(tmp_path, target_is_directory=True)
+    refused(["dataset", "--stats", str(root)], capsys, tmp_path, str(root / "plots"), "symbolic link")
+    (root / "plots").unlink()
+    for not_a_request in (b"[]", b"{}", b"not json"):
+        put(root / "dataset.json", not_a_request)
+        refused(["dataset", "--stats", str(root)], capsys, tmp_path, str(root / "dataset.json"))
+    # Negative control: the same folder as a dataset (its own, empty manifest) is described, with plots.
+    put(root / "dataset.json", json.dumps({"generators": ["grid_world"]}).encode())
+    pq.write_table(schema().empty_table(), root / "manifest.parquet")
+    assert main(["dataset", "--stats", str(root)]) == 0
+    assert (root / "plots" / "difficulty.png").is_file()
+    capsys.readouterr()
+
+
+def test_benchmark_refuses_a_solutions_folder_leading_outside(place, tmp_path, capsys, no_work):
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    place.solutions.symlink_to(outside, target_is_directory=True)
+    argv = ["benchmark", "--puzzles", str(place.path), "--out", str(tmp_path / "bench"), "--planners", "la_rrt",
+            "--budget-checks", "100", "--time-limit", "5", "--dry-run"]
+    refused(argv, capsys, tmp_path, str(place.solutions), "symbolic link")
+    place.solutions.unlink()
+    assert main(argv) == 0  # negative control: a real solutions folder (or none) passes
+    capsys.readouterr()
+
+
+def _linked_puzzle(place: PuzzleFolder, tmp_path: Path) -> Path:
+    """``tmp_path/linked/hostile/hostile_1``, a link to the real puzzle folder."""
+    link = tmp_path / "linked" / "hostile" / "hostile_1"
+    link.parent.mkdir(parents=True)
+    link.symlink_to(place.path, target_is_directory=True)
+    return link
+
+
+def test_a_linked_puzzle_folder_is_refused_by_every_stage_that_writes_into_it(place, tmp_path, capsys, no_work):
+    link = _linked_puzzle(place, tmp_path)
+    assert read_puzzle_dir(link).name == "hostile_1"  # reading through it is fine
+    refused(["replan", str(link)], capsys, tmp_path, str(link), "symbolic link")
+    refused(["export", str(link), "--format", "mjcf"], capsys, tmp_path, str(link), "symbolic link")
+    refused(["render", "--out", str(tmp_path / "linked"), "--quiet"], capsys, tmp_path, str(link), "symbolic link")
+    with pytest.raises(OutputError, match="symbolic link"):  # the swap itself refuses, should a caller not check
+        write_puzzle(hostile_puzzle(), tmp_path / "linked")
+    out = tmp_path / "gen"
+    (out / "simple_slider").mkdir(parents=True)
+    (out / "simple_slider" / "simple_slider_2").symlink_to(place.path, target_is_directory=True)
+    refused(["generate", "--generator", "simple_slider", "--seeds", "1-3", "--out", str(out), "--quiet"], capsys,
+            tmp_path, str(out / "simple_slider" / "simple_slider_2"), "symbolic link")
+
+
+def test_linked_images_and_mjcf_folders_are_refused(place, tmp_path, capsys, no_work):
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    place.images.symlink_to(outside, target_is_directory=True)
+    refused(["render", "--out", str(tmp_path / "out"), "--quiet"], capsys, tmp_path, str(place.images),
+            "symbolic link")
+    (place.path / "mjcf").symlink_to(outside, target_is_directory=True)
+    refused(["export", str(place.path), "--format", "mjcf"], capsys, tmp_path, str(place.path / "mjcf"),
+            "symbolic link")
+    with pytest.raises(OutputError, match="symbolic link"):
+        write_mjcf(place.path, read_puzzle_dir(place.path).chain, place.name)
+
+
+def test_a_linked_manipulation_output_folder_is_refused(place, tmp_path, capsys, no_work):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    (runs / "hostile_1").symlink_to(outside, target_is_directory=True)
+    refused(["manipulate", str(place.path), "--out", str(runs), "--quiet"], capsys, tmp_path,
+            str(runs / "hostile_1"), "symbolic link")
