@@ -362,3 +362,18 @@ def test_a_linked_manipulation_output_folder_is_refused(place, tmp_path, capsys,
     (runs / "hostile_1").symlink_to(outside, target_is_directory=True)
     refused(["manipulate", str(place.path), "--out", str(runs), "--quiet"], capsys, tmp_path,
             str(runs / "hostile_1"), "symbolic link")
+
+
+@pytest.mark.blender
+@pytest.mark.slow
+def test_a_render_keeps_a_users_files_in_images_and_drops_its_own_old_ones(place):
+    """The render worker (one Blender process, one small view) through ``owned_directory``."""
+    pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
+    from blender_addon.rendering import render_puzzles
+
+    put(place.images / "my_annotated_view.png")
+    put(place.images / "hostile_1_05.png", b"a view an earlier render made")  # the render's own name
+    render_puzzles([place.path], size=(64, 48), views=("top",), animation=False)
+    assert (place.images / "my_annotated_view.png").read_bytes() == USER
+    # Negative control: the stage's own files are replaced; its old one it did not make again is gone.
+    assert sorted(p.name for p in place.images.iterdir()) == ["hostile_1_00.png", "my_annotated_view.png"]
