@@ -86,7 +86,7 @@ CHECK_EVERY_SEED_UP_TO = 10_000
 
 
 def cmd_generate(args) -> int:
-    from phyrogen_core.folder import OutputError, require_writable_dir
+    from phyrogen_core.folder import require_writable_dir
     from solver.pipelines.generation import Job, run_jobs
 
     seeds = parse_seeds(args.seeds)
@@ -118,11 +118,6 @@ def cmd_generate(args) -> int:
     out = require_writable_dir(args.out)  # an unusable --out is found before any puzzle is made
     for name in names:
         require_writable_dir(out / name)
-        for r in seeds if count <= CHECK_EVERY_SEED_UP_TO else ():
-            for seed in r:  # a linked puzzle folder would take the puzzle elsewhere: refused, not swapped away
-                if os.path.islink(out / name / f"{name}_{seed}"):
-                    raise OutputError(f"puzzle folder {out / name / f'{name}_{seed}'} is a symbolic link; a stage "
-                                      "writes only into real folders (put the folder itself there)")
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
     jobs = (Job(name, seed, overrides_of[name], mjcf=args.mjcf, difficulty=difficulty)
@@ -270,11 +265,12 @@ def cmd_check(args) -> int:
 
 def cmd_replan(args) -> int:
     from phyrogen_core.export import read_puzzle_dir
-    from solver.pipelines.replanning import REPLAN_BUDGET, check_replan_folder, replan, write_replanned
+    from phyrogen_core.folder import require_writable_dir
+    from solver.pipelines.replanning import REPLAN_BUDGET, replan, write_replanned
 
     folder = Path(args.puzzle_dir)
     loaded = read_puzzle_dir(folder)  # bad input is found before any work
-    check_replan_folder(folder, loaded.name)
+    require_writable_dir(folder, "puzzle folder")
     name = loaded.name
     result = replan(loaded, REPLAN_BUDGET if args.budget is None else args.budget, args.seed)
     if not result.solved:
@@ -300,7 +296,7 @@ def replan_budget_option(text: str) -> int:
 
 def cmd_export(args) -> int:
     from phyrogen_core.export import chain_to_mjcf, read_puzzle_dir, write_mjcf
-    from phyrogen_core.export.mjcf import check_mjcf_target
+    from phyrogen_core.folder import require_writable_dir
 
     # Every folder is read, converted and checked writable before the first file is written:
     # bad input (a missing folder, a malformed puzzle) leaves every folder as it was.
@@ -309,7 +305,7 @@ def cmd_export(args) -> int:
     for folder in folders:
         loaded = read_puzzle_dir(folder)
         chain_to_mjcf(loaded.chain)
-        check_mjcf_target(folder, loaded.name)  # a link, or a user's file of the name, is refused
+        require_writable_dir(folder, "puzzle folder")
         puzzles.append((folder, loaded))
     for folder, loaded in puzzles:
         print(write_mjcf(folder, loaded.chain, loaded.name))
@@ -462,7 +458,7 @@ def benchmark_runs(benchmark: Path, folders: list[Path]) -> dict[Path, list]:
 
 
 def cmd_render(args) -> int:
-    from blender_addon.gallery import check_gallery_target, write_gallery
+    from blender_addon.gallery import write_gallery
     from blender_addon.render_worker import parse_size
     from blender_addon.rendering import RenderError, check_render_folders, render_puzzles
     from blender_addon.views import parse_views
@@ -471,7 +467,6 @@ def cmd_render(args) -> int:
     views = parse_views(args.views)
     size = None if args.gallery_only else parse_size(args.size)
     out = require_writable_dir(args.out, "render output folder")  # index.html goes there
-    check_gallery_target(out)  # a user's own index.html is refused before any render
     try:
         found = [f.path for f in find_puzzle_folders(out)]
     except FileNotFoundError:
@@ -505,21 +500,27 @@ def cmd_benchmark(args) -> int:
     if args.report is not None:
         return benchmark_report(Path(args.report))
     from solver.benchmark.runner import get_profile, plan_benchmark, run_plan
-    from solver.planning.registry import planner_names
+    from solver.planning.registry import select_planners
 
     generators = None if args.generator == "all" else _generators(args.generator)
-    known = planner_names()
-    planners = list(known) if args.planners == "all" else [p.strip() for p in args.planners.split(",")]
-    for name in planners:
-        if name not in known:
-            raise UsageError(f"unknown planner {name!r} (known: {', '.join(known)})")
+    try:
+        planners = select_planners(args.planners)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
     profile = get_profile(args.profile, args.runs, args.time_limit)
+    budget_checks = args.budget_checks
+    if args.budget_from_paper:
+        from solver.benchmark.paper_budgets import paper_budgets
+
+        if args.budget_checks is not None:
+            raise UsageError("--budget-from-paper sets each generator's check budget; give no --budget-checks with it")
+        budget_checks = paper_budgets()
     puzzles = find_puzzle_folders(Path(args.puzzles), generators)
     # Every puzzle is read and every output path checked here, before the first run.
     until_first = args.until == "first"
     plan = plan_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
                           save_solutions=not args.no_solutions, until_first=until_first,
-                          budget_checks=args.budget_checks)
+                          budget_checks=budget_checks)
     estimate = plan.estimate_seconds(overhead=1.0)
     print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
           f"{'at most ' if until_first else ''}about {estimate / 3600:.1f} h on {args.workers} workers",
@@ -686,8 +687,12 @@ def _planners_help() -> str:
 
     names = planner_names()
     # argparse %-formats help texts: a title with "%" must not break --help.
+    from solver.planning.registry import GROUPS
+
     listed = "; ".join(f"{name} ({PLANNERS[name].title})" for name in names).replace("%", "%%")
-    return f"all (default) or comma-separated: {listed}"
+    groups = "; ".join(f"{group}: {what}" for group, what in GROUPS.items()).replace("%", "%%")
+    return (f"all (default: every planner outside a group), a group ({groups}) or comma-separated names, "
+            f"in any mix: {listed}")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -791,6 +796,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--budget-checks", type=budget_checks_option, metavar="N",
                        help="every run ends after N collision checks (1..10^9), the same result on any machine; "
                             "the time limit becomes a backstop only")
+    bench.add_argument("--budget-from-paper", action="store_true",
+                       help="every run ends after its generator's paper time limit in collision checks, at the "
+                            "checks per second of the paper's harness (docs/benchmark/README.md#paper-budgets); "
+                            "not with --budget-checks")
     bench.add_argument("--no-solutions", action="store_true", help="do not save LA-RRT's best path per puzzle")
     bench.add_argument("--dry-run", action="store_true", help="print the job count and time estimate only")
     bench.add_argument("--report", metavar="DIR",

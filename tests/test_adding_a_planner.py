@@ -23,6 +23,9 @@ NAME = "rrt_connect"
 BUILT_IN = (("la_rrt", "LA-RRT"), ("la_rrt_push", "LA-RRT+push (ours)"), ("rrt_star", "RRT*"),
             ("lbt_rrt", "LBT-RRT"), ("bit_star", "BIT*"))
 """Benchmark journals and logs key on these names, titles and this order."""
+ABLATIONS = (("la_rrt_segment_check", "LA-RRT, original segment check"),
+             ("la_rrt_fixed_order", "LA-RRT, fixed factor order"))
+"""Registered after the five, outside ``--planners all`` (group "ablations")."""
 
 
 def load_example() -> None:
@@ -62,11 +65,12 @@ def test_the_example_is_registered_after_the_five_built_in_entries_only_in_the_c
 
 
 def test_the_real_registry_does_not_have_the_example_and_keeps_its_versions():
-    assert tuple((s.name, s.title) for s in PLANNERS.values()) == BUILT_IN
+    assert tuple((s.name, s.title) for s in PLANNERS.values()) == BUILT_IN + ABLATIONS
     versions = {s.name: s.version.rsplit("/", 1)[0] for s in PLANNERS.values()}
     # Only the goal sampler's tag (last part) may change without a hand-bumped code version.
-    assert versions == {"la_rrt": "paper-2/6507f195", "la_rrt_push": "push-3/83bdf2b3", "rrt_star": "ompl-3",
-                        "lbt_rrt": "py-3", "bit_star": "ompl-3"}
+    assert versions == {"la_rrt": "paper-3/006e4be6", "la_rrt_push": "push-4/a2c6ea6d", "rrt_star": "ompl-4",
+                        "lbt_rrt": "py-3", "bit_star": "ompl-4", "la_rrt_segment_check": "paper-3/5b264df5",
+                        "la_rrt_fixed_order": "paper-3/346014de"}
 
 
 def test_the_command_line_offers_it_and_refuses_an_unregistered_name(with_example, slider_folder, tmp_path,
@@ -104,7 +108,7 @@ def test_a_duplicate_or_malformed_registration_is_refused(with_example):
             register_planner(bad, "Fresh title", plan, version="1", uses_ompl_rng=True)
     with pytest.raises(ValueError, match="version"):
         register_planner("fresh", "Fresh title", plan, version="", uses_ompl_rng=True)
-    assert planner_names()[-1] == NAME and len(PLANNERS) == 6
+    assert planner_names()[-1] == NAME and len(PLANNERS) == len(BUILT_IN + ABLATIONS) + 1
 
 
 def test_it_runs_in_a_benchmark_and_is_scored_like_the_others(with_example, slider_folder, tmp_path):

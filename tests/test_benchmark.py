@@ -31,7 +31,7 @@ from solver.benchmark.runner import (
     run_key,
     write_log,
 )
-from solver.planning.registry import PLANNERS
+from solver.planning.registry import PLANNERS, default_planners
 
 
 def _record(planner: str, run: int, solved: bool, first: float | None, cost: int | None) -> RunRecord:
@@ -140,14 +140,14 @@ def test_profiles_and_jobs():
 def test_every_planner_of_a_run_gets_the_same_goal_seed_and_the_mode_is_in_the_key():
     quick = get_profile("quick", runs=3, time_limit=0.5)
     puzzles = [PuzzleFolder(Path("/nowhere"), "rooms_1", "rooms")]
-    jobs = make_jobs(puzzles, list(PLANNERS), quick, base_seed=3)
+    jobs = make_jobs(puzzles, list(default_planners()), quick, base_seed=3)
     by_run = {}
     for job in jobs:
         by_run.setdefault(job.run, set()).add(job.goal_seed)
     assert all(len(seeds) == 1 for seeds in by_run.values())  # one goal seed per run, whatever the planner
     assert len({next(iter(seeds)) for seeds in by_run.values()}) == 3  # and another one per run
     assert not any(job.until_first for job in jobs)
-    first = make_jobs(puzzles, list(PLANNERS), quick, base_seed=3, until_first=True)
+    first = make_jobs(puzzles, list(default_planners()), quick, base_seed=3, until_first=True)
     assert all(job.until_first for job in first)
     keys = {run_key(job, "digest", "2.0.1") for job in jobs}
     first_keys = {run_key(job, "digest", "2.0.1") for job in first}
@@ -164,7 +164,7 @@ def test_a_changed_planner_version_changes_the_journal_key(monkeypatch):
 
     job = make_jobs([PuzzleFolder(Path("/nowhere"), "rooms_1", "rooms")], ["la_rrt"], get_profile("quick"))[0]
     before = run_key(job, "digest", "2.0.1")
-    monkeypatch.setitem(planners.PLANNERS, "la_rrt", replace(planners.PLANNERS["la_rrt"], code_version="paper-3"))
+    monkeypatch.setitem(planners.PLANNERS, "la_rrt", replace(planners.PLANNERS["la_rrt"], code_version="paper-4"))
     assert run_key(job, "digest", "2.0.1") != before
 
 
@@ -234,9 +234,9 @@ def test_a_benchmark_until_first_stops_every_run_at_its_first_solution(tmp_path)
     write_puzzle(generate_puzzle("move_n_times", 1), tmp_path / "puzzles", versions())
     puzzles = find_puzzle_folders(tmp_path / "puzzles")
     profile = get_profile("quick", runs=1, time_limit=BACKSTOP)
-    out = run_benchmark(puzzles, list(PLANNERS), profile, tmp_path / "bench", workers=2, progress=False,
+    out = run_benchmark(puzzles, list(default_planners()), profile, tmp_path / "bench", workers=2, progress=False,
                         save_solutions=False, until_first=True, budget_checks=UNTIL_FIRST_CHECKS)
-    assert len(out.records) == len(PLANNERS)
+    assert len(out.records) == len(default_planners())
     for record in out.records:
         if record.solved:  # stopped right at its first solution, which is the result
             assert record.first_solution_time == record.best_solution_time
@@ -246,7 +246,7 @@ def test_a_benchmark_until_first_stops_every_run_at_its_first_solution(tmp_path)
     assert all(r.solved for r in out.records if r.planner.startswith("LA-RRT"))
     assert "--until first" in (tmp_path / "bench" / "summary.md").read_text()
     log = (tmp_path / "bench" / "logs" / "move_n_times_1.log").read_text()
-    assert log.count("until_first BOOLEAN = 1") == len(PLANNERS)
+    assert log.count("until_first BOOLEAN = 1") == len(default_planners())
     keys = [json.loads(k) for k in read_journal(tmp_path / "bench" / JOURNAL)]
     assert {k["until"] for k in keys} == {"first"} and len({k["goal_seed"] for k in keys}) == 1
     # The same benchmark until the limit reuses none of them.

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from solver.planning.registry import PLANNERS
+from solver.planning.registry import PLANNERS, default_planners
 
 BUDGET = 6_000
 """Enough for LA-RRT to solve Simple Slider 2 and for every planner to make many iterations."""
@@ -30,7 +30,7 @@ def slider_folder(tmp_path_factory):
 def _outcomes(folders) -> dict[str, tuple]:
     from solver.benchmark.runner import get_profile, make_jobs, run_all
 
-    jobs = make_jobs(folders, list(PLANNERS), get_profile("quick", runs=1, time_limit=BACKSTOP),
+    jobs = make_jobs(folders, list(default_planners()), get_profile("quick", runs=1, time_limit=BACKSTOP),
                      base_seed=3, budget_checks=BUDGET)
     records = list(run_all(jobs, workers=1))
     assert all(r.error is None for r in records), [r.error for r in records if r.error]
@@ -46,7 +46,7 @@ def test_the_same_seed_and_budget_give_the_same_result_under_load(slider_folder)
         for process in busy:
             process.kill()
             process.wait()
-    assert set(quiet) == {spec.title for spec in PLANNERS.values()}
+    assert set(quiet) == {PLANNERS[name].title for name in default_planners()}
     for title, outcome in quiet.items():
         assert loaded[title] == outcome, title
         assert outcome[3] >= BUDGET or outcome[0], (title, outcome)  # ended by its budget, not the backstop

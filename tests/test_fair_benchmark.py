@@ -107,14 +107,14 @@ def _progress_on(args) -> tuple[str, dict[str, tuple[int, int, int]], int]:
 
     from solver.planning.ompl_planners import run_ompl
     from solver.planning.ompl_setup import seed_ompl
-    from solver.planning.registry import PLANNERS, get_planner, run_seed
+    from solver.planning.registry import default_planners, get_planner, run_seed
 
     name, puzzle = args
     problem = problem_for_chain(puzzle.planning_chain, puzzle.goal)
     seed_ompl(run_seed("bit_star", name, 0))
     goals = goal_seed(name, 0)
     out = {}
-    for planner in PLANNERS:
+    for planner in default_planners():
         seed = run_seed(planner, name, 0)
         if planner == "bit_star":
             run = run_ompl("BIT*", og.BITstar, problem, PROGRESS_BACKSTOP, seed, 0.05, goal_seed=goals,
@@ -130,7 +130,7 @@ def _progress_on(args) -> tuple[str, dict[str, tuple[int, int, int]], int]:
 @pytest.mark.slow
 def test_every_planner_makes_progress_on_every_paper_puzzle(paper_reports):
     from solver.parallel.pool import fresh_process_pool
-    from solver.planning.registry import PLANNERS
+    from solver.planning.registry import default_planners
 
     jobs = [(f"{r.generator}_{r.seed}", r.puzzle) for r in paper_reports]
     assert len(jobs) == 24
@@ -140,7 +140,7 @@ def test_every_planner_makes_progress_on_every_paper_puzzle(paper_reports):
     for name, runs, goal_states in results:
         if goal_states != GoalSamplerSettings().capacity:
             stalled.append(f"{name}: the goal sampler found {goal_states} goal states")
-        for planner in PLANNERS:
+        for planner in default_planners():
             iterations, vertices, goals = runs[planner]
             if iterations <= 0:
                 stalled.append(f"{name}: {planner} made no iteration")

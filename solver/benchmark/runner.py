@@ -66,7 +66,6 @@ from phyrogen_core.folder import (
     PuzzleFolder,
     PuzzleFormatError,
     read_folder_file,
-    require_stage_folder,
     require_writable_dir,
     write_file_atomic,
 )
@@ -94,6 +93,7 @@ RUN_PROPERTIES = (
     ("rejected paths", "INTEGER"),
     ("collision checks", "INTEGER"),
     ("cpu time", "REAL"),
+    ("checks to first solution", "INTEGER"),
 )
 PROGRESS_PROPERTIES = (("time", "REAL"), ("best cost", "REAL"), ("iterations", "INTEGER"))
 
@@ -197,6 +197,7 @@ class RunRecord:
     # None in records journaled before they were counted (still read; see parse_journal_line).
     checks: int | None = None  # collision checks the run spent (solver.planning.anytime.CheckCounter)
     cpu_time: float | None = None  # process CPU seconds of the planning, beside its wall ``time``
+    first_solution_checks: int | None = None  # collision checks spent when the first kept path was found
 
 
 def _run_job(job: RunJob) -> RunRecord:
@@ -221,7 +222,8 @@ def _run_job(job: RunJob) -> RunRecord:
             result.time, result.first_solution_time, result.action_cost,
             result.length if result.solved else None, result.iterations, result.rejected,
             tuple((p.time, p.best_cost, p.iterations) for p in result.progress), path, loaded.joint_order,
-            time.perf_counter() - started, None, result.best_solution_time, result.checks, result.cpu_time)
+            time.perf_counter() - started, None, result.best_solution_time, result.checks, result.cpu_time,
+            result.first_solution_checks)
     except Exception as exc:  # a crashed run is data, not the end of the benchmark
         return _crashed(job, time.perf_counter() - started,
                         f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}")
@@ -244,12 +246,30 @@ _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_c
             "solver.planning.lbt_rrt", "solver.planning.ompl_planners"]
 
 
+Budget = int | Mapping[str, int] | None
+"""A check budget per run: one for every puzzle, one per generator (``--budget-from-paper``,
+:mod:`solver.benchmark.paper_budgets`), or None (runs end on their time limit)."""
+
+
+def budget_for(budget: Budget, generator: str) -> int | None:
+    """The check budget of a run on ``generator``'s puzzles; ValueError when a per-generator budget
+    has none for it."""
+    if budget is None or isinstance(budget, int):
+        return budget
+    try:
+        return budget[generator]
+    except KeyError:
+        raise ValueError(f"no check budget for generator {generator!r}; the budgets are for: "
+                         f"{', '.join(budget)}") from None
+
+
 def make_jobs(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile,
-              base_seed: int = 0, until_first: bool = False, budget_checks: int | None = None) -> list[RunJob]:
+              base_seed: int = 0, until_first: bool = False, budget_checks: Budget = None) -> list[RunJob]:
     sources = {name: get_planner(name).source for name in planners}
     return [RunJob(planner, puzzle, run, run_seed(planner, puzzle.name, run, base_seed),
                    profile.time_limit(puzzle.generator), profile.progress_interval, bool(until_first),
-                   goal_seed(puzzle.name, run, base_seed), budget_checks, sources[planner])
+                   goal_seed(puzzle.name, run, base_seed), budget_for(budget_checks, puzzle.generator),
+                   sources[planner])
             for puzzle in puzzles for run in range(profile.runs) for planner in planners]
 
 
@@ -316,7 +336,8 @@ def write_log(path: Path, experiment: str, records: Sequence[RunRecord], planner
         lines.append(f"{len(mine)} runs")
         for r in mine:
             values = [r.time, r.solved, STATUS_NAMES.index(r.status), r.length, r.action_cost,
-                      r.first_solution_time, r.iterations, r.seed, r.rejected, r.checks, r.cpu_time]
+                      r.first_solution_time, r.iterations, r.seed, r.rejected, r.checks, r.cpu_time,
+                      r.first_solution_checks]
             lines.append("".join(_value(v) + "; " for v in values))
         lines.append(f"{len(PROGRESS_PROPERTIES)} progress properties for each run")
         lines += [f"{name} {kind}" for name, kind in PROGRESS_PROPERTIES]
@@ -438,9 +459,9 @@ _RECORD_TYPES = {
     "planner": str, "puzzle": str, "run": int, "seed": int, "time_limit": float, "solved": bool, "status": str,
     "time": float, "first_solution_time": float | None, "action_cost": int | None, "length": float | None,
     "iterations": int, "rejected": int, "wall": float, "error": str | None, "best_solution_time": float | None,
-    "checks": int | None, "cpu_time": float | None,
+    "checks": int | None, "cpu_time": float | None, "first_solution_checks": int | None,
 }
-_ADDED_FIELDS = {"checks", "cpu_time"}
+_ADDED_FIELDS = {"checks", "cpu_time", "first_solution_checks"}
 """RunRecord fields added after journals were first written: a record without them reads as None."""
 
 
@@ -591,7 +612,7 @@ class BenchmarkPlan:
     save_solutions: bool
     jobs: tuple[RunJob, ...]
     until_first: bool = field(default=False, kw_only=True)
-    budget_checks: int | None = field(default=None, kw_only=True)  # collision checks per run (None: seconds)
+    budget_checks: Budget = field(default=None, kw_only=True)  # collision checks per run (None: seconds)
     keys: tuple[str, ...] = field(repr=False)  # the journal key of each job
     done: Mapping[str, RunRecord] = field(repr=False)  # journaled runs of this benchmark, by key
     digests: Mapping[str, str] = field(repr=False)  # puzzle name -> puzzle_digest
@@ -617,7 +638,7 @@ def _ompl_version() -> str:
 
 def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
                    workers: int = 2, base_seed: int = 0, save_solutions: bool = True,
-                   until_first: bool = False, budget_checks: int | None = None) -> BenchmarkPlan:
+                   until_first: bool = False, budget_checks: Budget = None) -> BenchmarkPlan:
     """Check everything a benchmark needs, before any run and without writing anything.
 
     Raises ValueError (:class:`~phyrogen_core.folder.PuzzleFormatError`,
@@ -629,14 +650,17 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
     number in 1..:data:`~solver.planning.anytime.MAX_BUDGET_CHECKS`. Reads the journal
     of ``out`` to find the runs already done. ``until_first``: every run stops at its first
     solution (see the module docstring). ``budget_checks``: every run ends after that many
-    collision checks, its time limit only a backstop (the same result on any machine).
+    collision checks, its time limit only a backstop (the same result on any machine); a mapping
+    gives each generator its own (:func:`solver.benchmark.paper_budgets.paper_budgets`), and a
+    puzzle of a generator it lacks is refused.
     """
     from phyrogen_core.export import read_puzzle_dir
     from solver.planning.anytime import check_budget_checks
     from solver.planning.problem import problem_for_chain
 
     check_workers(workers)
-    check_budget_checks(budget_checks)
+    for budget in (budget_checks.values() if isinstance(budget_checks, Mapping) else (budget_checks,)):
+        check_budget_checks(budget)
     if isinstance(base_seed, bool) or not isinstance(base_seed, int):
         raise ValueError(f"base seed must be a whole number, got {base_seed!r}")
     planners = tuple(planners)
@@ -666,13 +690,13 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
         try:
             problem_for_chain(loaded.chain, loaded.goal)
             check_time_limit(profile.time_limit(puzzle.generator))
+            budget_for(budget_checks, puzzle.generator)
         except ValueError as exc:
             raise PuzzleFormatError(f"{where}: {exc}") from None
         digests[puzzle.name] = puzzle_digest(puzzle)
         if save_solutions and any(name in planners for name in solution_planners()):
             try:
-                # A linked solutions/ (or puzzle folder) would take the solution outside the puzzle.
-                require_stage_folder(puzzle.solutions, "solutions folder", root=puzzle.path)
+                require_writable_dir(puzzle.solutions, "solutions folder")
             except OutputError as exc:
                 raise OutputError(f"{exc} (or do not save solutions: --no-solutions)") from None
     jobs = tuple(make_jobs(puzzles, planners, profile, base_seed, until_first, budget_checks))
@@ -688,7 +712,7 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
 def run_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
                   workers: int = 2, base_seed: int = 0, save_solutions: bool = True, plots: bool = True,
                   progress: bool = True, on_done: Callable[[RunRecord], None] | None = None,
-                  until_first: bool = False, budget_checks: int | None = None) -> BenchmarkOutput:
+                  until_first: bool = False, budget_checks: Budget = None) -> BenchmarkOutput:
     """Check the input (:func:`plan_benchmark`), then run what the journal does not hold and write
     ``out``: ``logs/<puzzle>.log``, ``benchmark.db``, ``summary.md``, ``fig4.png``, ``errors.txt``
     (when runs crashed), next to the journal ``runs.jsonl``."""
@@ -763,7 +787,10 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
     mode = "each run stops at its first solution (--until first)" if plan.until_first else \
         "each run lasts its time limit (--until limit)"
     if plan.budget_checks is not None:
-        mode += f"; a budget of {plan.budget_checks} collision checks per run, the time limit a backstop"
+        budgets = plan.budget_checks if isinstance(plan.budget_checks, Mapping) else None
+        mode += (f"; a budget of {plan.budget_checks} collision checks per run" if budgets is None else
+                 "; a budget of collision checks per run for each generator (" +
+                 ", ".join(f"{g} {n}" for g, n in budgets.items()) + ")") + ", the time limit a backstop"
     setup = (f"PhyRoGen benchmark, profile {profile.name}: {profile.runs} runs per planner and puzzle, {mode}; "
              f"planners {', '.join(titles)}")
     staging = Path(tempfile.mkdtemp(prefix=_STAGING_PREFIX, dir=plan.out))
@@ -775,7 +802,7 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
             log = staging / "logs" / f"{puzzle.name}.log"
             write_log(log, puzzle.name, mine, titles, profile.time_limit(puzzle.generator), profile.runs,
                       plan.base_seed, sum(r.wall for r in mine), setup, plan.until_first, versions,
-                      plan.budget_checks)
+                      budget_for(plan.budget_checks, puzzle.generator))
             logs.append(log)
         build_database(staging / "benchmark.db", logs)
         crashed = [r for r in records if r.error]

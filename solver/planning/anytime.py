@@ -55,6 +55,7 @@ class PlanResult:
     best_solution_time: float | None = None  # when the returned path was found
     checks: int = 0  # collision checks spent (:class:`CheckCounter`), the unit of a check budget
     cpu_time: float = 0.0  # process CPU seconds of the run (time.process_time), beside the wall ``time``
+    first_solution_checks: int | None = None  # collision checks spent when the first kept path was found
 
     @property
     def length(self) -> float:
@@ -178,6 +179,7 @@ class AnytimeRecorder:
         self.started = time.perf_counter()
         self.cpu_started = time.process_time()
         self.improvements: list[tuple[float, int, np.ndarray]] = []  # (time, action cost, path)
+        self.improvement_checks: list[int] = []  # checks spent when each improvement was found
         self.samples: list[tuple[float, int]] = []  # (time, iterations)
         self._next_sample = 0.0
         self.clipped = 0  # paths dropped while running for failing the fine check
@@ -211,8 +213,14 @@ class AnytimeRecorder:
         """Whether ``path`` would need fewer actions than the best so far (no other check)."""
         return count_actions(np.asarray(path, dtype=float), self.factors) < self.best_cost
 
-    def offer(self, path: Sequence[Sequence[float]]) -> bool:
-        """Consider a solution path (valid at planning resolution); True when it became the new best."""
+    def moment(self) -> tuple[float, int]:
+        """(seconds, checks) spent so far: when a path was found, for :meth:`offer`'s ``found_at``."""
+        return self.elapsed(), self.checks()
+
+    def offer(self, path: Sequence[Sequence[float]], found_at: tuple[float, int] | None = None) -> bool:
+        """Consider a solution path (valid at planning resolution); True when it became the new best.
+        ``found_at``: the :meth:`moment` the planner found it, when that was before this call (an OMPL
+        planner's path is read after its ``solve`` slice ends); default now."""
         states = np.asarray(path, dtype=float)
         if len(states) < 1 or not in_goal(self.problem, states[-1]):
             return False
@@ -221,10 +229,12 @@ class AnytimeRecorder:
         cost = count_actions(states, self.factors)
         if cost >= self.best_cost:
             return False
-        self.improvements.append((self.elapsed(), cost, states.copy()))
+        seconds, checks = self.moment() if found_at is None else found_at
+        self.improvements.append((seconds, cost, states.copy()))
+        self.improvement_checks.append(checks)
         return True
 
-    def offer_checked(self, path: Sequence[Sequence[float]]) -> Offer:
+    def offer_checked(self, path: Sequence[Sequence[float]], found_at: tuple[float, int] | None = None) -> Offer:
         """Offer ``path`` if it is cheaper than the best so far and holds at fine resolution.
 
         A cheaper path that clips is counted (:meth:`clip`) and dropped: kept, it would block
@@ -235,7 +245,7 @@ class AnytimeRecorder:
         if not path_is_valid(self._referee, np.asarray(path, dtype=float), self.fine_steps):
             self.clip()
             return Offer.CLIPPED
-        return Offer.BEST if self.offer(path) else Offer.NO_GAIN
+        return Offer.BEST if self.offer(path, found_at) else Offer.NO_GAIN
 
     def clip(self) -> None:
         """Count a solution path the planner dropped because it failed the fine-resolution check."""
@@ -266,7 +276,8 @@ class AnytimeRecorder:
         best = tuple(tuple(float(v) for v in s) for s in kept[-1][2]) if solved else ()
         return PlanResult(self.planner, solved, best, kept[-1][1] if solved else None,
                           kept[0][0] if solved else None, elapsed, iterations, tuple(progress), status, rejected,
-                          kept[-1][0] if solved else None, self.checks(), time.process_time() - self.cpu_started)
+                          kept[-1][0] if solved else None, self.checks(), time.process_time() - self.cpu_started,
+                          self.improvement_checks[0] if solved else None)
 
 
 def planning_steps(problem: Problem, resolution: float = PLANNING_RESOLUTION) -> np.ndarray:

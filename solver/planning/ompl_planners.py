@@ -6,7 +6,9 @@ optimize its additive upper bound: each segment costs the number of objects
 it moves. Every path a planner returns is scored with the true action count
 (:func:`phyrogen_core.actions.count_actions`) like every other planner's. Planners
 are solved in short slices (OMPL keeps the tree between ``solve`` calls), so
-the best cost can be sampled over time; with ``until_first`` a run ends at
+the best cost can be sampled over time; a slice ends early at the planner's
+first solution, whose time and checks are measured then (not rounded up to
+the slice's end); with ``until_first`` a run ends at
 its first solution that holds at fine resolution (a first path that clips at
 fine resolution restarts the planner; see :func:`run_ompl`).
 
@@ -154,10 +156,13 @@ def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, see
         return OmplRun(recorder.result(0, "Invalid start"), 0, 0, 0)
     dimension = len(problem.start)
     earlier = 0  # iterations of the trees cleared by restarts
+    watch = _FirstSolutionWatch(recorder, planner)
     while not recorder.expired():
-        planner.solve(_slice(recorder, progress_interval))
+        planner.solve(_slice(recorder, progress_interval, watch))
         if pdef.hasExactSolution():
-            offer = recorder.offer_checked(_solution(pdef, dimension))
+            # The moment the watch saw counts for a first solution only; later ones are read at a slice's end.
+            found_at = None if recorder.has_solution else watch.found_at
+            offer = recorder.offer_checked(_solution(pdef, dimension), found_at)
             if offer is Offer.BEST and until_first:
                 recorder.sample(earlier + _iterations(planner, si), force=True)
                 break
@@ -166,10 +171,12 @@ def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, see
                 # one turns up, which never happens when it is already the cheapest (most often
                 # one action per object), and every later path through the clipping edge clips
                 # too: the run starts a fresh tree instead, with the time left and OMPL's RNG where
-                # it is (LBT-RRT does the same; LA-RRT's next connection is a new path anyway).
+                # it is. Every planner restarts this way (LBT-RRT and both LA-RRT entries too;
+                # docs/benchmark/README.md, "One restart rule").
                 earlier += _iterations(planner, si)
                 planner.clear()
                 pdef.clearSolutionPaths()
+                watch.found_at = None
         recorder.sample(earlier + _iterations(planner, si), force=True)
     result = recorder.result(earlier + _iterations(planner, si))
     data = ob.PlannerData(si)
@@ -188,16 +195,43 @@ def _iterations(planner, si) -> int:
     return int(data.numVertices())
 
 
-def _slice(recorder: AnytimeRecorder, progress_interval: float):
+class _FirstSolutionWatch:
+    """Notices, between two iterations of a ``solve`` slice, the moment an OMPL planner first holds a
+    solution while the run has none, and ends the slice there, so that the path is checked and its
+    time and checks are the ones measured then, not the end of the slice (0.1 s quick, 0.5 s paper,
+    or 1/:data:`BUDGET_SLICES` of a budget). The planner's ``bestCost()`` (RRT*, BIT*) tells; a
+    planner without one returns from ``solve`` at its first solution anyway (RRT-Connect, PRM...)."""
+
+    def __init__(self, recorder: AnytimeRecorder, planner):
+        self.recorder = recorder
+        self.best_cost = getattr(planner, "bestCost", None)
+        self.found_at: tuple[float, int] | None = None
+        self.fired = False  # in this slice: OMPL may ask again after a True, and must hear True again
+
+    def __call__(self) -> bool:
+        """True when the slice should end now: a first solution has appeared in it."""
+        if self.fired:
+            return True
+        if self.found_at is not None or self.recorder.has_solution or self.best_cost is None:
+            return False
+        if math.isfinite(self.best_cost().value()):
+            self.found_at = self.recorder.moment()
+            self.fired = True
+        return self.fired
+
+
+def _slice(recorder: AnytimeRecorder, progress_interval: float, watch: _FirstSolutionWatch):
     """The termination condition of one ``solve()`` slice: ``progress_interval`` seconds, or under
-    a check budget a share of it in checks (the clock then only as the run's backstop)."""
+    a check budget a share of it in checks (the clock then only as the run's backstop); either ends
+    early at the planner's first solution (``watch``)."""
+    watch.fired = False
     if recorder.budget_checks is None:
-        seconds = min(recorder.time_limit - recorder.elapsed(), progress_interval)
-        return ob.timedPlannerTerminationCondition(max(seconds, 1e-3))
+        end_time = recorder.elapsed() + max(min(recorder.time_limit - recorder.elapsed(), progress_interval), 1e-3)
+        return ob.PlannerTerminationCondition(lambda: watch() or recorder.elapsed() >= end_time)
     end = recorder.checks() + max(1, math.ceil(recorder.budget_checks / BUDGET_SLICES))
     # OMPL asks this between iterations, in the planner's own thread: its answer depends on the
     # checks the planner made so far only (and on the backstop, which a budgeted run should not reach).
-    return ob.PlannerTerminationCondition(lambda: recorder.checks() >= end or recorder.expired())
+    return ob.PlannerTerminationCondition(lambda: watch() or recorder.checks() >= end or recorder.expired())
 
 
 def ompl_plan_function(title: str, planner_class: Callable, configure: Callable | None = None) -> Callable:

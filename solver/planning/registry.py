@@ -73,6 +73,9 @@ class PlannerSpec:
     summary: str = ""  # one line for ``--help`` and the docs: what it is and what it optimizes
     source: tuple[str, str | None] | None = None
     """(module, file) that registered it, so that a fresh worker process can load it; None: built in."""
+    group: str | None = None
+    """None: one of ``--planners all``; else the name of a set it is run with (:data:`GROUPS`),
+    besides by its own name."""
 
     @cached_property
     def version(self) -> str:
@@ -102,17 +105,17 @@ class PlannerSpec:
 
 def _la_rrt(which: str, title: str, problem, time_limit, seed, progress_interval, until_first, goal_seed,
             budget_checks=None) -> PlanResult:
-    from solver.planning.la_rrt import PAPER_SETTINGS, PUSH_SETTINGS, plan_la_rrt
+    from solver.planning.la_rrt import plan_la_rrt
 
-    settings = {"paper": PAPER_SETTINGS, "push": PUSH_SETTINGS}[which]
-    return plan_la_rrt(problem, time_limit, seed, progress_interval, settings, until_first=until_first,
-                       goal_seed=goal_seed, title=title, budget_checks=budget_checks)
+    return plan_la_rrt(problem, time_limit, seed, progress_interval, _la_rrt_settings(which),
+                       until_first=until_first, goal_seed=goal_seed, title=title, budget_checks=budget_checks)
 
 
 def _la_rrt_settings(which: str) -> object:
-    from solver.planning.la_rrt import PAPER_SETTINGS, PUSH_SETTINGS
+    from solver.planning import la_rrt
 
-    return {"paper": PAPER_SETTINGS, "push": PUSH_SETTINGS}[which]
+    return {"paper": la_rrt.PAPER_SETTINGS, "push": la_rrt.PUSH_SETTINGS, "fixed_order": la_rrt.FIXED_ORDER_SETTINGS,
+            "segment_check": la_rrt.SEGMENT_CHECK_SETTINGS}[which]
 
 
 def _rrt_star(*args, **kwargs) -> PlanResult:
@@ -147,17 +150,17 @@ def _version(code: str, settings: object = None) -> str:
 
 def _built_in() -> dict[str, PlannerSpec]:
     specs = (
-        PlannerSpec("la_rrt", "LA-RRT", partial(_la_rrt, "paper", "LA-RRT"), False, "paper-2",
+        PlannerSpec("la_rrt", "LA-RRT", partial(_la_rrt, "paper", "LA-RRT"), False, "paper-3",
                     partial(_la_rrt_settings, "paper"), True,
                     "the paper's LA-RRT; fewest actions, by path defragmentation"),
         PlannerSpec("la_rrt_push", "LA-RRT+push (ours)", partial(_la_rrt, "push", "LA-RRT+push (ours)"), False,
-                    "push-3", partial(_la_rrt_settings, "push"), True,
+                    "push-4", partial(_la_rrt_settings, "push"), True,
                     "our LA-RRT with blocker pushes; fewest actions, by path defragmentation"),
-        PlannerSpec("rrt_star", "RRT*", _rrt_star, True, "ompl-3", None, False,
+        PlannerSpec("rrt_star", "RRT*", _rrt_star, True, "ompl-4", None, False,
                     "OMPL's RRT*; objects moved per edge"),
         PlannerSpec("lbt_rrt", "LBT-RRT", _lbt_rrt, False, "py-3", None, False,
                     "LBT-RRT in Python; objects moved per edge, epsilon 0.4"),
-        PlannerSpec("bit_star", "BIT*", _bit_star, True, "ompl-3", None, False,
+        PlannerSpec("bit_star", "BIT*", _bit_star, True, "ompl-4", None, False,
                     "OMPL's BIT*; objects moved per edge"),
     )
     return {spec.name: spec for spec in specs}
@@ -171,6 +174,11 @@ LA_RRT_PLANNERS = ("la_rrt", "la_rrt_push")
 """The built-in entries whose best path is saved into the puzzle folder (the manipulation stage's
 input); :func:`solution_planners` lists every registered one."""
 
+GROUPS: dict[str, str] = {
+    "ablations": "the paper's LA-RRT with one of its behaviour changes switched back to the original's",
+}
+"""Named sets of planners outside ``--planners all`` (:attr:`PlannerSpec.group`), and what each holds."""
+
 PLANNER_MODULES: tuple[str, ...] = ()
 """Modules that register more planners, imported the first time the registry is asked
 (:func:`load_planner_modules`): add yours here (docs/adding-a-planner.md)."""
@@ -178,7 +186,7 @@ PLANNER_MODULES: tuple[str, ...] = ()
 
 def register_planner(name: str, title: str, plan: PlanFunction, *, version: str, uses_ompl_rng: bool,
                      settings: Callable[[], object] | None = None, saves_solution: bool = False,
-                     summary: str = "") -> PlannerSpec:
+                     summary: str = "", group: str | None = None) -> PlannerSpec:
     """Add a planner to :data:`PLANNERS`, after the ones there; returns its entry.
 
     ``plan(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None)``
@@ -187,7 +195,9 @@ def register_planner(name: str, title: str, plan: PlanFunction, *, version: str,
     it is given (its collision checks are counted) and stop when the recorder expires.
     :func:`solver.planning.ompl_planners.ompl_plan_function` makes one from any ``ompl.geometric``
     planner. ``version``: bump it when the planner's code changes (the journal keys runs by it).
-    ``uses_ompl_rng``: it draws from OMPL's global RNG (every OMPL planner does).
+    ``uses_ompl_rng``: it draws from OMPL's global RNG (every OMPL planner does). ``group``: None
+    puts it in ``--planners all``; a name of :data:`GROUPS` (e.g. "ablations") runs it only with that
+    set or by its own name.
 
     Register in a module, not a script run as ``__main__``: a benchmark runs each run in a fresh
     process, which loads the registering module (by name, else from its file) to find the planner.
@@ -207,9 +217,12 @@ def register_planner(name: str, title: str, plan: PlanFunction, *, version: str,
         raise ValueError(f"plan must be a function, got {plan!r}")
     if not isinstance(version, str) or not version or any(c.isspace() for c in version):
         raise ValueError(f"version must be a non-empty word (bump it when the code changes), got {version!r}")
+    if group is not None and group not in GROUPS:
+        raise ValueError(f"planner group must be None (one of 'all') or one of {', '.join(GROUPS)}; got {group!r}")
     caller = sys._getframe(1).f_globals
+    source = None if caller.get("__name__") == __name__ else (caller.get("__name__", ""), caller.get("__file__"))
     spec = PlannerSpec(name, title, plan, bool(uses_ompl_rng), version, settings, bool(saves_solution), summary,
-                       (caller.get("__name__", ""), caller.get("__file__")))
+                       source, group)
     PLANNERS[name] = spec
     return spec
 
@@ -261,6 +274,29 @@ def planner_names() -> tuple[str, ...]:
     return tuple(PLANNERS)
 
 
+def default_planners() -> tuple[str, ...]:
+    """What ``--planners all`` runs: every registered planner outside a group (:data:`GROUPS`)."""
+    load_planner_modules()
+    return tuple(name for name, spec in PLANNERS.items() if spec.group is None)
+
+
+def select_planners(text: str) -> list[str]:
+    """``--planners``: "all", a group name (:data:`GROUPS`) or planner names, comma-separated, in
+    any mix ("all,ablations"); each planner once, in registry order. ValueError names an unknown one."""
+    load_planner_modules()
+    chosen: set[str] = set()
+    for word in (w.strip() for w in text.split(",")):
+        if word == "all":
+            chosen.update(default_planners())
+        elif word in GROUPS:
+            chosen.update(name for name, spec in PLANNERS.items() if spec.group == word)
+        elif word in PLANNERS:
+            chosen.add(word)
+        else:
+            raise ValueError(f"unknown planner {word!r} (known: all, {', '.join(GROUPS)}, {', '.join(PLANNERS)})")
+    return [name for name in PLANNERS if name in chosen]
+
+
 def solution_planners() -> tuple[str, ...]:
     """The registered planners whose best path per puzzle the benchmark saves."""
     load_planner_modules()
@@ -285,3 +321,16 @@ def plan(name: str, problem: Problem, time_limit: float, seed: int, progress_int
 def run_seed(planner: str, puzzle: str, run: int, base_seed: int = 0) -> int:
     """The seed of run ``run`` of ``planner`` on ``puzzle``: stable across machines, orders and processes."""
     return stable_seed("run", base_seed, planner, puzzle, run)
+
+
+# The ablations of ``la_rrt`` (docs/benchmark/README.md, "Ablations"): each switches one of its two
+# behaviour changes back to the original's. Registered like any added planner, but outside
+# ``--planners all``, so that "all" still means the five entries it meant before.
+register_planner("la_rrt_segment_check", "LA-RRT, original segment check", partial(_la_rrt, "segment_check",
+                 "LA-RRT, original segment check"), version="paper-3", uses_ompl_rng=False,
+                 settings=partial(_la_rrt_settings, "segment_check"), group="ablations",
+                 summary="la_rrt that also checks the straight segment a step replaces by its staircase (ablation)")
+register_planner("la_rrt_fixed_order", "LA-RRT, fixed factor order", partial(_la_rrt, "fixed_order",
+                 "LA-RRT, fixed factor order"), version="paper-3", uses_ompl_rng=False,
+                 settings=partial(_la_rrt_settings, "fixed_order"), group="ablations",
+                 summary="la_rrt whose factors move in the original's fixed order (ablation)")
