@@ -25,9 +25,16 @@ GALLERY_MARKER = '<meta name="generator" content="phyrogen render gallery">'
 root is replaced only when it carries it, so a user's own ``index.html`` there is never overwritten."""
 
 
+EARLIER_GALLERY_HEAD = (b'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+                        b"<title>PhyRoGen puzzles</title>\n")
+"""How the pages of versions before the marker begin, exactly: an existing output/index.html of
+``scripts/paper.sh`` is still replaced."""
+
+
 def check_gallery_target(out_root: str | Path) -> Path:
     """``<out_root>/index.html``, checked before any work: missing, or a regular file (not a link)
-    that holds :data:`GALLERY_MARKER` within its first 4 KiB. Raises
+    that holds :data:`GALLERY_MARKER` within its first 4 KiB (or begins exactly as an earlier
+    version's page, :data:`EARLIER_GALLERY_HEAD`). Raises
     :class:`~phyrogen_core.folder.OutputError` naming the file otherwise."""
     target = Path(out_root) / GALLERY_FILE
     if not os.path.lexists(target):
@@ -40,7 +47,7 @@ def check_gallery_target(out_root: str | Path) -> Path:
             head = stream.read(4096)
     except OSError as exc:
         raise OutputError(f"{target} cannot be read: {exc.strerror or exc}") from None
-    if GALLERY_MARKER.encode() not in head:
+    if GALLERY_MARKER.encode() not in head and not head.startswith(EARLIER_GALLERY_HEAD):
         raise OutputError(f"{target} was not written by phyrogen render (no gallery marker); move it, or render "
                           "into another folder, and the gallery is written there")
     return target

@@ -201,6 +201,11 @@ def test_render_rewrites_a_gallery_it_wrote(place, tmp_path, capsys):
     for _ in range(2):
         assert main(["render", "--out", str(out), "--gallery-only"]) == 0
     assert b"hostile_1" in gallery(out).read_bytes()
+    # A page of an earlier version (no marker yet) begins exactly so, and is replaced too.
+    put(gallery(out), b'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+                      b"<title>PhyRoGen puzzles</title>\n<style>old</style>")
+    assert main(["render", "--out", str(out), "--gallery-only"]) == 0
+    assert b"phyrogen render gallery" in gallery(out).read_bytes()
     capsys.readouterr()
 
 
