@@ -134,13 +134,17 @@ def test_replan_keeps_a_users_files_in_place_and_moves_only_old_renders(place, c
     put(place.path / "MY_NOTES.txt")
     put(place.path / "notes" / "day1.txt")
     put(place.path / "urdf" / "MY_URDF_NOTES.txt")
+    put(place.images / "MY_NOTES.txt")  # beside the renders, in the folders that move
+    put(place.solutions / "notes" / "day2.txt")
     put(place.images / "hostile_1_00.png", b"made for the old certificate")
     assert main(["replan", str(place.path)]) == 0
     assert "moved to" in capsys.readouterr().err
-    for path in ("MY_NOTES.txt", "notes/day1.txt", "urdf/MY_URDF_NOTES.txt"):
+    kept = ("MY_NOTES.txt", "notes/day1.txt", "urdf/MY_URDF_NOTES.txt", "images/MY_NOTES.txt",
+            "solutions/notes/day2.txt")
+    for path in kept:
         assert (place.path / path).read_bytes() == USER, path
     stale = place.path / "stale" / "1"
-    assert not any(stale.rglob("MY_NOTES.txt")) and not (stale / "notes").exists()
+    assert not any(stale.rglob("MY_NOTES.txt")) and not any(stale.rglob("notes"))
     # Negative control: the render made for the old certificate did move.
     assert (stale / "images" / "hostile_1_00.png").read_bytes() == b"made for the old certificate"
 
