@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 
+from .sizes import MESH_TRIANGLES
+
 _BINARY_HEADER = 80
 _BINARY_TRIANGLE = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
 
@@ -34,6 +36,9 @@ def read_triangles(data: bytes, label: str, suffix: str, limit: float = math.inf
         triangles = read_obj(data, label)
     else:
         raise MeshFormatError(f"{label}: mesh format {suffix or '(none)'!r} is not supported; valid: .stl, .obj")
+    too_many = MESH_TRIANGLES.problem(len(triangles))  # before any work that grows with them
+    if too_many is not None:
+        raise MeshFormatError(f"{label} {too_many}")
     if not np.isfinite(triangles).all() or (limit < math.inf and np.abs(triangles).max() > limit):
         raise MeshFormatError(f"{label}: a vertex coordinate is not a finite number"
                               + (f" within +-{limit:g}" if limit < math.inf else ""))

@@ -43,6 +43,7 @@ from .errors import PuzzleFormatError
 from .objects import Motion
 from .provenance import Imported, ImportedJoint, PlannerRun, Provenance
 from .puzzle import Goal
+from .sizes import CERTIFICATE_STATES
 
 FORMAT_VERSION = 3
 """The newest ``puzzle.json`` format; bumped when a key changes meaning. Readers accept 1 to this."""
@@ -288,8 +289,11 @@ class _Parser:
         joint_order = tuple(self.strings(data, "joint_order"))
         objects = self.objects(self.field(data, "objects", list))
         start = self.state(data.get("start"), len(joint_order), "start")
-        certificate = tuple(self.state(state, len(joint_order), f"certificate[{i}]")
-                            for i, state in enumerate(self.field(data, "certificate", list)))
+        states = self.field(data, "certificate", list)
+        too_long = CERTIFICATE_STATES.problem(len(states))  # before any state is read
+        if too_long is not None:
+            raise self.error(f"certificate {too_long}")
+        certificate = tuple(self.state(state, len(joint_order), f"certificate[{i}]") for i, state in enumerate(states))
         goal = self.goal(self.field(data, "goal", dict), joint_order)
         names = [o.name for o in objects]
         if goal.target not in names:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 from ..geometry import Point2
+from ..sizes import PRISM_VERTICES
 from .formatting import number
 
 
@@ -59,6 +60,9 @@ def read_prism_piece(text: str, limit: float = math.inf) -> tuple[tuple[Point2, 
             raise ValueError(f"line {number_}: vertex coordinates must be finite numbers"
                              + (f" within +-{limit:g}" if limit < math.inf else "") + f", got {_show(line)}")
         vertices.append(vertex)
+    too_many = PRISM_VERTICES.problem(len(vertices))  # before the corners are sorted and tested
+    if too_many is not None:
+        raise ValueError(f"the mesh {too_many}")
     if len(vertices) < 6:
         raise ValueError(f"a prism needs at least 6 vertices, found {len(vertices)}")
     low = min(v[2] for v in vertices)

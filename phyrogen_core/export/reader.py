@@ -54,7 +54,8 @@ from ..geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from ..objects import Motion
 from ..puzzle import Goal
 from ..record import MAX_MAGNITUDE, ObjectRecord, PuzzleRecord
-from ..xml_fields import XmlFields
+from ..sizes import urdf_size_problem
+from ..xml_fields import DoctypeError, XmlFields, parse_xml
 from .metadata import start_state
 from .obj import read_prism_piece
 from .urdf import MESH_NAME
@@ -199,9 +200,14 @@ def read_urdf(path: Path, roles: Mapping[str, tuple[Role, str]] | None = None,
     except UnicodeDecodeError as exc:
         raise PuzzleFormatError(f"{path}: the URDF is not UTF-8 text: {exc}") from None
     try:
-        robot = ET.fromstring(text)
+        robot = parse_xml(text)
+    except DoctypeError as exc:
+        raise PuzzleFormatError(f"{path}: the URDF {exc}") from None
     except ET.ParseError as exc:
         raise PuzzleFormatError(f"{path}: malformed XML: {exc}") from None
+    too_large = urdf_size_problem(robot)
+    if too_large is not None:
+        raise PuzzleFormatError(f"{path}: the URDF {too_large}")
     return _UrdfReader(path, roles or {}, root).chain(robot)
 
 

@@ -200,8 +200,14 @@ class DatasetRequest:
     def check_feasible(self) -> None:
         """Raise :class:`~phyrogen_core.registry.ParameterError` unless every entry can be generated
         (each generator's ``check(seed, params)``): an infeasible size is refused before any work."""
+        first = self.seeds[0][0]
         for generator in self.generators:
             spec = get_generator(generator)
+            # Every value a sweep names, whether or not these seeds reach it: ``n_objects=1:1000``
+            # asks for 1000 objects, past the stated bound, even when --count 10 never gets there.
+            # Seeds first .. first + period - 1 meet every combination, in both sweep modes.
+            for offset in range(self.period if self.sweeps else 0):
+                spec.check(first, self.parameters(generator, first + offset))
             for seed in self._seeds_to_check():
                 spec.check(seed, self.parameters(generator, seed))
 
