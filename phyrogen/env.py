@@ -33,6 +33,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -379,7 +380,9 @@ class PuzzleEnv(gym.Env):
     ``max_episode_steps`` steps (:data:`STEP_LIMIT`; None: no limit) have been taken. Through
     ``gym.make`` the limit is Gymnasium's TimeLimit wrapper instead (the same as
     registered, or ``gym.make(..., max_episode_steps=n)``), since gym.make
-    keeps that keyword for itself.
+    keeps that keyword for itself. Once an episode has ended (terminated, or truncated by the
+    environment's own count), ``step()`` raises :class:`gymnasium.error.ResetNeeded` until
+    ``reset()`` (or :meth:`set_state`), as Gymnasium's convention asks.
 
     **Info.** ``puzzle`` (name), ``goal_distance``, ``collided``,
     ``is_success``. For search: :attr:`state` / :meth:`set_state`,
@@ -417,6 +420,7 @@ class PuzzleEnv(gym.Env):
         self._state = task.start.copy()
         self._distance = task.goal_distance(self._state)
         self._elapsed = 0
+        self._ended = False
         # The observation is kept in float64 and cast on return (cheaper than writing float32 in place).
         obs = np.zeros(5 * self.size, dtype=np.float64)
         obs[self.size:] = task.static_obs
@@ -433,6 +437,11 @@ class PuzzleEnv(gym.Env):
         return self._obs.astype(np.float32), {"puzzle": self._task.name, "goal_distance": self._distance}
 
     def step(self, action):
+        if self._ended:
+            # Gymnasium leaves a step after the episode's end undefined; here it would report the goal
+            # (reward 1, terminated) once more, which a training loop would count twice.
+            raise ResetNeeded("PuzzleEnv.step() after the episode ended (terminated at the goal or truncated): "
+                              "call reset() first")
         task = self._task
         state = self._state
         if self._discrete:
@@ -465,6 +474,7 @@ class PuzzleEnv(gym.Env):
             reward += (previous - distance) * task.shaping_scale
         self._elapsed += 1
         truncated = self._elapsed >= self._limit
+        self._ended = terminated or truncated
         info = {"puzzle": task.name, "goal_distance": distance, "collided": collided, "is_success": terminated}
         return self._obs.astype(np.float32), reward, terminated, truncated, info
 
@@ -515,7 +525,8 @@ class PuzzleEnv(gym.Env):
     def set_state(self, state) -> np.ndarray:
         """Put the puzzle in ``state`` (within the limits and collision-free, else ValueError); its observation.
 
-        Keeps the step count; the next step's shaped reward counts from here.
+        Keeps the step count; the next step's shaped reward counts from here. An episode that had
+        ended may go on from the new state (search: expand any state), so step() is allowed again.
         """
         task = self._task
         values = np.array(state, dtype=np.float64).reshape(-1)
@@ -528,6 +539,7 @@ class PuzzleEnv(gym.Env):
             raise ValueError(f"state {values.tolist()} is in collision")
         self._state = values
         self._distance = task.goal_distance(values)
+        self._ended = False
         self._write_position()
         return self._obs.astype(np.float32)
 
