@@ -279,3 +279,19 @@ def test_the_command_line_refuses_both_budgets_and_unknown_planner_sets(slider, 
         code = main(["benchmark", "--puzzles", str(puzzles), "--out", str(out), *args, "--dry-run"])
         assert code == 0, capsys.readouterr().err
         assert not out.exists()
+
+
+def test_checks_to_the_first_solution_survive_the_journal_and_older_records_read_as_none():
+    from solver.benchmark.runner import RunRecord, journal_line, parse_journal_line
+
+    record = RunRecord("LA-RRT", "toy_1", 0, 100, 1.0, True, "Exact solution", 1.0, 0.25, 3, 2.5, 20, 0,
+                       ((0.0, math.inf, 0), (1.0, 3.0, 20)), checks=5000, cpu_time=0.9, first_solution_checks=1234)
+    key = json.dumps({"planner": "la_rrt", "puzzle": "toy_1", "run": 0, "seed": 100})
+    line = journal_line(key, record)
+    assert parse_journal_line(line)[1].first_solution_checks == 1234
+    older = json.loads(line)
+    del older["record"]["first_solution_checks"]  # a record journaled before it was recorded
+    assert parse_journal_line(json.dumps(older).encode())[1].first_solution_checks is None
+    # Negative control: a value of the wrong type is refused, not read.
+    older["record"]["first_solution_checks"] = "many"
+    assert parse_journal_line(json.dumps(older).encode()) is None
