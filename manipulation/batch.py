@@ -8,8 +8,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from phyrogen_core.export import read_puzzle_dir
-from phyrogen_core.folder import OutputError, require_writable_dir
+from phyrogen_core.folder import METADATA_FILE, OutputError, PuzzleFormatError, require_writable_dir
 from solver.parallel.pool import deferred_signals
+from solver.planning.problem import verify_certificate
 
 from .execution import ExecutionSettings, ManipulationReport, execute_puzzle, scene_placement
 from .outputs import summary_table, write_outputs
@@ -85,6 +86,13 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
         require_writable_dir(table.parent, f"folder of the summary table {table}:")
     for folder in folders:
         loaded = read_puzzle_dir(folder)
+        if loaded.certificate:
+            # The robot may fall back to the certificate: one that ``phyrogen check`` refuses (it
+            # crosses other objects, it does not begin at the start) is bad input, not a plan.
+            problems = verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)
+            if problems:
+                raise PuzzleFormatError(f"{Path(folder) / METADATA_FILE}: the certificate is not valid "
+                                        f"(phyrogen check): {problems[0]}")
         for solution in candidate_solutions(Path(folder), loaded, runs.get(Path(folder), ())):
             scene_placement(loaded, solution.path, settings)
         target = out_root / loaded.name

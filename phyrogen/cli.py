@@ -70,6 +70,8 @@ def _generators(text: str) -> list[str]:
     if text == "all":
         return list(paper_generators())
     names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:  # '' or ',': a request for nothing is a mistake, not a run that does nothing
+        raise UsageError(f"no generator named in {text!r} (known: {', '.join(registry)}, or 'all')")
     for name in names:
         if name not in registry:
             raise UsageError(f"unknown generator {name!r} (known: {', '.join(registry)})")
@@ -100,7 +102,7 @@ def cmd_generate(args) -> int:
         names = [entry.generator for entry in suite]
         overrides_of = {entry.generator: dict(entry.overrides) for entry in suite}
     else:
-        names = _generators(args.generator or "all")
+        names = _generators("all" if args.generator is None else args.generator)  # '' is refused, not all
         overrides = parse_overrides(args.set or [])
         if overrides and len(names) > 1:
             raise UsageError("--set applies to one generator; name it with --generator")
@@ -193,6 +195,7 @@ def cmd_dataset(args) -> int:
     request = make_request(names, seeds, args.set or [], args.sweep, args.shard_size, args.mjcf,
                            difficulty_settings(args))
     root = check_dataset_root(request, Path(args.out))
+    check_ray(args.ray)  # an unreachable cluster is bad input, refused before the progress bar shows
     progress = _progress(request.size, args.quiet)
 
     def show_running(running: list) -> None:
@@ -418,6 +421,9 @@ def cmd_manipulate(args) -> int:
 
 
 MAX_SCENE_SCALE = 2.0
+MIN_SCENE_SCALE = 0.05
+"""``manipulate --scale``: below it every object's 5 cm knob is under 2.5 mm wide, less than the
+gripper closes on (docs/manipulation/README.md#physical-scale); 1e-300 made the physics fail."""
 
 
 def scene_scale_option(text: str) -> float:
@@ -425,9 +431,9 @@ def scene_scale_option(text: str) -> float:
         value = float(text)
     except ValueError:
         value = math.nan
-    if not (math.isfinite(value) and 0 < value <= MAX_SCENE_SCALE):
-        raise argparse.ArgumentTypeError(f"must be a number above 0 and at most {MAX_SCENE_SCALE:g} (scene metres "
-                                         f"per puzzle metre), got {text!r}")
+    if not (math.isfinite(value) and MIN_SCENE_SCALE <= value <= MAX_SCENE_SCALE):
+        raise argparse.ArgumentTypeError(f"must be a number from {MIN_SCENE_SCALE:g} to {MAX_SCENE_SCALE:g} (scene "
+                                         f"metres per puzzle metre), got {text!r}")
     return value
 
 
@@ -521,6 +527,7 @@ def cmd_benchmark(args) -> int:
     plan = plan_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
                           save_solutions=not args.no_solutions, until_first=until_first,
                           budget_checks=budget_checks)
+    check_ray(args.ray)  # an unreachable cluster is bad input, refused before any line of progress
     estimate = plan.estimate_seconds(overhead=1.0)
     print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
           f"{'at most ' if until_first else ''}about {estimate / 3600:.1f} h on {args.workers} workers",
@@ -598,6 +605,14 @@ def ray_connection(address: str | None, workers: int):
     from solver.parallel.ray_pool import ray_instance
 
     return ray_instance(address, workers)
+
+
+def check_ray(address: str | None) -> None:
+    """Refuse a ``--ray`` that :func:`ray_connection` would refuse, without starting anything."""
+    if address is not None:
+        from solver.parallel.ray_pool import check_ray_address
+
+        check_ray_address(address)
 
 
 def add_ray_option(parser, what: str) -> None:
@@ -814,7 +829,7 @@ def build_parser() -> argparse.ArgumentParser:
     manipulate.add_argument("--no-video", action="store_true", help="frames and report only")
     manipulate.add_argument("--table", metavar="FILE", help="also write a Markdown summary table here")
     manipulate.add_argument("--scale", type=scene_scale_option,
-                            help="scene metres per puzzle metre, for every puzzle (default: each generator's "
+                            help="scene metres per puzzle metre, 0.05..2, for every puzzle (default: each generator's "
                                  "physical scale, docs/manipulation/README.md#physical-scale)")
     manipulate.add_argument("--gui", action="store_true", help="show the simulation in a PyBullet window")
     manipulate.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -159,6 +159,14 @@ def _import_ray():
     return ray
 
 
+def check_ray_address(address: str) -> None:
+    """What :func:`ray_instance` would refuse before starting anything (Ray missing, an address that
+    does not answer), checked alone: a command calls it before its first line of progress."""
+    _import_ray()
+    if address != LOCAL:
+        _check_reachable(address)
+
+
 def _check_reachable(address: str) -> None:
     """Refuse a HOST:PORT (or ray://HOST:PORT) that does not answer: Ray itself retries for minutes."""
     if address == "auto":
