@@ -22,7 +22,10 @@ The built-in entries, in the order of logs, tables and plots:
 - ``la_rrt`` "LA-RRT": the paper's LA-RRT (:data:`solver.planning.la_rrt.PAPER_SETTINGS`);
 - ``la_rrt_push`` "LA-RRT+push (ours)": our LA-RRT with blocker pushes and the
   other additions of :mod:`solver.planning.la_rrt` (:data:`solver.planning.la_rrt.PUSH_SETTINGS`);
-- ``rrt_star`` "RRT*", ``lbt_rrt`` "LBT-RRT", ``bit_star`` "BIT*".
+- ``rrt_star`` "RRT*", ``lbt_rrt`` "LBT-RRT", ``bit_star`` "BIT*";
+- outside ``--planners all`` (group "ablations", :data:`GROUPS`): ``la_rrt_segment_check``
+  "LA-RRT, original segment check" and ``la_rrt_fixed_order`` "LA-RRT, fixed factor order", the
+  paper's LA-RRT with one of its two behaviour changes switched back to the original's.
 
 Each entry has a ``version``: the benchmark journal keys runs by it, so a run
 recorded before a planner's code or settings changed is run again, not
