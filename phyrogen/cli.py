@@ -88,7 +88,7 @@ CHECK_EVERY_SEED_UP_TO = 10_000
 
 
 def cmd_generate(args) -> int:
-    from phyrogen_core.folder import require_writable_dir
+    from phyrogen_core.folder import OutputError, require_writable_dir
     from solver.pipelines.generation import Job, run_jobs
 
     seeds = parse_seeds(args.seeds)
@@ -120,6 +120,11 @@ def cmd_generate(args) -> int:
     out = require_writable_dir(args.out)  # an unusable --out is found before any puzzle is made
     for name in names:
         require_writable_dir(out / name)
+        for r in seeds if count <= CHECK_EVERY_SEED_UP_TO else ():
+            for seed in r:  # a linked puzzle folder would take the puzzle elsewhere: refused, not swapped away
+                if os.path.islink(out / name / f"{name}_{seed}"):
+                    raise OutputError(f"puzzle folder {out / name / f'{name}_{seed}'} is a symbolic link; a stage "
+                                      "writes only into real folders (put the folder itself there)")
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
     jobs = (Job(name, seed, overrides_of[name], mjcf=args.mjcf, difficulty=difficulty)
@@ -268,12 +273,11 @@ def cmd_check(args) -> int:
 
 def cmd_replan(args) -> int:
     from phyrogen_core.export import read_puzzle_dir
-    from phyrogen_core.folder import require_writable_dir
-    from solver.pipelines.replanning import REPLAN_BUDGET, replan, write_replanned
+    from solver.pipelines.replanning import REPLAN_BUDGET, check_replan_folder, replan, write_replanned
 
     folder = Path(args.puzzle_dir)
     loaded = read_puzzle_dir(folder)  # bad input is found before any work
-    require_writable_dir(folder, "puzzle folder")
+    check_replan_folder(folder, loaded.name)
     name = loaded.name
     result = replan(loaded, REPLAN_BUDGET if args.budget is None else args.budget, args.seed)
     if not result.solved:
@@ -299,7 +303,7 @@ def replan_budget_option(text: str) -> int:
 
 def cmd_export(args) -> int:
     from phyrogen_core.export import chain_to_mjcf, read_puzzle_dir, write_mjcf
-    from phyrogen_core.folder import require_writable_dir
+    from phyrogen_core.export.mjcf import check_mjcf_target
 
     # Every folder is read, converted and checked writable before the first file is written:
     # bad input (a missing folder, a malformed puzzle) leaves every folder as it was.
@@ -308,7 +312,7 @@ def cmd_export(args) -> int:
     for folder in folders:
         loaded = read_puzzle_dir(folder)
         chain_to_mjcf(loaded.chain)
-        require_writable_dir(folder, "puzzle folder")
+        check_mjcf_target(folder, loaded.name)  # a link, or a user's file of the name, is refused
         puzzles.append((folder, loaded))
     for folder, loaded in puzzles:
         print(write_mjcf(folder, loaded.chain, loaded.name))
@@ -464,7 +468,7 @@ def benchmark_runs(benchmark: Path, folders: list[Path]) -> dict[Path, list]:
 
 
 def cmd_render(args) -> int:
-    from blender_addon.gallery import write_gallery
+    from blender_addon.gallery import check_gallery_target, write_gallery
     from blender_addon.render_worker import parse_size
     from blender_addon.rendering import RenderError, check_render_folders, render_puzzles
     from blender_addon.views import parse_views
@@ -473,6 +477,7 @@ def cmd_render(args) -> int:
     views = parse_views(args.views)
     size = None if args.gallery_only else parse_size(args.size)
     out = require_writable_dir(args.out, "render output folder")  # index.html goes there
+    check_gallery_target(out)  # a user's own index.html is refused before any render
     try:
         found = [f.path for f in find_puzzle_folders(out)]
     except FileNotFoundError:

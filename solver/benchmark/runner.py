@@ -66,6 +66,7 @@ from phyrogen_core.folder import (
     PuzzleFolder,
     PuzzleFormatError,
     read_folder_file,
+    require_stage_folder,
     require_writable_dir,
     write_file_atomic,
 )
@@ -696,7 +697,8 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
         digests[puzzle.name] = puzzle_digest(puzzle)
         if save_solutions and any(name in planners for name in solution_planners()):
             try:
-                require_writable_dir(puzzle.solutions, "solutions folder")
+                # A linked solutions/ (or puzzle folder) would take the solution outside the puzzle.
+                require_stage_folder(puzzle.solutions, "solutions folder", root=puzzle.path)
             except OutputError as exc:
                 raise OutputError(f"{exc} (or do not save solutions: --no-solutions)") from None
     jobs = tuple(make_jobs(puzzles, planners, profile, base_seed, until_first, budget_checks))
