@@ -167,3 +167,17 @@ def test_the_maker_keeps_each_verdict_with_its_goal_accounting(slider):
     assert not superfluous.necessary and necessary.necessary
     assert necessary.reason in (NO_GOAL_STATE, NO_PATH) and necessary.attempts[-1].goals is not None
     assert validator.checks >= superfluous.queries + necessary.queries + necessary.second_checks > 0
+
+
+def test_a_planner_run_says_when_its_goal_sampler_found_nothing_or_gave_out():
+    chain, goal = _corridor(3.0)
+    empty = problem_for_chain(chain, goal, fixed=("obj_01",))
+    # Past the sampler's own budget (100,000 checked states): it gives out, and the result says so.
+    result = plan_la_rrt(empty, 600.0, 4, until_first=True, budget_checks=120_000)
+    assert not result.solved and result.goal_states == 0 and result.goal_exhausted is True
+    # Within it: none found, not exhausted (the run's budget ended the search).
+    short = plan_la_rrt(empty, 600.0, 4, until_first=True, budget_checks=2000)
+    assert short.goal_states == 0 and short.goal_exhausted is False
+    # Control: with the blocker free the same run has goal states and solves the puzzle.
+    free = plan_la_rrt(problem_for_chain(chain, goal), 600.0, 4, until_first=True, budget_checks=20_000)
+    assert free.solved and free.goal_states >= 1 and free.goal_exhausted is False

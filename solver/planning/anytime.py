@@ -56,6 +56,10 @@ class PlanResult:
     checks: int = 0  # collision checks spent (:class:`CheckCounter`), the unit of a check budget
     cpu_time: float = 0.0  # process CPU seconds of the run (time.process_time), beside the wall ``time``
     first_solution_checks: int | None = None  # collision checks spent when the first kept path was found
+    # The run's shared goal sampler (None: the run had none): an unsolved run with no goal state, or
+    # whose sampler gave out, is weaker evidence than one that had goal states and found no path.
+    goal_states: int | None = None  # valid goal states it found
+    goal_exhausted: bool | None = None  # its own budget ran out: no new goal state could come
 
     @property
     def length(self) -> float:
@@ -274,10 +278,14 @@ class AnytimeRecorder:
         if status is None:
             status = "Exact solution" if solved else "Timeout"
         best = tuple(tuple(float(v) for v in s) for s in kept[-1][2]) if solved else ()
+        # A goal sampler built on this run's counter announced itself there (solver.planning.goal_sampling).
+        sampler = getattr(self.counter, "goal_sampler", None) if self.counter is not None else None
+        goals = sampler.account() if sampler is not None else None
         return PlanResult(self.planner, solved, best, kept[-1][1] if solved else None,
                           kept[0][0] if solved else None, elapsed, iterations, tuple(progress), status, rejected,
                           kept[-1][0] if solved else None, self.checks(), time.process_time() - self.cpu_started,
-                          self.improvement_checks[0] if solved else None)
+                          self.improvement_checks[0] if solved else None,
+                          goals.states if goals is not None else None, goals.exhausted if goals is not None else None)
 
 
 def planning_steps(problem: Problem, resolution: float = PLANNING_RESOLUTION) -> np.ndarray:

@@ -55,6 +55,7 @@ from typing import Protocol
 import numpy as np
 
 from phyrogen_core.seeding import stable_seed
+from solver.planning.anytime import CheckCounter
 from solver.planning.problem import Problem, problem_factors
 
 GOAL_SAMPLING_VERSION = "2"
@@ -157,6 +158,9 @@ class GoalSampler:
         self._budget_spent = False
         self._run: RunLimit | None = None
         self.cut_by_run = False  # a call stopped because the run was over
+        if isinstance(self.model, CheckCounter):
+            # So that the run's result reports this sampler's account (AnytimeRecorder.result).
+            self.model.goal_sampler = self
 
     def bind(self, run: RunLimit) -> GoalSampler:
         """Stop every later call as soon as ``run`` is over: a check it would spend past the run's
