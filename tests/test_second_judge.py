@@ -181,3 +181,22 @@ def test_a_planner_run_says_when_its_goal_sampler_found_nothing_or_gave_out():
     # Control: with the blocker free the same run has goal states and solves the puzzle.
     free = plan_la_rrt(problem_for_chain(chain, goal), 600.0, 4, until_first=True, budget_checks=20_000)
     assert free.solved and free.goal_states >= 1 and free.goal_exhausted is False
+
+
+def test_the_second_judges_seed_is_the_same_in_any_process():
+    """Drawn from the question itself (the chain's repr): string hashing, which differs between
+    processes, must not enter it. Two processes with different hash seeds agree; a different
+    question gets another seed (the control)."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("from tests.test_second_judge import _corridor; from solver.validation.judge import question_seed; "
+            "print(question_seed(_corridor(1.5)[0], ['obj_01']), question_seed(_corridor(3.0)[0], ['obj_01']))")
+    seeds = []
+    for hash_seed in ("1", "2"):
+        env = {**os.environ, "PYTHONHASHSEED": hash_seed}
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True,
+                             cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+        seeds.append(out.stdout.split())
+    assert seeds[0] == seeds[1] and seeds[0][0] != seeds[0][1], seeds
