@@ -225,6 +225,16 @@ def test_export_mjcf_keeps_a_users_files_and_refuses_one_of_its_name(place, tmp_
     refused(["export", str(place.path), "--format", "mjcf"], capsys, tmp_path, str(ours), "not written by")
 
 
+def test_generate_with_mjcf_refuses_a_users_file_of_its_name_before_any_work(tmp_path, capsys, no_work):
+    out = tmp_path / "gen"
+    mine = put(out / "simple_slider" / "simple_slider_2" / "mjcf" / "simple_slider_2.xml")
+    argv = ["generate", "--generator", "simple_slider", "--seeds", "1-3", "--mjcf", "--out", str(out), "--quiet"]
+    refused(argv, capsys, tmp_path, str(mine), "not written by")
+    # Negative control: without --mjcf the file is none of generate's business, and the work starts (the stub).
+    assert main(argv[:5] + argv[6:]) == 1 and "work started" in capsys.readouterr().err
+    assert mine.read_bytes() == USER
+
+
 def test_an_output_folder_shared_with_a_user_keeps_the_users_files(tmp_path):
     """``owned_directory``, as manipulate (``manipulation.outputs.owns_output``) and render use it."""
     from manipulation.outputs import owns_output
