@@ -122,14 +122,9 @@ def cmd_generate(args) -> int:
         require_writable_dir(out / name)
         for r in seeds if count <= CHECK_EVERY_SEED_UP_TO else ():
             for seed in r:  # a linked puzzle folder would take the puzzle elsewhere: refused, not swapped away
-                folder = out / name / f"{name}_{seed}"
-                if os.path.islink(folder):
-                    raise OutputError(f"puzzle folder {folder} is a symbolic link; a stage writes only into real "
-                                      "folders (put the folder itself there)")
-                if args.mjcf and folder.is_dir():  # a user's mjcf/<name>.xml there is refused, not overwritten
-                    from phyrogen_core.export.mjcf import check_mjcf_target
-
-                    check_mjcf_target(folder, folder.name)
+                if os.path.islink(out / name / f"{name}_{seed}"):
+                    raise OutputError(f"puzzle folder {out / name / f'{name}_{seed}'} is a symbolic link; a stage "
+                                      "writes only into real folders (put the folder itself there)")
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
     jobs = (Job(name, seed, overrides_of[name], mjcf=args.mjcf, difficulty=difficulty)
@@ -379,6 +374,7 @@ def cmd_audit(args) -> int:
         check_report_folder,
         plan_audit,
         run_audit,
+        second_budget,
         table_row,
         task_count,
         write_reports,
@@ -391,7 +387,9 @@ def cmd_audit(args) -> int:
     referee = PyBulletReferee()
     settings = AuditSettings(budget, referee.name, referee.resolution, referee.tolerance)
     if not args.quiet:
-        print(f"auditing {len(puzzles)} puzzles: {budget} collision queries per attempt; certificates replayed in "
+        print(f"auditing {len(puzzles)} puzzles: two judges per object, LA-RRT with pushes ({budget} collision "
+              f"queries) and the paper's LA-RRT ({second_budget(budget)} checks, goal sampling included); "
+              f"certificates replayed in "
               f"{referee.name} every {referee.resolution * 1000:g} mm, penetration threshold "
               f"{referee.tolerance * 1000:g} mm", file=sys.stderr)
     progress = tqdm(total=task_count(puzzles), unit="check", disable=args.quiet, file=sys.stderr)
@@ -853,7 +851,7 @@ def build_parser() -> argparse.ArgumentParser:
     audit.add_argument("dir", metavar="DIR", help="a puzzle folder, or a folder of generated puzzles (all of them)")
     audit.add_argument("--budget", type=audit_budget_option,
                        help="collision queries per attempt with an object fixed (default 100000, 25 x the Maker's "
-                            "judge budget; at most 10000000)")
+                            "judge budget; at most 10000000); the second judge gets as many collision checks")
     audit.add_argument("--out", default="output/audit",
                        help="folder for audit.json (found paths included) and audit.md; replaces only files an "
                             "earlier audit wrote (default: output/audit)")
