@@ -122,9 +122,14 @@ def cmd_generate(args) -> int:
         require_writable_dir(out / name)
         for r in seeds if count <= CHECK_EVERY_SEED_UP_TO else ():
             for seed in r:  # a linked puzzle folder would take the puzzle elsewhere: refused, not swapped away
-                if os.path.islink(out / name / f"{name}_{seed}"):
-                    raise OutputError(f"puzzle folder {out / name / f'{name}_{seed}'} is a symbolic link; a stage "
-                                      "writes only into real folders (put the folder itself there)")
+                folder = out / name / f"{name}_{seed}"
+                if os.path.islink(folder):
+                    raise OutputError(f"puzzle folder {folder} is a symbolic link; a stage writes only into real "
+                                      "folders (put the folder itself there)")
+                if args.mjcf and folder.is_dir():  # a user's mjcf/<name>.xml there is refused, not overwritten
+                    from phyrogen_core.export.mjcf import check_mjcf_target
+
+                    check_mjcf_target(folder, folder.name)
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
     jobs = (Job(name, seed, overrides_of[name], mjcf=args.mjcf, difficulty=difficulty)
