@@ -1,0 +1,89 @@
+"""The ``hard`` suite (phyrogen_core/suites.py) and the search rule of scripts/hard_suite.py.
+
+The suite's evidence is docs/benchmark/hard-suite.md (a measurement, not a
+test); here: every entry is a registered generator with valid parameters that
+set one of its difficulty knobs, ``phyrogen generate --suite hard`` makes
+exactly those puzzles, and the search's verdict rule decides as stated.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from phyrogen_core.record import PuzzleRecord
+from phyrogen_core.registry import ParameterError, get_generator
+from phyrogen_core.suites import HARD_SUITE, SuiteEntry, get_suite
+
+ROOT = Path(__file__).resolve().parent.parent
+MEASURED_SEEDS = range(90001, 90011)  # docs/benchmark/hard-suite.md; no test generates them
+TEST_SEED = 614_220_301  # fresh
+
+
+@functools.cache
+def _script():
+    spec = importlib.util.spec_from_file_location("hard_suite_script", ROOT / "scripts" / "hard_suite.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up by name
+    spec.loader.exec_module(module)
+    return module
+
+
+def _check(entry: SuiteEntry, seeds) -> None:
+    spec = get_generator(entry.generator)
+    params = entry.params()
+    for seed in seeds:
+        spec.check(seed, params)
+    knobs = set(spec.difficulty_parameters())
+    if not set(entry.overrides) <= knobs:
+        raise ParameterError(f"{entry.generator}: {sorted(set(entry.overrides) - knobs)} are not difficulty knobs")
+
+
+def test_the_hard_suite_is_registered_and_lists_each_generator_once():
+    assert get_suite("hard") == HARD_SUITE and HARD_SUITE
+    names = [entry.generator for entry in HARD_SUITE]
+    assert len(names) == len(set(names))
+
+
+@pytest.mark.parametrize("entry", HARD_SUITE, ids=lambda e: e.generator)
+def test_every_entry_sets_valid_difficulty_knobs(entry):
+    _check(entry, MEASURED_SEEDS)
+
+
+@pytest.mark.parametrize("entry", [SuiteEntry("move_n_times", {"n": "99"}), SuiteEntry("rooms", {"gap": "1"}),
+                                   SuiteEntry("rooms", {"wall_height": "0.5"})])
+def test_the_entry_check_refuses_a_bad_entry(entry):
+    # Negative control: an infeasible size, an unknown parameter, a parameter that is no difficulty knob.
+    with pytest.raises(ParameterError):
+        _check(entry, MEASURED_SEEDS)
+
+
+@pytest.mark.parametrize(("outcomes", "total", "expected"), [
+    ({"bit_star": [False, False, False], "rrt_star": [False, False, False]}, 4, True),
+    ({"bit_star": [False, False], "rrt_star": [False, False, False]}, 4, None),  # BIT* could still reach 2 of 4
+    ({"bit_star": [True, True], "rrt_star": [False]}, 4, False),  # half solved: not under 50 %
+    ({"bit_star": [True, False, False], "rrt_star": [False, False, False]}, 4, None),  # 2 of 4 still possible
+    ({"bit_star": [True, False, False, False], "rrt_star": [False, False, False]}, 4, True),
+    ({"bit_star": [True, False, True], "rrt_star": [False, False, False]}, 4, False),
+])
+def test_the_search_verdict(outcomes, total, expected):
+    assert _script().verdict(outcomes, total) is expected
+
+
+@pytest.mark.slow
+def test_generate_suite_hard_makes_each_generator_at_its_size(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "phyrogen", "generate", "--suite", "hard", "--seeds", str(TEST_SEED),
+                           "--workers", "1", "--quiet", "--out", str(tmp_path)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    for entry in HARD_SUITE:
+        folder = tmp_path / entry.generator / f"{entry.generator}_{TEST_SEED}"
+        record = PuzzleRecord.from_json((folder / "puzzle.json").read_bytes())
+        assert {key: str(record.parameters[key]) for key in entry.overrides} == dict(entry.overrides)
+    made = sorted(p.name for p in tmp_path.iterdir() if p.is_dir())
+    assert made == sorted(entry.generator for entry in HARD_SUITE)
