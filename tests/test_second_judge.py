@@ -5,7 +5,7 @@ Every success here has its control: the necessary blocker passes both judges and
 solve the puzzle with it free; the planted superfluous object is caught by the second judge alone
 and missed without it; the empty goal region is told apart from a blocked path; the bound sampler
 stops at the run's budget where an unbound one runs on. Work is bounded by counts (checks,
-queries), never seconds. Seeds 7301-7302 are used by no other test.
+queries), never seconds. Seed 7301 is used by no other test.
 """
 
 from __future__ import annotations
