@@ -178,9 +178,10 @@ def cmd_search(args) -> int:
 
 
 def wilson(successes: int, runs: int) -> tuple[float, float]:
-    from solver.benchmark.difficulty import wilson_interval
+    from solver.benchmark.statistics import wilson_interval
 
-    return wilson_interval(successes, runs)
+    interval = wilson_interval(successes, runs)
+    return interval.low, interval.high
 
 
 def cmd_table(args) -> int:

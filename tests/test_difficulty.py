@@ -22,7 +22,8 @@ from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import write_puzzle
 from phyrogen_core.export.metadata import puzzle_record
 from phyrogen_core.record import PuzzleRecord
-from solver.benchmark.difficulty import DifficultySettings, measure_difficulty, wilson_interval
+from solver.benchmark.difficulty import DifficultySettings, measure_difficulty
+from solver.benchmark.statistics import wilson_interval
 from solver.pipelines.generation import generate_here
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -58,7 +59,8 @@ def easy_difficulty(easy):
     (0, 10, 0.0, 0.27753), (10, 10, 0.72247, 1.0), (5, 10, 0.23659, 0.76341), (1, 3, 0.06149, 0.79234),
 ])
 def test_wilson_interval_matches_published_values(successes, runs, low, high):
-    got = wilson_interval(successes, runs)
+    interval = wilson_interval(successes, runs)
+    got = (interval.low, interval.high)
     assert got == pytest.approx((low, high), abs=1e-5)
     # Negative control: the normal approximation, which the Wilson interval replaces, collapses at 0/n.
     rate = successes / runs

@@ -4,7 +4,8 @@
 planner registry) ``runs`` times on the puzzle, each run ended at its first
 solution that holds at fine resolution or after ``budget_checks`` collision
 checks, and reports how many runs succeeded (with the rate's 95 % Wilson
-interval) and the median checks to the first solution among the successes
+interval, :func:`solver.benchmark.statistics.wilson_interval`) and the median checks to the first
+solution among the successes
 (:class:`phyrogen_core.difficulty.Difficulty`).
 
 Run ``r`` is seeded exactly as run ``r`` of ``phyrogen benchmark --planners
@@ -21,13 +22,13 @@ the machine.
 
 from __future__ import annotations
 
-import math
 import statistics
 from dataclasses import dataclass
 
 from phyrogen_core.chain import KinematicChain
 from phyrogen_core.difficulty import Difficulty
 from phyrogen_core.puzzle import Goal
+from solver.benchmark.statistics import wilson_interval
 from solver.planning.anytime import PlanResult, check_budget_checks
 from solver.planning.goal_sampling import goal_seed
 from solver.planning.registry import get_planner, run_seed
@@ -42,8 +43,6 @@ puzzle of a dataset; the hard suite's budgets are the paper's (:mod:`phyrogen_co
 MAX_RUNS = 10_000
 BACKSTOP_SECONDS = 600.0
 """A run's wall-clock backstop, at the least; it grows with the budget (:func:`backstop_seconds`)."""
-WILSON_Z = 1.959963984540054
-"""The standard normal quantile of a two-sided 95 % interval."""
 
 
 class DifficultyError(RuntimeError):
@@ -71,21 +70,6 @@ def backstop_seconds(budget_checks: int) -> float:
     return max(BACKSTOP_SECONDS, budget_checks / 100.0)
 
 
-def wilson_interval(successes: int, runs: int, z: float = WILSON_Z) -> tuple[float, float]:
-    """The Wilson score interval of a success rate (95 % by default), clipped to [0, 1] and made to
-    hold the observed rate exactly (rounding could put 0 successes a hair above 0).
-
-    A private copy: ``solver/benchmark/statistics.py`` is to hold the project's one; use that
-    once it exists."""
-    if runs < 1 or not 0 <= successes <= runs:
-        raise ValueError(f"need 0 <= successes <= runs and runs >= 1, got {successes} of {runs}")
-    rate = successes / runs
-    denominator = 1.0 + z * z / runs
-    centre = (rate + z * z / (2 * runs)) / denominator
-    half = z * math.sqrt(rate * (1 - rate) / runs + z * z / (4 * runs * runs)) / denominator
-    return min(max(0.0, centre - half), rate), max(min(1.0, centre + half), rate)
-
-
 def difficulty_run(chain: KinematicChain, goal: Goal, name: str, run: int, settings: DifficultySettings) -> PlanResult:
     """Run ``run`` of the measurement on the puzzle ``name`` (seeded as the benchmark's run ``run``)."""
     from solver.planning.problem import problem_for_chain
@@ -110,9 +94,10 @@ def summarize(results: list[PlanResult], settings: DifficultySettings) -> Diffic
                                   f"{result.checks} of {settings.budget_checks} checks; the measurement "
                                   "would depend on the machine")
     checks = [result.checks for result in results if result.solved]
-    low, high = wilson_interval(len(checks), len(results))
+    interval = wilson_interval(len(checks), len(results))  # the benchmark's own (solver.benchmark.statistics)
     return Difficulty(settings.planner, get_planner(settings.planner).version, len(results), settings.budget_checks,
-                      len(checks), low, high, float(statistics.median(checks)) if checks else None)
+                      len(checks), interval.low, interval.high,
+                      float(statistics.median(checks)) if checks else None)
 
 
 def measure_difficulty(chain: KinematicChain, goal: Goal, name: str,
