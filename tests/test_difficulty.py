@@ -232,3 +232,27 @@ def test_dataset_difficulty_columns_are_null_unless_asked(tmp_path):
     # Resuming a dataset with another difficulty request is refused: its rows would mix two measurements.
     again = _phyrogen(*common, "--out", str(tmp_path / "measured"))
     assert again.returncode == 2 and "difficulty" in again.stderr, again.stderr
+
+
+def test_difficulty_runs_are_the_benchmarks_runs(tmp_path, larger):
+    # The docstring's claim: run r of the measurement is run r of `phyrogen benchmark --planners bit_star
+    # --until first --budget-checks N`, on the generated chain as on the one read back from the folder.
+    from phyrogen_core.export import read_puzzle_dir
+    from solver.benchmark.runner import read_journal
+
+    # (Not the smallest slider: every seed solves it in 2 checks, which tests no seeding.)
+    folder = write_puzzle(larger, tmp_path / "puzzles")
+    loaded = read_puzzle_dir(folder)
+    settings = DifficultySettings(runs=2, budget_checks=20_000)
+    from solver.benchmark.difficulty import difficulty_run
+
+    mine = [difficulty_run(larger.chain, larger.goal, larger.name, run, settings) for run in range(2)]
+    read_back = [difficulty_run(loaded.chain, loaded.goal, larger.name, run, settings) for run in range(2)]
+    assert [(r.solved, r.checks) for r in mine] == [(r.solved, r.checks) for r in read_back]
+    assert mine[0].checks != mine[1].checks  # control: another run's seeds give another count
+    done = _phyrogen("benchmark", "--puzzles", str(tmp_path / "puzzles"), "--planners", "bit_star", "--runs", "2",
+                     "--budget-checks", "20000", "--until", "first", "--time-limit", "600", "--workers", "1",
+                     "--quiet", "--no-solutions", "--out", str(tmp_path / "bench"))
+    assert done.returncode == 0, done.stderr
+    runs = sorted(read_journal(tmp_path / "bench" / "runs.jsonl").values(), key=lambda r: r.run)
+    assert [(r.solved, r.checks) for r in runs] == [(r.solved, r.checks) for r in mine]
