@@ -58,26 +58,51 @@ def _branch(states, parents, tree, node):
 
 
 @njit(cache=True, nogil=True)
+def new_trees(start, capacity):
+    """The two trees of a run (states, parents, sizes): the start tree holds ``start``, the goal tree nothing."""
+    states = np.empty((2, capacity, start.shape[0]))
+    parents = np.empty((2, capacity), dtype=np.int64)
+    sizes = np.zeros(2, dtype=np.int64)
+    _add(states, parents, sizes, 0, start, -1)
+    return states, parents, sizes
+
+
+@njit(cache=True, nogil=True)
 def run(rng, start, lower, upper, goal_columns, goal_values, weights, extension_range, steps, fine_steps,
         factor_columns, factor_sizes, pair_objects, object_factor, limit_probability, single_probability,
         goal_root_probability, goal_attempts, max_pushes, push_attempts, budget, queries, capacity,
         kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
         shape_normals, shape_extent, pairs, tol, pair_columns):
     """LA-RRT with pushes from ``start`` until a connection whose path holds at ``fine_steps`` or
-    until ``queries`` reach ``budget``. Returns (path or an empty array, iterations, queries,
-    clipped). ``factor_columns`` (F, k) lists each factor's state columns (padded with -1,
+    until ``queries`` reach ``budget``, in one call. Returns (path or an empty array, iterations,
+    queries, clipped). ``factor_columns`` (F, k) lists each factor's state columns (padded with -1,
     ``factor_sizes`` of them); ``pair_objects`` (P, 2) the object of each collision pair's shapes,
     numbered in name order; ``object_factor`` the factor of each object (-1: it has none)."""
-    d = start.shape[0]
-    states = np.empty((2, capacity, d))
-    parents = np.empty((2, capacity), dtype=np.int64)
-    sizes = np.zeros(2, dtype=np.int64)
-    _add(states, parents, sizes, 0, start, -1)
-    iterations = 0
-    clipped = 0
-    growing, other = 0, 1
+    states, parents, sizes = new_trees(start, capacity)
+    path, iterations, queries, clipped, _, _ = resume(
+        rng, states, parents, sizes, 0, 0, 0, 1, budget, lower, upper, goal_columns, goal_values, weights,
+        extension_range, steps, fine_steps, factor_columns, factor_sizes, pair_objects, object_factor,
+        limit_probability, single_probability, goal_root_probability, goal_attempts, max_pushes, push_attempts,
+        queries, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
+        shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns)
+    return path, iterations, queries, clipped
+
+
+@njit(cache=True, nogil=True)
+def resume(rng, states, parents, sizes, iterations, clipped, growing, other, stop, lower, upper, goal_columns,
+           goal_values, weights, extension_range, steps, fine_steps, factor_columns, factor_sizes, pair_objects,
+           object_factor, limit_probability, single_probability, goal_root_probability, goal_attempts, max_pushes,
+           push_attempts, queries, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+           shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns):
+    """The loop of :func:`run` from the trees and counters a call before left, until a path is found
+    or ``queries`` reach ``stop`` (the budget, or a step towards it). Returns (path or an empty array,
+    iterations, queries, clipped, growing, other), the counters to resume from. ``stop`` is tested
+    only at the top of an iteration, as the budget is, so a run cut into pieces at any stops makes
+    the same iterations, draws and queries as one call of :func:`run`: the caller gets control back
+    between pieces (a Ctrl-C is then handled at once, not after the whole run)."""
+    d = states.shape[2]
     candidates = np.empty((goal_attempts, d))
-    while queries < budget:
+    while queries < stop:
         iterations += 1
         # -- a goal root (LaRrt._wants_goal_root, _add_goal_root without a goal source)
         if sizes[1] == 0 or rng.random() < goal_root_probability:
@@ -139,11 +164,11 @@ def run(rng, start, lower, upper, goal_columns, goal_values, weights, extension_
                         holds = False
                         break
                 if holds:
-                    return path, iterations, queries, clipped
+                    return path, iterations, queries, clipped, growing, other
                 clipped += 1
         if sizes[1] > 0:
             growing, other = other, growing
-    return np.empty((0, d)), iterations, queries, clipped
+    return np.empty((0, d)), iterations, queries, clipped, growing, other
 
 
 @njit(cache=True, nogil=True)

@@ -631,6 +631,26 @@ def _compiled_loop_applies(settings: LaRrtSettings) -> bool:
         and settings.factor_order == "random" and not settings.check_isolated_segment
 
 
+COMPILED_PIECE_QUERIES = 2_000
+"""Collision queries of one compiled call of the judge's loop: a fraction of a second even on the
+largest puzzles, about 50 microseconds of Python between pieces."""
+
+
+def _compiled_piece(function, *arguments):
+    """``function(*arguments)``, a compiled call; a signal handler's exception raised as itself.
+
+    A signal that lands while compiled code runs has its Python handler run as the call returns,
+    and numba then reports ``SystemError: ... returned a result with an exception set``, the
+    handler's exception (``phyrogen.cli.Interrupted``) its cause: that is re-raised, so the
+    command ends as interrupted (exit 130 / 143), not as a bug."""
+    try:
+        return function(*arguments)
+    except SystemError as exc:
+        if isinstance(exc.__cause__, KeyboardInterrupt):
+            raise exc.__cause__ from None
+        raise
+
+
 def _compiled_run(planner: LaRrt, recorder: _BudgetRecorder, model: _CountingModel) -> PlanResult:
     from solver.planning import _judge_loop
 
@@ -647,13 +667,20 @@ def _compiled_run(planner: LaRrt, recorder: _BudgetRecorder, model: _CountingMod
     goal_values = np.array(list(problem.goal_columns.values()), dtype=np.float64)
     # Nodes never outnumber queries, and one iteration adds at most this many beyond the budget.
     capacity = recorder.budget + 2 + 4 * (len(factor_sizes) + settings.max_pushes)
-    path, iterations, queries, clipped = _judge_loop.run(
-        planner.rng, np.ascontiguousarray(problem.start, dtype=np.float64), problem.lower, problem.upper,
-        goal_columns, goal_values, planner.weights, planner.range, planner.steps, planner.fine_steps,
-        factor_columns, factor_sizes, pair_objects, object_factor, settings.limit_probability,
-        settings.single_factor_probability, settings.goal_root_probability, settings.goal_sample_attempts,
-        settings.max_pushes, settings.push_attempts, recorder.budget, model.queries, capacity,
-        *real._arguments, real._pair_columns)
+    states, parents, sizes = _judge_loop.new_trees(np.ascontiguousarray(problem.start, dtype=np.float64), capacity)
+    iterations, clipped, growing, other, queries = 0, 0, 0, 1, model.queries
+    while True:
+        # In pieces of COMPILED_PIECE_QUERIES: between them Python runs, so Ctrl-C and SIGTERM stop
+        # the command at once; the pieces make the same run as one call (see _judge_loop.resume).
+        stop = min(recorder.budget, queries + COMPILED_PIECE_QUERIES)
+        path, iterations, queries, clipped, growing, other = _compiled_piece(
+            _judge_loop.resume, planner.rng, states, parents, sizes, iterations, clipped, growing, other, stop,
+            problem.lower, problem.upper, goal_columns, goal_values, planner.weights, planner.range, planner.steps,
+            planner.fine_steps, factor_columns, factor_sizes, pair_objects, object_factor, settings.limit_probability,
+            settings.single_factor_probability, settings.goal_root_probability, settings.goal_sample_attempts,
+            settings.max_pushes, settings.push_attempts, queries, *real._arguments, real._pair_columns)
+        if len(path) or queries >= recorder.budget:
+            break
     model.queries = int(queries)
     recorder.clipped = int(clipped)
     if len(path) and not recorder.offer(path):
