@@ -8,10 +8,11 @@ one line. The pieces make the same run as one call (``test_the_pieces_make_the_s
 
 The puzzle cannot be solved (a wall seals the slider from its goal), so an uninterrupted run
 spends its whole budget, 10^8 queries (minutes). ``replan`` runs the same function after
-RRT-Connect has spent the same budget, which takes too long for a test at 10^8. The signal is sent once the command's process has
-allocated the search trees for that budget (3.2 GB of address space at once, against 0.33 GB
-before: the loop is starting), and that it stopped at once is measured in the CPU time it spends after the signal,
-not on the clock; the clock is only a backstop against a hang.
+RRT-Connect has spent the same budget, which takes too long for a test at 10^8. The signal is
+sent once the command's process has allocated the search trees for that budget (3.2 GB of
+address space at once, against 0.33 GB before: the loop is starting), and that it stopped at
+once is measured in the CPU time it spends after the signal, not on the clock; the clock is
+only a backstop against a hang.
 """
 
 from __future__ import annotations
