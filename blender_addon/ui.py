@@ -398,7 +398,7 @@ def _start_benchmark(context) -> Job:
 def _finish_benchmark(context, result: JobResult) -> tuple[str, list[str]]:
     collection = current_collection(context)
     out = benchmark_folder(context.scene.phyrogen, collection)
-    return f"{collection.name}: quick benchmark in {out}", benchmark_summary(result.stdout)
+    return f"{collection.name}: quick benchmark in {out}", benchmark_summary(out)
 
 
 class PHYROGEN_OT_manipulate(_JobOperator, bpy.types.Operator):  # noqa: N801

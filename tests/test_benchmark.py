@@ -216,6 +216,10 @@ def test_benchmark_end_to_end(tmp_path):
     assert (tmp_path / "bench" / "fig4.png").is_file() and (tmp_path / "bench" / "summary.md").is_file()
     assert (tmp_path / "bench" / "results.html").is_file()
     rows = summary_rows(out.database)
+    # summary.json (what the Blender panel and scripts read) holds the database's counts, cell by cell
+    cells = json.loads((tmp_path / "bench" / "summary.json").read_text())["cells"]
+    assert [(c["puzzle"], c["planner"], c["successes"], c["runs"]) for c in cells] == [
+        (r.experiment, r.planner, round(r.success * r.runs), r.runs) for r in rows]
     assert {r.planner for r in rows} == {"LA-RRT", "LA-RRT+push (ours)", "RRT*"} and all(r.runs == 2 for r in rows)
     assert all(r.success == 1.0 for r in rows if r.planner.startswith("LA-RRT"))
     saved = json.loads((folder / BEST_SOLUTION).read_text())

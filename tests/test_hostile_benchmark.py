@@ -274,7 +274,7 @@ def test_a_finished_benchmark_replaces_only_its_own_entries(puzzles, tmp_path, c
     assert code == 0, err
     assert "| hostile_1 |" in stdout
     assert sorted(p.name for p in out.iterdir()) == ["benchmark.db", "fig4.png", "logs", "mine", "results.html",
-                                                      JOURNAL, "summary.md"]
+                                                      JOURNAL, "summary.json", "summary.md"]
     assert (out / "mine" / "notes.txt").read_text() == "keep me"
     assert sorted(p.name for p in (out / "logs").iterdir()) == ["hostile_1.log", "hostile_2.log"]
     assert len((out / JOURNAL).read_text().splitlines()) == 2

@@ -12,6 +12,7 @@ table and figure say so.
 
 from __future__ import annotations
 
+import json
 import math
 import sqlite3
 import statistics
@@ -128,6 +129,33 @@ def format_estimate(estimate: Estimate | None, digits: int = 3) -> str:
 def format_rate(proportion: Proportion) -> str:
     """``100 % [72, 100]``: the rate and its interval, in percent."""
     return (f"{100 * proportion.rate:.0f} % [{100 * proportion.low:.0f}, {100 * proportion.high:.0f}]")
+
+
+def _estimate_json(estimate: Estimate | None) -> dict | None:
+    # JSON has no infinity: a median "not within the budget" is null, with its interval's finite ends kept.
+    if estimate is None:
+        return None
+    finite = lambda v: None if math.isinf(v) else v  # noqa: E731
+    return {"median": finite(estimate.value), "low": finite(estimate.low), "high": finite(estimate.high),
+            "samples": estimate.samples}
+
+
+def summary_json(rows: Sequence[SummaryRow]) -> str:
+    """The summary for programs (the Blender panel, scripts): one object per puzzle and planner with
+    the success count, rate and interval, and the medians with their intervals (null: not within the
+    budget, or nothing to estimate). ``summary.md`` is the same numbers for people."""
+    cells = []
+    for row in rows:
+        cell = row.statistics
+        cells.append({
+            "puzzle": row.experiment, "planner": row.planner, "runs": cell.runs,
+            "successes": cell.success.successes, "rate": cell.success.rate,
+            "rate_low": cell.success.low, "rate_high": cell.success.high, "interval": cell.success.method,
+            "solved_all": cell.solved_all, "solved_any": cell.solved_any,
+            "time_to_first": _estimate_json(cell.time_to_first),
+            "checks_to_first": _estimate_json(cell.checks_to_first),
+            "final_cost": _estimate_json(cell.final_cost)})
+    return json.dumps({"format": "phyrogen-benchmark-summary", "version": 1, "cells": cells}, indent=2) + "\n"
 
 
 INTERVAL_NAMES = {"wilson": "Wilson score", "clopper-pearson": "Clopper-Pearson"}

@@ -36,7 +36,7 @@ journal stays when the benchmark completes: it is the raw record of every
 run (paths included), and a later benchmark into the same folder with more
 runs, planners or puzzles reuses what it holds; delete it to run everything
 again. The other outputs (``logs/``, ``benchmark.db``, ``errors.txt``,
-``summary.md``, ``fig4.png``, ``results.html``; :data:`OUTPUT_ENTRIES`) are built in a
+``summary.md``, ``summary.json``, ``fig4.png``, ``results.html``; :data:`OUTPUT_ENTRIES`) are built in a
 temporary folder inside ``out`` once all runs are done and each is swapped
 in with a rename; any other entry of ``out`` is left alone.
 """
@@ -402,7 +402,7 @@ JOURNAL = "runs.jsonl"
 """The journal of finished runs in the output folder: one JSON object a line, ``{"key": ..., "record": ...}``."""
 JOURNAL_FORMAT = 2
 """2: keys name the planner's version, the goal seed and the until-first mode (format 1 keys match none)."""
-OUTPUT_ENTRIES = ("logs", "benchmark.db", "errors.txt", "summary.md", "fig4.png", "results.html")
+OUTPUT_ENTRIES = ("logs", "benchmark.db", "errors.txt", "summary.md", "summary.json", "fig4.png", "results.html")
 """The entries of the output folder that a finished benchmark writes, replacing the old ones (an entry
 it does not produce this time, say ``errors.txt``, is removed); every other entry is left alone."""
 _STAGING_PREFIX = ".benchmark-staging."
@@ -813,9 +813,10 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
                 "\n\n".join(f"{r.planner} {r.puzzle} run {r.run} seed {r.seed}:\n{r.error}" for r in crashed),
                 encoding="utf-8")
         if plots:
-            from solver.benchmark.plots import plot_fig4, summary_markdown, summary_rows
+            from solver.benchmark.plots import plot_fig4, summary_json, summary_markdown, summary_rows
 
             rows = summary_rows(staging / "benchmark.db")
+            (staging / "summary.json").write_text(summary_json(rows), encoding="utf-8")
             (staging / "summary.md").write_text(
                 summary_markdown(rows, profile, wall, plan.workers, reused=len(plan.done),
                                  until_first=plan.until_first), encoding="utf-8")
