@@ -518,7 +518,7 @@ def cmd_render(args) -> int:
 def cmd_benchmark(args) -> int:
     if args.report is not None:
         return benchmark_report(Path(args.report))
-    from solver.benchmark.runner import get_profile, plan_benchmark, run_plan
+    from solver.benchmark.runner import backstop_profile, get_profile, plan_benchmark, run_plan
     from solver.planning.registry import select_planners
 
     generators = None if args.generator == "all" else _generators(args.generator)
@@ -534,6 +534,8 @@ def cmd_benchmark(args) -> int:
         if args.budget_checks is not None:
             raise UsageError("--budget-from-paper sets each generator's check budget; give no --budget-checks with it")
         budget_checks = paper_budgets()
+    if budget_checks is not None and args.time_limit is None:
+        profile = backstop_profile(profile)  # the check budget ends a run; the clock only a hang
     puzzles = find_puzzle_folders(Path(args.puzzles), generators)
     # Every puzzle is read and every output path checked here, before the first run.
     until_first = args.until == "first"

@@ -281,6 +281,32 @@ def test_the_command_line_refuses_both_budgets_and_unknown_planner_sets(slider, 
         assert not out.exists()
 
 
+def test_a_check_budget_gets_a_backstop_of_ten_times_the_limit_unless_a_time_limit_is_given(slider, tmp_path, capsys):
+    # At the paper's limits themselves the clock, not the budget, ended most unsolved runs on a loaded
+    # machine (docs/benchmark/paper-protocol.md): the budget must be what ends a run.
+    from phyrogen.cli import main
+    from phyrogen_core.export import write_puzzle
+    from solver.benchmark.runner import BACKSTOP_FACTOR, backstop_profile, get_profile
+    from solver.pipelines.generation import versions
+
+    paper = get_profile("paper")
+    longer = backstop_profile(paper)
+    assert {g: longer.time_limit(g) / paper.time_limit(g) for g in paper.time_limits} == {
+        g: BACKSTOP_FACTOR for g in paper.time_limits}
+    puzzles = tmp_path / "puzzles"
+    write_puzzle(slider[0], puzzles, versions())
+    profiles = {}
+    for name, args in (("budget", ["--budget-checks", "5000"]), ("paper", ["--budget-from-paper"]),
+                       ("budget and limit", ["--budget-checks", "5000", "--time-limit", "3"]), ("neither", [])):
+        code = main(["benchmark", "--puzzles", str(puzzles), "--out", str(tmp_path / "bench"), *args, "--dry-run"])
+        captured = capsys.readouterr()
+        text = captured.out + captured.err  # the plan's line goes to stderr, with the progress
+        assert code == 0, text
+        profiles[name] = text.split("profile ")[1].split(":")[0]
+    assert profiles == {"budget": f"quick-backstop{BACKSTOP_FACTOR}x", "paper": f"quick-backstop{BACKSTOP_FACTOR}x",
+                        "budget and limit": "quick-3s", "neither": "quick"}  # controls: no budget, or a limit given
+
+
 def test_checks_to_the_first_solution_survive_the_journal_and_older_records_read_as_none():
     from solver.benchmark.runner import RunRecord, journal_line, parse_journal_line
 
