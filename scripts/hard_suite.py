@@ -149,26 +149,50 @@ def search_size(generator: str, size: int, knob: Knob, seeds: tuple[int, ...], r
     return summary
 
 
-def _verdicts(log_path: Path) -> dict[tuple[str, int], dict]:
-    """The sizes the search log has a verdict for: (generator, size) -> its summary."""
+def _verdicts(log_path: Path) -> dict[tuple[str, int, int], dict]:
+    """The sizes the search log has a verdict for: (generator, size, budget in checks) -> its summary.
+    The budget is part of the key: a log may hold searches at several checks per second."""
     done = {}
     if log_path.is_file():
         for line in log_path.read_text().splitlines():
             data = json.loads(line)
             if "verdict" in data:
-                done[(data["verdict"]["generator"], data["verdict"]["size"])] = data["verdict"]
+                found = data["verdict"]
+                done[(found["generator"], found["size"], found["budget_checks"])] = found
     return done
+
+
+def _starts(text: str) -> dict[str, int]:
+    """``--start simple_slider=6,move_n_times=7`` -> the first size to search per generator."""
+    starts = {}
+    for item in filter(None, text.split(",")):
+        name, _, size = item.partition("=")
+        if name not in KNOBS or not size.isdigit():
+            print(f"hard_suite.py: bad --start item {item!r} (GENERATOR=SIZE, generators: {', '.join(KNOBS)})",
+                  file=sys.stderr)
+            raise SystemExit(2)
+        starts[name] = int(size)
+    return starts
+
+
+def _sizes(generator: str, starts: dict[str, int]) -> range:
+    """The sizes the search steps through: from the paper's size, or ``--start``'s (a size found hard at a
+    smaller budget: a larger budget can only make a size easier), up by the knob's step."""
+    knob = KNOBS[generator]
+    return range(starts.get(generator, knob.start), knob.stop + 1, knob.step)
 
 
 def cmd_search(args) -> int:
     seeds = tuple(int(s) for s in args.seeds.split(","))
     log_path = Path(args.log)
     done = _verdicts(log_path)
+    starts = _starts(args.start)
     with log_path.open("a") as log:
         for generator in args.generators.split(","):
             knob = KNOBS[generator]
-            for size in range(knob.start, knob.stop + 1, knob.step):
-                summary = done.get((generator, size)) or search_size(generator, size, knob, seeds, args.runs, log)
+            for size in _sizes(generator, starts):
+                summary = (done.get((generator, size, paper_budget_checks(generator)))
+                           or search_size(generator, size, knob, seeds, args.runs, log))
                 print(f"{generator} {knob.knob}={size}: {summary['successes']} of {summary['runs']} runs solved "
                       f"(budget {summary['budget_checks']} checks), uncertified seeds {summary['uncertified']}: "
                       f"{'HARD' if summary['hard'] else 'not hard'}", flush=True)
@@ -237,13 +261,14 @@ def cmd_pipeline(args) -> int:
     seeds = tuple(int(s) for s in args.seeds.split(","))
     out = Path(args.out)
     done = _verdicts(Path(args.log))
+    starts = _starts(args.start)
     with Path(args.log).open("a") as log:
         for generator in args.generators.split(","):
             knob = KNOBS[generator]
             hard = None
-            for size in range(knob.start, knob.stop + 1, knob.step):
-                summary = done.get((generator, size)) or search_size(generator, size, knob, seeds, args.search_runs,
-                                                                     log)
+            for size in _sizes(generator, starts):
+                summary = (done.get((generator, size, paper_budget_checks(generator)))
+                           or search_size(generator, size, knob, seeds, args.search_runs, log))
                 print(f"{generator} {knob.knob}={size}: {summary['successes']} of {summary['runs']} solved, "
                       f"uncertified {summary['uncertified']}: {'HARD' if summary['hard'] else 'not hard'}", flush=True)
                 if summary["hard"]:
@@ -276,6 +301,8 @@ def main(argv: list[str] | None = None) -> int:
     search.add_argument("--seeds", default=",".join(str(s) for s in SEARCH_SEEDS))
     search.add_argument("--runs", type=int, default=2, help="runs per planner and seed")
     search.add_argument("--log", default="hard_suite_search.jsonl")
+    search.add_argument("--start", default="", help="GENERATOR=SIZE,...: the first size to search (default the "
+                        "paper's)")
     search.set_defaults(func=cmd_search)
     table = sub.add_parser("table", help="the Markdown table of a measured suite")
     table.add_argument("--bench", required=True, help="folder with one benchmark output folder per generator")
@@ -290,6 +317,7 @@ def main(argv: list[str] | None = None) -> int:
     pipeline.add_argument("--search-runs", type=int, default=2, help="search runs per planner and seed")
     pipeline.add_argument("--runs", type=int, default=3, help="benchmark runs per planner and puzzle")
     pipeline.add_argument("--log", default="hard_suite_search.jsonl")
+    pipeline.add_argument("--start", default="", help="GENERATOR=SIZE,...: the first size to search")
     pipeline.add_argument("--out", default="output/hard")
     pipeline.set_defaults(func=cmd_pipeline)
     parser.add_argument("--checks-per-second", type=int, default=PAPER_CHECKS_PER_SECOND,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -87,3 +88,28 @@ def test_generate_suite_hard_makes_each_generator_at_its_size(tmp_path):
         assert {key: str(record.parameters[key]) for key in entry.overrides} == dict(entry.overrides)
     made = sorted(p.name for p in tmp_path.iterdir() if p.is_dir())
     assert made == sorted(entry.generator for entry in HARD_SUITE)
+
+
+def test_the_search_resumes_only_verdicts_made_at_the_same_budget(tmp_path):
+    # A size found hard at 10,000 checks a second is searched again at 28,000; its verdict at the same
+    # budget is reused. Negative control: the other budget's verdict is not.
+    script = _script()
+    log = tmp_path / "search.jsonl"
+    lines = [{"verdict": {"generator": "move_n_times", "size": 7, "budget_checks": budget, "hard": hard}}
+             for budget, hard in ((200_000, True), (560_000, False))]
+    log.write_text("".join(json.dumps(line) + "\n" for line in lines))
+    done = script._verdicts(log)
+    assert done[("move_n_times", 7, 560_000)]["hard"] is False
+    assert done[("move_n_times", 7, 200_000)]["hard"] is True
+    assert ("move_n_times", 7, 1_000) not in done
+
+
+def test_search_start_sizes():
+    script = _script()
+    assert list(script._sizes("move_n_times", script._starts("move_n_times=7")))[:2] == [7, 8]
+    assert list(script._sizes("move_n_times", {}))[0] == script.KNOBS["move_n_times"].start
+    assert list(script._sizes("grid_world", script._starts("grid_world=9,rooms=5")))[:2] == [9, 11]
+    for bad in ("nope=3", "move_n_times=x", "move_n_times"):
+        with pytest.raises(SystemExit) as stopped:
+            script._starts(bad)
+        assert stopped.value.code == 2
