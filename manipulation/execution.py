@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 
@@ -28,13 +28,13 @@ from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
 from solver.planning.problem import densify
 
 from .floor import BORDER, FloorMap, floor_map
-from .following import FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory
+from .following import TIME_STEP, FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory
 from .grasp import GraspPoint, grasp_point
 from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
 from .placement import Placement, centred_placement, joint_value_scale, link_pose, physical_scale, scale_chain
 from .reaching import REACH_BUDGET, ReachingError, plan_motion, seed_reaching
 from .robot import ARM_REST, ARM_TUCKED, RobotSpec
-from .scene import COLLISION_MARGIN, World, open_worlds, temporary_folder, write_scene_files
+from .scene import COLLISION_MARGIN, Contact, World, open_worlds, temporary_folder, write_scene_files
 from .solution import BenchmarkRun, Solution, candidate_solutions
 from .transforms import inverse, matrix, quaternion
 
@@ -58,6 +58,14 @@ class ExecutionError(RuntimeError):
     """The robot could not execute an action (no grasp, no motion, too many regrasps)."""
 
 
+class UnplannedContactError(ExecutionError):
+    """Physics found a contact the plan did not allow: the run stops at the first one."""
+
+    def __init__(self, contact: Contact):
+        super().__init__("unplanned contact: " + contact.describe())
+        self.contact = contact
+
+
 @dataclass(frozen=True)
 class ExecutionSettings:
     scale: float | None = None
@@ -71,6 +79,9 @@ class ExecutionSettings:
     max_regrasps_per_action: int = 12
     record_every: int = 8
     """Record the scene for frames and video every this many physics steps."""
+    puzzle_self_collision: bool = True
+    """Whether the puzzle's objects and walls collide with each other (False: the scene as it was
+    before they did, where an invalid path executed; kept as a negative control)."""
 
 
 @dataclass(frozen=True)
@@ -99,6 +110,8 @@ class AttemptReport:
     max_penetration: float
     message: str
     action_reports: tuple[ActionReport, ...] = ()
+    contact: Contact | None = None
+    """The unplanned contact that stopped the run, if one did."""
 
 
 @dataclass(frozen=True)
@@ -124,6 +137,8 @@ class ManipulationReport:
     message: str
     attempts: tuple[AttemptReport, ...] = ()
     """Every solution tried, in order, each with its per-action reports."""
+    contact: Contact | None = None
+    """The unplanned contact that stopped the last attempt, if one did."""
 
     @classmethod
     def of_attempts(cls, puzzle: str, generator: str, seed: int,
@@ -135,7 +150,7 @@ class ManipulationReport:
         return cls(puzzle, generator, seed, last.scale, last.solution, len(attempts), last.actions, last.regrasps,
                    sum(a.planning_seconds for a in attempts), sum(a.execution_seconds for a in attempts),
                    last.simulated_seconds, last.success, last.target_at_goal, last.max_penetration, message,
-                   tuple(attempts))
+                   tuple(attempts), last.contact)
 
 
 @dataclass
@@ -173,13 +188,20 @@ class _Run:
         self.action_index = 0
         self.offset = np.eye(4)
         self.offset[:2, 3] = placement.offset
+        self.planned: frozenset[tuple[int, int]] = frozenset()
+        """(robot link, puzzle link) pairs whose contact the plan allows now (the fingers on the
+        grasped object, while they hold it)."""
 
     # -- bookkeeping -------------------------------------------------------
     def on_step(self) -> None:
         self.steps += 1
-        self.max_penetration = max(self.max_penetration, self.sim.penetration())
+        self.max_penetration = max(self.max_penetration, self.sim.penetration(self.planned))
         if self.steps % self.settings.record_every == 0:
             self.record()
+        contact = self.sim.unplanned_contact(self.planned)
+        if contact is not None:
+            self.record()
+            raise UnplannedContactError(replace(contact, time=self.steps * TIME_STEP))
 
     def record(self) -> None:
         self.recording.robot.append(self.sim.robot_state())
@@ -415,7 +437,7 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
     setup = SceneSetup(scaled, placement, settings.robot)
     with temporary_folder() as tmp:
         files = write_scene_files(Path(tmp), scaled, settings.robot)
-        sim, planner = open_worlds(files, scaled, placement, gui)
+        sim, planner = open_worlds(files, scaled, placement, gui, settings.puzzle_self_collision)
         run = _Run(loaded, scaled, placement, sim, planner, value_scale, settings)
         try:
             home = np.array([-placement.half_extent[0] - HOME_CLEARANCE, 0.0, 0.0, *ARM_REST])
@@ -425,12 +447,14 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
             run.record()
             reports: list[ActionReport] = []
             message = "ok"
+            contact: Contact | None = None
             for index, action in enumerate(actions):
                 run.action_index = index
                 try:
                     reports.append(run.execute(action))
                 except ExecutionError as exc:
                     message = f"action {index + 1}/{len(actions)} ({action.object_name}): {exc}"
+                    contact = exc.contact if isinstance(exc, UnplannedContactError) else None
                     break
                 if progress is not None:
                     progress(index + 1, len(actions))
@@ -446,5 +470,5 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
             planner.close()
     attempt = AttemptReport(solution.label, placement.scale, len(actions), sum(r.regrasps for r in reports),
                             run.planning, run.execution, run.steps / 240.0, message == "ok", at_goal,
-                            run.max_penetration, message, tuple(reports))
+                            run.max_penetration, message, tuple(reports), contact)
     return attempt, run.recording, setup

@@ -34,10 +34,42 @@ PUZZLE_JOINT_FRICTION = 2.0
 COLLISION_MARGIN = 0.004
 """Metres: closer than this, robot and puzzle count as colliding while planning."""
 
+ROBOT_CONTACT_TOLERANCE = 1e-4
+"""Metres: a robot-puzzle contact deeper than this (numerical noise) is a collision, unless planned."""
+PUZZLE_CONTACT_TOLERANCE = 1e-3
+"""Metres: puzzle parts may touch (certificates count touching as free), but PyBullet's contacts
+blur by about a millimetre (:data:`manipulation.replay.PENETRATION_TOLERANCE`); deeper is a collision."""
+
+PUZZLE_CONTACT_FORCE = 1.0
+"""Newtons: puzzle parts that touch carry no load along a valid path (their joints hold them; 0.0 N
+over 88,000 door-wall contact points of a Move N Times run); a contact pressed harder than this is
+an object pushing another, which no certificate does. A blocked object may stay under
+:data:`PUZZLE_CONTACT_TOLERANCE` deep (Simple Slider: 0.9 mm at 330 N), so depth alone misses it."""
+
 PROBE_HEIGHT = 2.0
 """Metres: height of the floor probe (:meth:`World.floor_clear`), above the tucked robot."""
 SELF_COLLISION_SKIP = 2
 """Robot links this close along the chain touch by construction; their contacts are ignored."""
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A contact between two links: each named by its body (``robot`` or ``puzzle``) and link."""
+
+    body_a: str
+    link_a: str
+    body_b: str
+    link_b: str
+    depth: float
+    """Metres of penetration (>= 0)."""
+    force: float = 0.0
+    """Newtons of normal force in the contact."""
+    time: float = 0.0
+    """Simulated seconds since the start of the run."""
+
+    def describe(self) -> str:
+        return (f"{self.body_a} link {self.link_a} hit {self.body_b} link {self.link_b}, "
+                f"{self.depth * 1000:.1f} mm deep, {self.force:.0f} N, at t={self.time:.2f} s")
 
 
 @dataclass(frozen=True)
@@ -66,7 +98,8 @@ def write_scene_files(folder: Path, chain: KinematicChain, spec: RobotSpec) -> S
 class World:
     """One PyBullet client with the robot, the puzzle and a floor (visual only)."""
 
-    def __init__(self, files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False):
+    def __init__(self, files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False,
+                 puzzle_self_collision: bool = True):
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         self.chain = chain
         self.placement = placement
@@ -77,8 +110,13 @@ class World:
         flags = pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
         self.robot = pb.loadURDF(str(files.robot_urdf), useFixedBase=True, physicsClientId=c, flags=flags)
         ox, oy = placement.offset
+        # Without URDF_USE_SELF_COLLISION PyBullet lets the links of one body (the puzzle's objects
+        # and walls) pass through each other: an object pulled into its blocker went 450 mm deep.
+        puzzle_flags = pb.URDF_USE_INERTIA_FROM_FILE
+        if puzzle_self_collision:
+            puzzle_flags |= pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
         self.puzzle = pb.loadURDF(str(files.puzzle_urdf), basePosition=(ox, oy, 0.0), useFixedBase=True,
-                                  physicsClientId=c)
+                                  physicsClientId=c, flags=puzzle_flags)
         self.robot_link = _link_indices(self.robot, c)
         self.robot_joints = [self.robot_link[_child_of(self.robot, name, c)] for name in ROBOT_JOINTS]
         self.arm_columns = [ROBOT_JOINTS.index(n) for n in ARM_JOINTS]
@@ -93,6 +131,11 @@ class World:
             pb.setJointMotorControl2(self.puzzle, j, pb.VELOCITY_CONTROL, targetVelocity=0.0,
                                      force=PUZZLE_JOINT_FRICTION, physicsClientId=c)
         _ignore_near_links(self.robot, c)
+        self.puzzle_link_name = {index: name for name, index in self.puzzle_link.items()}
+        self.robot_link_name = {index: name for name, index in self.robot_link.items()}
+        self.puzzle_owner = {index: chain.link(name).object_name or name for name, index in self.puzzle_link.items()}
+        if puzzle_self_collision:
+            _ignore_rigid_pairs(self.puzzle, chain, self.puzzle_link, c)
         self._probes: dict[float, int] = {}
 
     def close(self) -> None:
@@ -152,10 +195,41 @@ class World:
         points = pb.getClosestPoints(self.robot, self.puzzle, up_to, physicsClientId=self.client)
         return min([up_to] + [p[8] for p in points])
 
-    def penetration(self) -> float:
-        """Deepest robot-puzzle penetration (metres, >= 0) among the last step's contacts."""
+    def penetration(self, planned: frozenset[tuple[int, int]] = frozenset()) -> float:
+        """Deepest robot-puzzle penetration (metres, >= 0) among the last step's contacts, those of
+        ``planned`` (robot link, puzzle link) pairs left out."""
         points = pb.getContactPoints(self.robot, self.puzzle, physicsClientId=self.client)
-        return max([0.0] + [-p[8] for p in points])
+        return max([0.0] + [-p[8] for p in points if (p[3], p[4]) not in planned])
+
+    def unplanned_contact(self, planned: frozenset[tuple[int, int]] = frozenset()) -> Contact | None:
+        """A contact of the last physics step that the plan did not allow, or None: the deepest
+        robot-puzzle one, else the most loaded one between puzzle parts.
+
+        Allowed: ``planned`` (robot link, puzzle link) pairs (a closed gripper's fingers on the
+        grasped object), robot-puzzle contact within :data:`ROBOT_CONTACT_TOLERANCE` (numerical
+        noise), and puzzle parts touching within :data:`PUZZLE_CONTACT_TOLERANCE` with at most
+        :data:`PUZZLE_CONTACT_FORCE` (their certificates let them touch; PyBullet's contacts blur
+        by about a millimetre)."""
+        c = self.client
+        worst: Contact | None = None
+        for point in pb.getContactPoints(self.robot, self.puzzle, physicsClientId=c):
+            depth = -point[8]
+            if depth <= ROBOT_CONTACT_TOLERANCE or (point[3], point[4]) in planned:
+                continue
+            if worst is None or depth > worst.depth:
+                worst = Contact("robot", self.robot_link_name[point[3]], "puzzle",
+                                self.puzzle_link_name[point[4]], depth, point[9])
+        if worst is not None:
+            return worst
+        for point in pb.getContactPoints(self.puzzle, self.puzzle, physicsClientId=c):
+            depth = -point[8]
+            force = point[9]
+            if depth <= PUZZLE_CONTACT_TOLERANCE and force <= PUZZLE_CONTACT_FORCE:
+                continue
+            if worst is None or (force, depth) > (worst.force, worst.depth):
+                a, b = sorted((self.puzzle_link_name[point[3]], self.puzzle_link_name[point[4]]))
+                worst = Contact("puzzle", a, "puzzle", b, depth, force)
+        return worst
 
     def base_clear(self, xy: np.ndarray, heading: float, margin: float = COLLISION_MARGIN) -> bool:
         """Whether the base alone, at ``xy`` facing ``heading``, keeps ``margin`` from the puzzle
@@ -188,11 +262,14 @@ class World:
 
 
 def open_worlds(files: SceneFiles, chain: KinematicChain, placement: Placement,
-                gui: bool = False) -> tuple[World, World]:
+                gui: bool = False, puzzle_self_collision: bool = True) -> tuple[World, World]:
     """The simulation (in a window when ``gui``) and the planning world of one run, built alike:
-    the same files, the same collision filters, so the same joint values collide the same way."""
-    simulation = World(files, chain, placement, gui=gui)
-    return simulation, World(files, chain, placement)
+    the same files, the same collision filters, so the same joint values collide the same way.
+
+    ``puzzle_self_collision`` False builds both as before the puzzle's objects collided with each
+    other (a negative control: an invalid path then executes)."""
+    simulation = World(files, chain, placement, gui=gui, puzzle_self_collision=puzzle_self_collision)
+    return simulation, World(files, chain, placement, puzzle_self_collision=puzzle_self_collision)
 
 
 def _floor(client: int) -> int:
@@ -217,6 +294,32 @@ def _ignore_near_links(robot: int, client: int) -> None:
     for link in parent:
         for other in ancestors(link):
             pb.setCollisionFilterPair(robot, robot, link, other, 0, physicsClientId=client)
+
+
+def rigid_groups(chain: KinematicChain) -> dict[str, str]:
+    """Per link with collision shapes: the group of links that never move relative to it (the
+    scenery: every link fixed to the root; else its object). Links of one group never need a
+    collision check, and scenery pieces touch by construction (a corridor's walls meet)."""
+    fixed = {chain.root}
+    grew = True
+    while grew:
+        more = {j.child for j in chain.joints if j.parent in fixed and not j.is_active} - fixed
+        fixed |= more
+        grew = bool(more)
+    return {link.name: ("scenery" if link.name in fixed else (link.object_name or link.name))
+            for link in chain.links if link.collisions}
+
+
+def _ignore_rigid_pairs(body: int, chain: KinematicChain, index: dict[str, int], client: int) -> None:
+    """PyBullet checks every pair of links of a self-colliding body but parent and child; pairs
+    that cannot move apart (two walls, two shapes of one object) are switched off, or fixed walls
+    that meet would report contact at every step."""
+    groups = rigid_groups(chain)
+    names = sorted(groups)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if groups[a] == groups[b]:
+                pb.setCollisionFilterPair(body, body, index[a], index[b], 0, physicsClientId=client)
 
 
 def _link_indices(body: int, client: int) -> dict[str, int]:
