@@ -10,6 +10,7 @@ and ``<name>.blend`` are in place.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -65,7 +66,8 @@ def render_folder(folder: Path, engine: str, size: tuple[int, int], views: tuple
                                        frames_per_action=frames_per_action_for(
                                            _actions(loaded), render.ANIMATION_SECONDS, render.ANIMATION_FPS))
             render.render_animation(scene, built.collection, images / animation_name(place.name),
-                             (timing.frame_start, timing.frame_end), timing.fps, timing.frames)
+                             (timing.frame_start, timing.frame_end), timing.fps, timing.frames,
+                             held_from=math.ceil(timing.frames[-1]))
             animation_seconds = time.perf_counter() - started
     if animation:
         keyframe_solution(built, loaded.certificate, loaded.chain)  # for Blender: 24 fps, a second per action
