@@ -7,11 +7,27 @@ installed it has registered the property already and we leave it alone.
 When the Phobos add-on is enabled, :func:`export_with_phobos` runs Phobos's own
 exporter on a puzzle scene (``deriveRobot`` and ``Robot.export``). Phobos is
 never bundled: users install it from its repository.
+
+Phobos 2.1 decides once, when ``phobos.defs`` is imported, whether it runs
+inside Blender: only when ``sys.executable`` names "blender", as in
+blender.org's builds, which bundle their Python. A Blender that runs the
+system's Python (Debian's ``blender`` package) or the ``bpy`` wheel fails that
+test, and Phobos then refuses every Blender mesh ("The input type
+bpy_types.Mesh of object ... is not recognized"), its own export operator
+included. :func:`make_phobos_recognise_blender` is this add-on's shim for it:
+it imports Phobos again while ``sys.executable`` names a link called
+``blender/python3.X`` to the same interpreter, and restores
+``sys.executable`` right after (docs/blender.md, "Phobos on a Blender that runs
+the system's Python").
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import bpy
@@ -59,6 +75,66 @@ def phobos_enabled() -> bool:
     return PHOBOS_MODULE in bpy.context.preferences.addons
 
 
+def phobos_recognises_blender() -> bool | None:
+    """Whether the loaded Phobos takes itself to run inside Blender (accepts Blender's meshes);
+    None when Phobos is not loaded."""
+    defs = sys.modules.get(f"{PHOBOS_MODULE}.defs")
+    return None if defs is None else bool(getattr(defs, "BPY_AVAILABLE", False))
+
+
+@contextlib.contextmanager
+def executable_named_blender() -> Iterator[str]:
+    """``sys.executable`` names "blender" for the duration (a link to the same interpreter in a
+    temporary folder named ``blender``, so a pip that Phobos starts runs the same Python); restored after."""
+    original = sys.executable
+    if "blender" in original.lower():
+        yield original
+        return
+    with tempfile.TemporaryDirectory(prefix="phyrogen-phobos-") as folder:
+        link = Path(folder) / "blender" / (Path(original).name or "python")
+        link.parent.mkdir()
+        os.symlink(original, link)
+        sys.executable = str(link)
+        try:
+            yield str(link)
+        finally:
+            sys.executable = original
+
+
+def make_phobos_recognise_blender() -> bool:
+    """Reload an enabled Phobos that misdetects this Blender (see the module's docstring); whether it
+    was reloaded. Raises RuntimeError when it still does not recognise Blender afterwards."""
+    if not phobos_enabled() or phobos_recognises_blender() is not False:
+        return False
+    import addon_utils
+
+    addon_utils.disable(PHOBOS_MODULE, default_set=False)
+    for name in [n for n in sys.modules if n == PHOBOS_MODULE or n.startswith(f"{PHOBOS_MODULE}.")]:
+        del sys.modules[name]
+    with executable_named_blender():
+        addon_utils.enable(PHOBOS_MODULE, default_set=False)
+    if not phobos_recognises_blender():
+        raise RuntimeError("Phobos does not recognise this Blender even with its Python named 'blender'")
+    print(f"PhyRoGen: Phobos reloaded so that it recognises this Blender (its Python, {sys.executable}, "
+          "does not name 'blender')")
+    return True
+
+
+def recognise_phobos_when_loaded() -> None:
+    """Apply :func:`make_phobos_recognise_blender` now if Phobos is loaded, and, with a UI, once more
+    when Blender has started (Phobos may be enabled after this add-on at start-up)."""
+    _recognise_quietly()
+    if not bpy.app.background:
+        bpy.app.timers.register(_recognise_quietly, first_interval=0.5)
+
+
+def _recognise_quietly() -> None:
+    try:
+        make_phobos_recognise_blender()
+    except Exception as exc:  # noqa: BLE001 (Phobos's own errors are of every kind; Export with Phobos reports them)
+        print(f"PhyRoGen: could not make Phobos recognise this Blender: {type(exc).__name__}: {exc}")
+
+
 def export_with_phobos(collection: bpy.types.Collection, folder: str | Path) -> Path:
     """Export the puzzle in ``collection`` with Phobos as URDF (OBJ meshes) into ``folder``; the URDF's path.
 
@@ -69,14 +145,7 @@ def export_with_phobos(collection: bpy.types.Collection, folder: str | Path) -> 
     if not phobos_enabled():
         raise RuntimeError("the Phobos add-on is not enabled; get it from https://github.com/dfki-ric/phobos "
                            "and enable it in Edit > Preferences > Add-ons")
-    from phobos import defs
-
-    if not defs.BPY_AVAILABLE:
-        # Phobos takes itself to run inside Blender only when sys.executable's path names "blender", as in
-        # blender.org's builds, which bundle their Python; otherwise it refuses Blender's meshes.
-        raise RuntimeError(f"Phobos does not recognise this Blender: the path of its Python ({sys.executable}) "
-                           "does not name 'blender', as in Linux distributions' packages; use a Blender from "
-                           "blender.org")
+    make_phobos_recognise_blender()
     from phobos.blender.io.blender2phobos import deriveRobot
 
     links = [obj for obj in collection.all_objects if phobostype(obj) == "link"]

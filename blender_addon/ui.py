@@ -28,7 +28,7 @@ from phyrogen_core.folder import PuzzleFolder, name_problem
 from phyrogen_core.registry import ParameterError, all_generators
 
 from .jobs import Job, JobResult, benchmark_summary, manipulation_summary, one_line_error, phyrogen_command
-from .phobos import PHOBOS_FOLDER, ensure_phobostype, phobos_enabled, remove_phobostype
+from .phobos import PHOBOS_FOLDER, ensure_phobostype, phobos_enabled, recognise_phobos_when_loaded, remove_phobostype
 
 _PROPERTY_OF_TYPE = {bool: bpy.props.BoolProperty, int: bpy.props.IntProperty, float: bpy.props.FloatProperty,
                      str: bpy.props.StringProperty}
@@ -686,6 +686,7 @@ def register() -> None:
         bpy.utils.register_class(cls)
         _registered.append(cls)
     bpy.types.Scene.phyrogen = bpy.props.PointerProperty(type=classes[len(groups)])
+    recognise_phobos_when_loaded()
 
 
 def unregister() -> None:
