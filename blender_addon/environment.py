@@ -150,3 +150,26 @@ def worker_python() -> str:
         if python.exists():
             return str(python)
     return sys.executable
+
+
+BLENDER_VARIABLE = "PHYROGEN_BLENDER"
+"""A Blender binary for ``phyrogen render``'s workers (``--blender``): its version writes the ``.blend``."""
+
+_IN_BLENDER = ("import sys; sys.path.insert(0, {repository!r}); "
+               "from blender_addon.environment import ensure_project_importable; ensure_project_importable(); "
+               "from blender_addon.render_worker import main; sys.exit(main(sys.argv[sys.argv.index('--') + 1:]))")
+
+
+def render_worker_command() -> list[str]:
+    """The command that starts a render worker (:mod:`blender_addon.render_worker`), arguments to follow.
+
+    By default the ``bpy`` module of the project's Python, whose Blender version
+    (4.5) writes the ``.blend`` files: Blender 4.5 and later open them, Blender 3.x
+    crashes on them. With $PHYROGEN_BLENDER naming a Blender binary, that Blender
+    renders and saves, so the files open in that version and later (docs/blender-animation.md).
+    """
+    blender = os.environ.get(BLENDER_VARIABLE)
+    if not blender:
+        return [worker_python(), "-m", "blender_addon.render_worker"]
+    return [blender, "--background", "--factory-startup", "--python-exit-code", "1",
+            "--python-expr", _IN_BLENDER.format(repository=str(REPOSITORY)), "--"]
