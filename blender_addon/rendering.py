@@ -22,7 +22,7 @@ from pathlib import Path
 
 from solver.parallel.pool import deferred_signals
 
-from .environment import worker_python
+from .environment import render_worker_command
 from .views import DEFAULT_VIEWS
 
 ENGINES = ("auto", "workbench", "cycles")
@@ -144,7 +144,7 @@ def _run_workers(folders: list[Path], engine: str, size: tuple[int, int], views:
         before = _unfinished_outputs(folders)
         try:
             for share in shares:
-                command = [worker_python(), "-m", "blender_addon.render_worker", "--engine", engine,
+                command = [*render_worker_command(), "--engine", engine,
                            "--size", f"{size[0]}x{size[1]}", "--views", ",".join(views),
                            *([] if animation else ["--no-animation"]), *map(str, share)]
                 log = tempfile.TemporaryFile(mode="w+", dir=home)
