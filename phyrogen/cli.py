@@ -484,6 +484,8 @@ def cmd_render(args) -> int:
 
     views = parse_views(args.views)
     size = None if args.gallery_only else parse_size(args.size)
+    if args.blender is not None:
+        _use_blender_binary(args.blender)
     out = require_writable_dir(args.out, "render output folder")  # index.html goes there
     check_gallery_target(out)  # a user's own index.html is refused before any render
     try:
@@ -513,6 +515,19 @@ def cmd_render(args) -> int:
                   "each (worker time, included above)")
     print(f"gallery: {write_gallery(Path(args.out), views)}")
     return 0
+
+
+def _use_blender_binary(text: str) -> None:
+    """``render --blender PATH``: the render workers run in that Blender binary, whose version then writes
+    the ``.blend`` files (blender_addon.environment.render_worker_command)."""
+    import shutil
+
+    from blender_addon.environment import BLENDER_VARIABLE
+
+    found = shutil.which(text)
+    if found is None:
+        raise UsageError(f"--blender {text!r}: no such executable")
+    os.environ[BLENDER_VARIABLE] = str(Path(found).resolve())
 
 
 def cmd_benchmark(args) -> int:
@@ -878,6 +893,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="render processes (default 1; at most 4 per usable core)")
     render.add_argument("--no-animation", action="store_true",
                         help="no solution animation (images/<name>_solution.webp, about 3-4 s per puzzle)")
+    render.add_argument("--blender", metavar="PATH",
+                        help="render and save each .blend with this Blender binary (e.g. blender, Blender 3.4+), "
+                             "so that the .blend opens in that version; default: the bpy module, Blender 4.5, "
+                             "whose .blend files Blender 3.x cannot open")
     render.add_argument("--gallery-only", action="store_true", help="only (re)write index.html")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.set_defaults(func=cmd_render)
