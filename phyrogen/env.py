@@ -64,6 +64,7 @@ REWARDS = ("sparse", "shaped")
 ACTION_MODES = ("continuous", "discrete")
 ON_COLLISION = ("stop", "reject")
 KIND_PRISMATIC, KIND_REVOLUTE = 1.0, 2.0
+_STEP_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
 
 
 # -- puzzles and their compiled planning problems ------------------------------------
@@ -133,6 +134,8 @@ class _Task:
         self.lower_padded, self.upper_padded = padded(self.lower), padded(self.upper)
         self.max_step_padded, self.center_padded = padded(self.max_step), padded(self.center)
         self.inv_half_padded = padded(self.inv_half)
+        self.step_table = CollisionModel.step_table(self.max_step, self.lower, self.upper, self.steps, self.center,
+                                                    self.inv_half)
 
     def goal_distance(self, state) -> float:
         """:func:`solver.planning.problem.goal_distance`: the largest distance of a goal joint from its value."""
@@ -286,7 +289,8 @@ def _motions(model: CollisionModel, a: np.ndarray, b: np.ndarray, steps: np.ndar
     samples that move no joint more than ``steps`` between them: the states
     :meth:`CollisionModel.motion_collision` checks, computed the same way.
     Returns the reached states and which motions collided; a colliding motion
-    ends at its last free sample (``stop``) or at its start.
+    ends at its last free sample (``stop``) or at its start, as
+    :meth:`CollisionModel.motion_stop` ends a single env's step.
     """
     diff = b - a
     counts = np.maximum(1.0, np.ceil(np.max(np.abs(diff) / steps, axis=1))).astype(np.int64)
@@ -306,23 +310,6 @@ def _motions(model: CollisionModel, a: np.ndarray, b: np.ndarray, steps: np.ndar
             moved = rows[first_bad[rows] > 0]
             out[moved] = points[offsets[moved] + first_bad[moved] - 1]
     return out, collided
-
-
-def _last_free(model: CollisionModel, a: np.ndarray, b: np.ndarray, steps: np.ndarray, hit: float) -> np.ndarray:
-    """Where the colliding motion ``a -> b`` stops: its last free sample before the first colliding one.
-
-    ``hit`` is :meth:`CollisionModel.motion_collision`'s colliding sample ``t = k / count``; only the
-    samples before it are checked. The same samples, computed the same way, as :func:`_motions`.
-    """
-    diff = b - a
-    count = max(1, math.ceil(float(np.max(np.abs(diff) / steps))))
-    before = round(hit * count) - 1  # samples 1 .. k-1
-    if before < 1:
-        return a
-    points = a + diff * (np.arange(1, before + 1) / count)[:, None]
-    valid = model.check_prepared(points)
-    first_bad = before if valid.all() else int(np.argmin(valid))
-    return points[first_bad - 1] if first_bad > 0 else a
 
 
 # -- the environment ------------------------------------------------------------------
@@ -418,6 +405,7 @@ class PuzzleEnv(gym.Env):
     def _load(self, index: int) -> None:
         task = self._task = self._catalog.task(index)
         self._state = task.start.copy()
+        self._spare = np.empty_like(self._state)
         self._distance = task.goal_distance(self._state)
         self._elapsed = 0
         self._ended = False
@@ -444,28 +432,29 @@ class PuzzleEnv(gym.Env):
                               "call reset() first")
         task = self._task
         state = self._state
+        # The new state goes into the spare buffer, which then swaps with the old state: no array is
+        # made per step.
+        reached = self._spare
         if self._discrete:
             target = self._discrete_target(action)
+            collided = task.model.motion_stop(state, target, task.steps, self._stop, reached) >= 0.0
+            np.subtract(reached, task.center, out=self._position)
+            np.multiply(self._position, task.inv_half, out=self._position)
         else:
-            act = np.asarray(action, dtype=np.float64)
+            act = action
+            # float32 (the action space's) and float64 arrays go to the compiled step as they are.
+            if type(act) is not np.ndarray or act.dtype not in _STEP_DTYPES or not act.flags.c_contiguous:
+                act = np.ascontiguousarray(action, dtype=np.float64)
             if act.shape != (self.size,):
                 raise ValueError(f"action must have shape ({self.size},), got {act.shape}")
-            if not math.isfinite(np.add.reduce(act)) and not np.isfinite(act).all():
+            # Clipping, the motion check, where a colliding move stops and the observed position:
+            # one compiled call.
+            hit = task.model.joint_step(state, act, task.step_table, self._stop, reached, self._position)
+            if hit < -1.5:
                 raise ValueError(f"action holds a value that is not a finite number: {action!r}")
-            # np.minimum/np.maximum: np.clip's Python wrapper costs more than the clipping.
-            target = np.minimum(act[: task.d], 1.0)
-            np.maximum(target, -1.0, out=target)
-            target *= task.max_step
-            target += state
-            np.minimum(target, task.upper, out=target)
-            np.maximum(target, task.lower, out=target)
-        hit = task.model.motion_collision(state, target, task.steps)
-        collided = hit >= 0.0
-        if collided:
-            target = _last_free(task.model, state, target, task.steps, hit) if self._stop else state
-        self._state = target
-        np.subtract(target, task.center, out=self._position)
-        np.multiply(self._position, task.inv_half, out=self._position)
+            collided = hit >= 0.0
+        self._state, self._spare = reached, state
+        target = reached
         previous = self._distance
         distance = self._distance = task.goal_distance(target)
         terminated = distance <= task.tolerance

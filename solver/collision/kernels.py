@@ -132,12 +132,109 @@ def check_states(states, kin_int, kin_float, n_links, shape_link, shape_nv, shap
 
 
 @njit(cache=True, nogil=True)
+def state_valid(q, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
+                shape_verts, shape_normals, shape_extent, pairs, tol):
+    """One state's validity as a bool: :func:`check_states` for a single state without its
+    output array, the entry point of the single-state queries (planners' validity checkers)."""
+    x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    return _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
+                        shape_verts, shape_normals, shape_extent, pairs, tol)
+
+
+@njit(cache=True, nogil=True)
 def motion_collision(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
                      shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
     """Fraction along a -> b of a colliding sample (not necessarily the first), or -1 if none.
 
     ``a`` is assumed valid, so only pairs that a changing joint moves (``pair_columns``) can
     start to collide: a one-object move checks that object's pairs only."""
+    hit, count = _motion_hit(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                             shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns)
+    return hit / count if hit > 0 else -1.0
+
+
+@njit(cache=True, nogil=True)
+def motion_stop(a, b, steps, stop, out, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
+    """Move from ``a`` (valid) towards ``b``, writing where the move ends into ``out``; returns
+    :func:`motion_collision`'s fraction (-1: free, ``out`` = ``b``).
+
+    A colliding move ends at ``a`` or, with ``stop``, at the last free sample before the first
+    colliding one: the samples ``a + (b - a) * (k / count)`` before the found colliding sample are
+    scanned from the start (all pairs), the states a motion check and a batch check of those
+    samples would visit, in one call."""
+    return _move(a, b, steps, stop, out, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                 shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns)
+
+
+STEP_TABLE_ROWS = 6
+"""Rows of :func:`joint_step`'s ``table``: step per unit action, lower, upper, motion-check step,
+centre and inverse half-range of each joint."""
+
+
+@njit(cache=True, nogil=True)
+def joint_step(a, action, table, stop, out, position, kin_int, kin_float, n_links, shape_link, shape_nv,
+               shape_center, shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol,
+               pair_columns):
+    """A simulation's step from ``a`` (valid): the target ``a + clip(action, -1, 1) * table[0]``
+    clipped to ``[table[1], table[2]]``, moved to as :func:`motion_stop` moves (samples
+    ``table[3]`` apart) into ``out``, and ``position`` = ``(out - table[4]) * table[5]``.
+
+    ``action`` may be longer than the state (padding, ignored but checked). Returns the motion's
+    fraction (-1: free), or -2 without writing anything when ``action`` holds a non-finite value.
+    The clipping is numpy's ``minimum``/``maximum`` written out, so the target is the same
+    number as those ufuncs give."""
+    for j in range(action.shape[0]):
+        if not math.isfinite(action[j]):
+            return -2.0
+    d = a.shape[0]
+    b = np.empty(d)
+    for j in range(d):
+        v = float(action[j])
+        v = v if v <= 1.0 else 1.0
+        v = v if v >= -1.0 else -1.0
+        v = v * table[0, j]
+        v = v + a[j]
+        v = v if v <= table[2, j] else table[2, j]
+        b[j] = v if v >= table[1, j] else table[1, j]
+    hit = _move(a, b, table[3], stop, out, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns)
+    for j in range(d):
+        position[j] = (out[j] - table[4, j]) * table[5, j]
+    return hit
+
+
+@njit(cache=True, nogil=True)
+def _move(a, b, steps, stop, out, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+          shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
+    hit, count = _motion_hit(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                             shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns)
+    d = a.shape[0]
+    if hit <= 0:
+        for j in range(d):
+            out[j] = b[j]
+        return -1.0
+    for j in range(d):
+        out[j] = a[j]
+    if stop:
+        x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+        q = np.empty(d)
+        for k in range(1, hit):
+            t = k / count
+            for j in range(d):
+                q[j] = a[j] + (b[j] - a[j]) * t
+            if not _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center,
+                                shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol):
+                break
+            for j in range(d):
+                out[j] = q[j]
+    return hit / count
+
+
+@njit(cache=True, nogil=True)
+def _motion_hit(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
+    """(index k of a colliding sample k / count or 0 when none, count)."""
     moving = np.zeros(all_pairs.shape[0], dtype=np.bool_)
     for p in range(all_pairs.shape[0]):
         for j in range(a.shape[0]):
@@ -165,7 +262,7 @@ def motion_collision(a, b, steps, kin_int, kin_float, n_links, shape_link, shape
             q[j] = a[j] + (b[j] - a[j]) * t
         if not _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center,
                             shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol):
-            return t
+            return i, count
         if i == count:
             i = stride
         else:
@@ -173,9 +270,9 @@ def motion_collision(a, b, steps, kin_int, kin_float, n_links, shape_link, shape
         while i >= count:
             stride //= 2
             if stride == 0:
-                return -1.0
+                return 0, count
             i = stride
-    return -1.0
+    return 0, count
 
 
 @njit(cache=True, nogil=True)

@@ -207,6 +207,7 @@ class CollisionModel:
                                       dtype=np.bool_).reshape(len(pairs), len(self.joint_order))
         self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in pairs]
         self._arguments = self._args()
+        self._state_shape = (len(self.joint_order),)
 
     def _args(self) -> tuple:
         return (self._kin_int, self._kin_float, len(self._links), self._shape_link, self._shape_nv,
@@ -233,6 +234,10 @@ class CollisionModel:
         return _kernels.check_states(states, *self._arguments)
 
     def is_valid(self, state: Sequence[float]) -> bool:
+        if type(state) is np.ndarray and state.dtype == np.float64 and state.shape == self._state_shape \
+                and state.flags.c_contiguous:
+            # The planners' single-state query: straight to the compiled entry point, no copy.
+            return _kernels.state_valid(state, *self._arguments)
         return bool(_kernels.check_states(self._as_states(state), *self._arguments)[0])
 
     def check_motion(self, start: Sequence[float], end: Sequence[float], steps: np.ndarray) -> bool:
@@ -246,6 +251,33 @@ class CollisionModel:
         a = np.asarray(start, dtype=np.float64)
         b = np.asarray(end, dtype=np.float64)
         return float(_kernels.motion_collision(a, b, steps, *self._arguments, self._pair_columns))
+
+    def motion_stop(self, start: np.ndarray, end: np.ndarray, steps: np.ndarray, stop: bool,
+                    out: np.ndarray) -> float:
+        """Move along the straight segment from ``start`` (valid) towards ``end``; where the move ends goes
+        into ``out``: ``end`` when the segment is free, else ``start`` or, with ``stop``, the last free
+        sample before the first colliding one (samples as in :meth:`check_motion`). Returns
+        :meth:`motion_collision`'s fraction. All arrays C-contiguous float64 of one value per joint
+        (``out`` not ``start``); one compiled call, for a simulation's step."""
+        return _kernels.motion_stop(start, end, steps, stop, out, *self._arguments, self._pair_columns)
+
+    @staticmethod
+    def step_table(max_step: np.ndarray, lower: np.ndarray, upper: np.ndarray, steps: np.ndarray,
+                   center: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """The per-joint constants of :meth:`joint_step` as one array (one argument per call)."""
+        table = np.ascontiguousarray(np.stack([max_step, lower, upper, steps, center, scale]), dtype=np.float64)
+        assert table.shape[0] == _kernels.STEP_TABLE_ROWS
+        return table
+
+    def joint_step(self, start: np.ndarray, action: np.ndarray, table: np.ndarray, stop: bool, out: np.ndarray,
+                   position: np.ndarray) -> float:
+        """A simulation's bounded step from ``start`` (valid), in one compiled call: the target is
+        ``start + clip(action, -1, 1) * max_step`` clipped to the limits (``table``, from :meth:`step_table`),
+        the move to it ends as :meth:`motion_stop` ends one (into ``out``), and ``position`` gets
+        ``(out - center) * scale``. ``action``: C-contiguous float32 or float64, at least one value per
+        joint (the rest are checked, not used). Returns the motion's fraction (-1: free), or -2 (nothing
+        written) when ``action`` holds a value that is not finite."""
+        return _kernels.joint_step(start, action, table, stop, out, position, *self._arguments, self._pair_columns)
 
     def colliding_objects(self, states) -> set[tuple[str, str]]:
         """Pairs of object names that collide at any of ``states``."""
