@@ -28,13 +28,22 @@ from phyrogen_core.export import LoadedPuzzle, read_puzzle_dir
 from solver.planning.problem import densify
 
 from .floor import BORDER, FloorMap, floor_map
-from .following import TIME_STEP, FollowSettings, Stop, drive_along, follow, step_physics, time_trajectory
+from .following import TIME_STEP, FollowSettings, Stop, command, drive_along, follow, hold, time_trajectory
 from .grasp import GraspPoint, grasp_point
 from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
 from .placement import Placement, centred_placement, joint_value_scale, link_pose, physical_scale, scale_chain
 from .reaching import REACH_BUDGET, ReachingError, plan_motion, seed_reaching
 from .robot import ARM_REST, ARM_TUCKED, RobotSpec
-from .scene import COLLISION_MARGIN, Contact, World, open_worlds, temporary_folder, write_scene_files
+from .scene import (
+    COLLISION_MARGIN,
+    PUZZLE_CONTACT_TOLERANCE,
+    TRACKING_TOLERANCE,
+    Contact,
+    World,
+    open_worlds,
+    temporary_folder,
+    write_scene_files,
+)
 from .solution import BenchmarkRun, Solution, candidate_solutions
 from .transforms import inverse, matrix, quaternion
 
@@ -50,6 +59,16 @@ REACH_TRIES = 3
 """Grasp configurations tried, best first, before the robot gives up reaching an object."""
 DIRECT_REACH = 1.0
 """Metres: a base move up to this long is first tried as one BIT* search over all joints."""
+CLOSE_STEPS = 240
+"""Physics steps (1 s) the fingers may take to close on a handle (full stroke at full speed: 0.28 s)."""
+SQUEEZE_STEPS = 12
+"""Steps both fingers must touch the handle, still, before the grasp holds."""
+OPEN_STEPS = 120
+"""Physics steps the fingers are given to open after a release."""
+FINGER_TOUCH = 1e-3
+"""Metres: a finger whose contact with the handle is closer than this touches it."""
+GRIP_CONSTRAINT_FORCE = 5000.0
+"""Newtons the grasp constraint may pull with (while both fingers hold the handle)."""
 HOME_CLEARANCE = 0.8
 """Metres between the base's centre at the start and the puzzle's floor area (on its -x side)."""
 
@@ -160,6 +179,10 @@ class Recording:
     robot: list[np.ndarray] = field(default_factory=list)
     puzzle: list[np.ndarray] = field(default_factory=list)
     action: list[int] = field(default_factory=list)
+    fingers: list[np.ndarray] = field(default_factory=list)
+    """The gripper's two finger joints (0 open)."""
+    holding: list[bool] = field(default_factory=list)
+    """Whether both fingers held the handle (the object bound to the tool)."""
 
 
 @dataclass(frozen=True)
@@ -190,21 +213,40 @@ class _Run:
         self.offset[:2, 3] = placement.offset
         self.planned: frozenset[tuple[int, int]] = frozenset()
         """(robot link, puzzle link) pairs whose contact the plan allows now (the fingers on the
-        grasped object, while they hold it)."""
+        grasped object, from closing to opening)."""
+        self.plan_state = sim.puzzle_state()
+        """Where the path has the puzzle now (scene units): the state the grasp is pulled toward."""
+        self.phase = "holding"
+        """What the robot is doing (for reports): driving, closing, following, opening or holding."""
+        self.grip: tuple[int, int] | None = None
+        """(constraint, puzzle link) while both fingers hold the link; None otherwise."""
 
     # -- bookkeeping -------------------------------------------------------
     def on_step(self) -> None:
         self.steps += 1
+        if self.grip is not None and not self.fingers_hold(self.grip[1]):
+            # The rule: the object is bound to the tool only while both fingers touch it.
+            self.release_constraint()
         self.max_penetration = max(self.max_penetration, self.sim.penetration(self.planned))
         if self.steps % self.settings.record_every == 0:
             self.record()
-        contact = self.sim.unplanned_contact(self.planned)
+        contact = self.sim.unplanned_contact(self.planned, self.plan_touches)
         if contact is not None:
             self.record()
-            raise UnplannedContactError(replace(contact, time=self.steps * TIME_STEP))
+            raise UnplannedContactError(replace(contact, time=self.steps * TIME_STEP, phase=self.phase))
+
+    def plan_touches(self, link_a: int, link_b: int) -> bool:
+        """Whether the path, where it is now (:attr:`plan_state`), has the two puzzle links touching
+        or within tracking tolerance, without overlapping (asked of the planning world)."""
+        self.planner.set_puzzle(self.plan_state)
+        distance = self.planner.distance_between(link_a, link_b, TRACKING_TOLERANCE)
+        self.planner.set_puzzle(self.sim.puzzle_state())
+        return -PUZZLE_CONTACT_TOLERANCE <= distance < TRACKING_TOLERANCE
 
     def record(self) -> None:
         self.recording.robot.append(self.sim.robot_state())
+        self.recording.fingers.append(self.sim.finger_state())
+        self.recording.holding.append(self.grip is not None)
         self.recording.puzzle.append(self.sim.puzzle_state())
         self.recording.action.append(self.action_index)
 
@@ -212,6 +254,8 @@ class _Run:
         return self.offset @ link_pose(self.chain, link, state)
 
     def tool_pose(self, link: str, tool_at_link: np.ndarray, state: np.ndarray) -> np.ndarray:
+        """The tool pose holding ``link`` at the commanded ``state`` (which the path is at now)."""
+        self.plan_state = state
         return self.link_world(link, state) @ tool_at_link
 
     # -- one action ----------------------------------------------------------
@@ -236,25 +280,34 @@ class _Run:
         t, regrasps, stops = 0.0, 0, []
         failed_base: np.ndarray | None = None
         while True:
-            tool_at_link = self.grasp_here(grasp, trajectory, t, failed_base)
-            constraint = self.attach(link_index, tool_at_link)
+            self.plan_state = trajectory.state_at(t)
+            self.grasp_here(grasp, trajectory, t, failed_base)
             started = time.perf_counter()
-            result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
-                            self.settings.follow, self.on_step, object_done, self.sim.puzzle_state,
-                            self.sim.clearance, self.sim.touches_itself)
+            if self.close_gripper(link_index):
+                # The tool's pose on the link as the fingers hold it (closing may have nudged the object).
+                tool_at_link = inverse(self.link_world(grasp.link, self.sim.puzzle_state())) @ matrix(
+                    *self.sim.tool_pose())
+                self.attach(link_index, tool_at_link)
+                result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
+                                self.settings.follow, self.on_step, object_done, self.sim.puzzle_state,
+                                lambda up_to: self.sim.clearance(up_to, self.planned), self.sim.touches_itself,
+                                lambda: self.grip is not None)
+                stop = result.stop.value
+                stopped_at = result.time
+            else:
+                stop, stopped_at = "the fingers did not close on the handle", t
+            self.open_gripper()
             self.execution += time.perf_counter() - started
-            pb.removeConstraint(constraint, physicsClientId=self.sim.client)
-            stop = result.stop.value
-            if result.stop is Stop.DONE:
+            if stop == Stop.DONE.value:
                 if self.settle_released(partial(within, goal_tolerance)):
                     break
                 stop = "drifted after release"
-            stops.append(f"{stop} at t={result.time:.2f}s")
+            stops.append(f"{stop} at t={stopped_at:.2f}s")
             regrasps += 1
             if regrasps > self.settings.max_regrasps_per_action:
                 raise ExecutionError(f"moving {action.object_name}: more than "
                                      f"{self.settings.max_regrasps_per_action} regrasps ({'; '.join(stops)})")
-            t = result.time
+            t = stopped_at
             failed_base = self.sim.robot_state()[:2]
         error = np.abs(self.sim.puzzle_state()[columns] - end[columns]) / self.value_scale[columns]
         return ActionReport(action.object_name, regrasps, tuple(stops), float(np.max(error)))
@@ -265,16 +318,16 @@ class _Run:
         A small puzzle (Lockbox Random 2 did, when scenes were fitted to a square at scale
         0.056) can drift out of the tolerance after the release; the caller then regrasps and
         pushes it back."""
-        step_physics(self.sim, SETTLE_STEPS, self.on_step)
+        hold(self.sim, self.sim.robot_state(), SETTLE_STEPS, self.on_step)
         return in_place()
 
     def _check_steps(self) -> np.ndarray:
         # Fine enough that the grasp point moves a few millimetres between trajectory states.
         return np.array([0.004 if j.type is JointType.PRISMATIC else 0.01 for j in self.chain.active_joints])
 
-    def grasp_here(self, grasp: GraspPoint, trajectory, t: float, failed_base: np.ndarray | None) -> np.ndarray:
-        """Plan to and drive to a grasp of the object as it stands now; returns the grasp offset
-        (tool pose in the grasped link's frame)."""
+    def grasp_here(self, grasp: GraspPoint, trajectory, t: float, failed_base: np.ndarray | None) -> None:
+        """Plan to and drive to a grasp of the object as it stands now, the fingers open around the
+        handle."""
         started = time.perf_counter()
         now = self.sim.puzzle_state()
         self.planner.set_puzzle(now)
@@ -285,6 +338,11 @@ class _Run:
         def lookahead(pose: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
             offset = inverse(link_now) @ pose
             return [(self.link_world(grasp.link, s) @ offset, s) for s in futures]
+
+        link_yaw = float(np.arctan2(link_now[1, 0], link_now[0, 0]))
+
+        def align(yaw: float) -> float:
+            return grasp.tool_yaw(link_yaw, yaw)
 
         here = self.sim.robot_state()[:2]
         floor = floor_map(self.planner, self.placement.half_extent, here, self.settings.robot)
@@ -307,7 +365,7 @@ class _Run:
                      (0, unreachable, GRASP_CLEARANCE), (0, unreachable, COLLISION_MARGIN))
             for count, avoid, clearance in tiers:
                 solution = best_grasp_configuration(self.planner, point, lambda pose, n=count: lookahead(pose)[:n],
-                                                    self.settings.ik, avoid, here, clearance, base_ok)
+                                                    self.settings.ik, avoid, here, clearance, base_ok, align)
                 if solution is not None and solution.score > 0:
                     break
             if solution is None and unreachable:
@@ -325,10 +383,10 @@ class _Run:
             raise ExecutionError(f"reaching the grasp on {grasp.link} ({REACH_TRIES} grasps tried): {error}")
         self.planning += time.perf_counter() - started
         started = time.perf_counter()
+        self.phase = "driving"
         drive_along(self.sim, path, self.on_step)
+        self.phase = "holding"
         self.execution += time.perf_counter() - started
-        tool = matrix(*self.sim.tool_pose())
-        return inverse(self.link_world(grasp.link, self.sim.puzzle_state())) @ tool
 
     def reach(self, start: np.ndarray, goal: np.ndarray, floor: FloorMap) -> np.ndarray:
         """A collision-free robot path from ``start`` to the grasp ``goal``: one BIT* search when
@@ -366,8 +424,64 @@ class _Run:
         raise ReachingError("the released robot is closer to the puzzle than the planning margin "
                             "and cannot lift its tool clear")
 
+    def fingers_hold(self, link_index: int) -> bool:
+        """Whether both fingers touch the puzzle link (a contact of the last physics step)."""
+        return all(any(p[8] < FINGER_TOUCH for p in pb.getContactPoints(
+            self.sim.robot, self.sim.puzzle, finger, link_index, physicsClientId=self.sim.client))
+            for finger in self.sim.finger_joints)
+
+    def close_gripper(self, link_index: int) -> bool:
+        """Close the fingers on the link with the gripper's force, the arm held still; whether both
+        touch it once they stop. Their contact with the link is planned from now until they open."""
+        c, g = self.sim.client, self.settings.robot.gripper
+        self.planned = frozenset((finger, link_index) for finger in self.sim.finger_joints)
+        q = self.sim.robot_state()
+        self.command_fingers(self.sim.finger_closed)
+        self.phase = "closing"
+        still = 0
+        for _ in range(CLOSE_STEPS):
+            command(self.sim, q)
+            pb.stepSimulation(physicsClientId=c)
+            self.on_step()
+            moving = max(abs(s[1]) for s in pb.getJointStates(self.sim.robot, self.sim.finger_joints,
+                                                                physicsClientId=c))
+            still = still + 1 if moving < 0.2 * g.closing_speed and self.fingers_hold(link_index) else 0
+            if still >= SQUEEZE_STEPS:
+                self.phase = "following"
+                return True
+        self.phase = "holding"
+        return False
+
+    def command_fingers(self, target: float) -> None:
+        g = self.settings.robot.gripper
+        for finger in self.sim.finger_joints:
+            pb.setJointMotorControl2(self.sim.robot, finger, pb.POSITION_CONTROL, targetPosition=target,
+                                     force=g.grip_force, maxVelocity=g.closing_speed,
+                                     physicsClientId=self.sim.client)
+
+    def open_gripper(self) -> None:
+        """Release: the constraint goes, the fingers open (fully, or for :data:`OPEN_STEPS`)."""
+        self.release_constraint()
+        self.command_fingers(0.0)
+        self.phase = "opening"
+        q = self.sim.robot_state()
+        for _ in range(OPEN_STEPS):
+            if np.max(self.sim.finger_state()) < 1e-3:
+                break
+            command(self.sim, q)
+            pb.stepSimulation(physicsClientId=self.sim.client)
+            self.on_step()
+        self.planned = frozenset()
+        self.phase = "holding"
+
+    def release_constraint(self) -> None:
+        if self.grip is not None:
+            pb.removeConstraint(self.grip[0], physicsClientId=self.sim.client)
+            self.grip = None
+
     def attach(self, link_index: int, tool_at_link: np.ndarray) -> int:
-        """A fixed constraint between the tool and the link, at their current relative pose."""
+        """A fixed constraint between the tool and the link, at their current relative pose: made
+        only once both fingers hold the link, removed as soon as either lets go (:meth:`on_step`)."""
         c = self.sim.client
         com = pb.getLinkState(self.sim.puzzle, link_index, computeForwardKinematics=True, physicsClientId=c)
         link_frame = matrix(com[4], com[5])
@@ -376,7 +490,8 @@ class _Run:
         constraint = pb.createConstraint(self.sim.robot, self.sim.tool, self.sim.puzzle, link_index,
                                          pb.JOINT_FIXED, (0, 0, 0), (0, 0, 0), tuple(tool_in_com[:3, 3]),
                                          (0, 0, 0, 1), quaternion(tool_in_com), physicsClientId=c)
-        pb.changeConstraint(constraint, maxForce=5000, physicsClientId=c)
+        pb.changeConstraint(constraint, maxForce=GRIP_CONSTRAINT_FORCE, physicsClientId=c)
+        self.grip = (constraint, link_index)
         return constraint
 
 
@@ -437,13 +552,13 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
     setup = SceneSetup(scaled, placement, settings.robot)
     with temporary_folder() as tmp:
         files = write_scene_files(Path(tmp), scaled, settings.robot)
-        sim, planner = open_worlds(files, scaled, placement, gui, settings.puzzle_self_collision)
+        sim, planner = open_worlds(files, scaled, placement, gui, settings.puzzle_self_collision, settings.robot)
         run = _Run(loaded, scaled, placement, sim, planner, value_scale, settings)
         try:
             home = np.array([-placement.half_extent[0] - HOME_CLEARANCE, 0.0, 0.0, *ARM_REST])
             sim.set_robot(home)
-            pb.setJointMotorControlArray(sim.robot, sim.robot_joints, pb.POSITION_CONTROL,
-                                         targetPositions=home.tolist(), physicsClientId=sim.client)
+            command(sim, home)
+            run.command_fingers(0.0)
             run.record()
             reports: list[ActionReport] = []
             message = "ok"

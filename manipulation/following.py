@@ -24,6 +24,7 @@ import pybullet as pb
 from solver.planning.problem import densify
 
 from .linalg import damped_least_squares, manipulability
+from .robot import speed_limits
 from .scene import World
 from .transforms import matrix, rotation_error
 
@@ -51,7 +52,6 @@ class FollowSettings:
     limit_margin: float = 0.03
     settle_steps: int = 240
     """Steps allowed at the end for the object to settle on its final state."""
-    motor_force: float = 600.0
     integral_gain: float = 4.0
     """Per second: integral correction of the object's own joint error (grasp compliance, friction)."""
     clearance: float = 0.006
@@ -68,6 +68,7 @@ class Stop(StrEnum):
     LIMIT = "joint limit"
     CONTACT = "near contact"
     SELF_CONTACT = "self contact"
+    LOST_GRIP = "lost grip"
 
 
 @dataclass(frozen=True)
@@ -113,7 +114,8 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
            start_time: float, settings: FollowSettings, on_step: Callable[[], None],
            object_done: Callable[[], bool], object_state: Callable[[], np.ndarray],
            clearance_now: Callable[[float], float] = lambda up_to: up_to,
-           touches_itself: Callable[[], bool] = lambda: False) -> FollowResult:
+           touches_itself: Callable[[], bool] = lambda: False,
+           holding: Callable[[], bool] = lambda: True) -> FollowResult:
     """Track ``tool_pose_at(trajectory.state_at(t))`` from ``start_time`` to the end, stepping physics.
 
     ``on_step`` runs after every physics step (recording, contact checks);
@@ -125,7 +127,9 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     what it was at the start when the grasp began closer than that (the base,
     held still, may stand a few millimetres from a wall);
     ``touches_itself()`` whether the robot touched itself in the last step: it stops the
-    motion too, since the planner cannot start from a robot in self-collision.
+    motion too, since the planner cannot start from a robot in self-collision;
+    ``holding()`` whether the gripper still holds the object (a finger lost contact: stop).
+    Joint velocities are scaled down together to the robot's speed limits.
     Every stop ends with the robot held still for ``hold_steps``.
     """
     c = world.client
@@ -133,7 +137,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     arm = world.arm_columns
     weights = np.ones(len(joints))
     weights[:3] = settings.base_weight
-    forces = [settings.motor_force * 4] * 3 + [settings.motor_force] * len(arm)
+    limits = np.asarray(speed_limits(world.spec))
     t = start_time
     q = world.robot_state()
     steps = 0
@@ -153,9 +157,9 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
         twist = feed_forward + settings.gain * error
         jacobian = world.jacobian(q)
         q_dot = damped_least_squares(jacobian, weights, settings.damping, twist)
+        q_dot /= max(1.0, float(np.max(np.abs(q_dot) / limits)))
         target = np.clip(q + q_dot * TIME_STEP, world.lower, world.upper)
-        pb.setJointMotorControlArray(world.robot, joints, pb.POSITION_CONTROL, targetPositions=target.tolist(),
-                                     targetVelocities=q_dot.tolist(), forces=forces, physicsClientId=c)
+        command(world, target, q_dot)
         pb.stepSimulation(physicsClientId=c)
         steps += 1
         t = t_next
@@ -172,19 +176,39 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
             stop = Stop.CONTACT
         elif touches_itself():
             stop = Stop.SELF_CONTACT
+        elif not holding():
+            stop = Stop.LOST_GRIP
         elif t >= trajectory.duration and object_done():
             stop = Stop.DONE
         q = q_new
         if stop is not None:
-            return FollowResult(stop, t, steps + hold(world, q, settings.hold_steps, forces, on_step))
-    return FollowResult(Stop.DONE, t, steps + hold(world, q, settings.hold_steps, forces, on_step))
+            return FollowResult(stop, t, steps + hold(world, q, settings.hold_steps, on_step))
+    return FollowResult(Stop.DONE, t, steps + hold(world, q, settings.hold_steps, on_step))
 
 
-def hold(world: World, q: np.ndarray, steps: int, forces: list[float], on_step: Callable[[], None]) -> int:
+def command(world: World, target: np.ndarray, velocity: np.ndarray | None = None) -> None:
+    """One step's motor commands: the arm's joints by position (PyBullet's PD servo, each within
+    its datasheet torque), the base's by velocity (its own gain, speed and force limits), toward
+    ``target`` with feed-forward ``velocity`` (zero: hold)."""
+    spec, c = world.spec, world.client
+    velocity = np.zeros(len(target)) if velocity is None else np.asarray(velocity, dtype=float)
+    q = world.robot_state()
+    base = np.clip(velocity[:3] + spec.base_gain * (target[:3] - q[:3]),
+                   -np.asarray(spec.base_speed), np.asarray(spec.base_speed))
+    pb.setJointMotorControlArray(world.robot, world.robot_joints[:3], pb.VELOCITY_CONTROL,
+                                 targetVelocities=base.tolist(), forces=list(spec.base_force), physicsClientId=c)
+    pb.setJointMotorControlArray(world.robot, world.robot_joints[3:], pb.POSITION_CONTROL,
+                                 targetPositions=target[3:].tolist(), targetVelocities=velocity[3:].tolist(),
+                                 forces=list(spec.arm_torque), physicsClientId=c)
+
+
+def hold(world: World, q: np.ndarray, steps: int, on_step: Callable[[], None]) -> int:
     """Hold the robot at ``q`` with zero velocity for ``steps`` physics steps."""
-    pb.setJointMotorControlArray(world.robot, world.robot_joints, pb.POSITION_CONTROL, targetPositions=q.tolist(),
-                                 targetVelocities=[0.0] * len(q), forces=forces, physicsClientId=world.client)
-    return step_physics(world, steps, on_step)
+    for _ in range(steps):
+        command(world, q)
+        pb.stepSimulation(physicsClientId=world.client)
+        on_step()
+    return steps
 
 
 def step_physics(world: World, steps: int, on_step: Callable[[], None]) -> int:
@@ -196,20 +220,22 @@ def step_physics(world: World, steps: int, on_step: Callable[[], None]) -> int:
 
 
 def drive_along(world: World, path: np.ndarray, on_step: Callable[[], None], max_step: float = 0.004,
-                motor_force: float = 600.0, settle_tolerance: float = 2e-3, settle_steps: int = 240) -> int:
-    """Drive the (released) robot along a joint path with position control; returns steps taken."""
+                settle_tolerance: float = 5e-4, settle_steps: int = 240) -> int:
+    """Drive the (released) robot along a joint path, each joint at most ``max_step`` (and its
+    speed limit) per physics step; returns steps taken."""
     c = world.client
-    forces = [motor_force * 4] * 3 + [motor_force] * (len(world.robot_joints) - 3)
+    steps_per_joint = np.minimum(max_step, 0.9 * np.asarray(speed_limits(world.spec)) * TIME_STEP)
+    waypoints = densify(path, steps_per_joint)
     steps = 0
-    for target in densify(path, np.full(np.shape(path)[1], max_step))[1:]:
-        pb.setJointMotorControlArray(world.robot, world.robot_joints, pb.POSITION_CONTROL,
-                                     targetPositions=target.tolist(), forces=forces, physicsClientId=c)
+    for previous, target in zip(waypoints, waypoints[1:], strict=False):
+        command(world, target, (target - previous) / TIME_STEP)
         pb.stepSimulation(physicsClientId=c)
         on_step()
         steps += 1
     for _ in range(settle_steps):
         if np.max(np.abs(world.robot_state() - path[-1])) < settle_tolerance:
             break
+        command(world, path[-1])
         pb.stepSimulation(physicsClientId=c)
         on_step()
         steps += 1

@@ -7,6 +7,7 @@ without a knob is grasped at the top centre of its collision shapes.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +26,30 @@ class GraspPoint:
     link: str
     point: tuple[float, float, float]
     on_knob: bool
+    size: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """What the fingers close on: width along the handle's x and y axes, and its height (a knob;
+    an object without one: its collision bounds)."""
+    yaw: float = 0.0
+    """The handle's x axis, radians about the link's z axis."""
+
+    def tool_yaw(self, link_yaw: float, preferred: float) -> float:
+        """The tool yaw nearest ``preferred`` whose fingers close across a side of the handle (the
+        narrower one; either of a square's), for the link turned by ``link_yaw`` in the world.
+
+        The fingers close along the tool's y axis, which :func:`~manipulation.transforms.tool_down`
+        turns to the angle ``yaw - 90 deg``."""
+        axis = link_yaw + self.yaw
+        width_x, width_y = self.size[:2]
+        if math.isclose(width_x, width_y, rel_tol=1e-6):
+            period, base = math.pi / 2, axis
+        else:
+            period, base = math.pi, axis + (math.pi / 2 if width_x < width_y else 0.0)
+        return base + round((preferred - base) / period) * period
+
+    @property
+    def grip_width(self) -> float:
+        """The width the fingers close on (the narrower side)."""
+        return min(self.size[:2])
 
 
 def grasp_point(chain: KinematicChain, object_name: str) -> GraspPoint:
@@ -36,13 +61,18 @@ def grasp_point(chain: KinematicChain, object_name: str) -> GraspPoint:
     body = bodies[-1]
     for geometry in body.visuals:
         if geometry.name == KNOB_NAME and isinstance(geometry.shape, Box | Cylinder):
-            height = geometry.shape.size[2] if isinstance(geometry.shape, Box) else geometry.shape.length
-            top = pose_matrix(geometry.origin) @ np.array([0.0, 0.0, height / 2, 1.0])
-            return GraspPoint(body.name, _xyz(top), True)
+            if isinstance(geometry.shape, Box):
+                size = tuple(float(v) for v in geometry.shape.size)
+            else:
+                size = (2 * geometry.shape.radius, 2 * geometry.shape.radius, geometry.shape.length)
+            top = pose_matrix(geometry.origin) @ np.array([0.0, 0.0, size[2] / 2, 1.0])
+            return GraspPoint(body.name, _xyz(top), True, size, float(geometry.origin.rpy[2]))  # type: ignore[arg-type]
     if not body.collisions:
         raise ValueError(f"object {object_name!r} has neither a knob nor collision shapes to grasp")
     low, high = collision_bounds(body)
-    return GraspPoint(body.name, ((low[0] + high[0]) / 2, (low[1] + high[1]) / 2, float(high[2])), False)
+    size = tuple(float(v) for v in high - low)
+    return GraspPoint(body.name, ((low[0] + high[0]) / 2, (low[1] + high[1]) / 2, float(high[2])), False,
+                      size)  # type: ignore[arg-type]
 
 
 def _xyz(v: np.ndarray) -> tuple[float, float, float]:

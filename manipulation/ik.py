@@ -16,7 +16,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as pb
 
 from .linalg import damped_least_squares, manipulability
 from .robot import ARM_REST
@@ -78,11 +77,7 @@ def solve_at(world: World, pose: np.ndarray, seed: Sequence[float], iterations: 
     world.set_robot(seed)
     q = np.asarray(seed, dtype=float)
     for _ in range(iterations):
-        q = np.array(pb.calculateInverseKinematics(
-            world.robot, world.tool, position, orientation,
-            lowerLimits=list(lower), upperLimits=list(upper), jointRanges=list(upper - lower),
-            restPoses=list(map(float, seed)), maxNumIterations=40, residualThreshold=1e-5,
-            physicsClientId=world.client))
+        q = world.inverse_kinematics(position, orientation, lower, upper, seed)
         q = np.clip(q, lower, upper)
         world.set_robot(q)
         position_error, angle_error = _pose_error(world, pose)
@@ -161,7 +156,8 @@ def best_grasp_configuration(world: World, point: np.ndarray,
                              avoid: Sequence[np.ndarray] = (),
                              prefer_near: np.ndarray | None = None,
                              clearance: float = GRASP_CLEARANCE,
-                             base_ok: Callable[[np.ndarray], bool] = lambda xy: True) -> IkSolution | None:
+                             base_ok: Callable[[np.ndarray], bool] = lambda xy: True,
+                             align: Callable[[float], float] = lambda yaw: yaw) -> IkSolution | None:
     """The best collision-free IK answer for a tool-down grasp at ``point`` over candidate base poses.
 
     ``lookahead(pose)`` gives the tool poses a grasp at ``pose`` must reach
@@ -173,6 +169,7 @@ def best_grasp_configuration(world: World, point: np.ndarray,
     ``prefer_near``: the base (x, y) now; candidates closest to it come first.
     ``clearance``: metres every configuration keeps from the puzzle.
     ``base_ok(xy)``: whether the base may stand at ``xy`` (say, the floor there is reachable).
+    ``align(yaw)``: the tool yaw to grasp with instead of ``yaw`` (the fingers across the handle).
     """
     candidates = [(angle, base) for angle, base in base_positions(world, point, settings, clearance)
                   if base_ok(base)]
@@ -186,7 +183,7 @@ def best_grasp_configuration(world: World, point: np.ndarray,
             continue
         heading = math.remainder(angle + math.pi, 2 * math.pi)  # face the grasp point
         # At the rest pose the tool's x axis points back at the base: tool yaw = heading + pi.
-        pose = tool_down(point, heading + math.pi)
+        pose = tool_down(point, align(heading + math.pi))
         seed = np.array([base[0], base[1], heading, *ARM_REST])
         q = solve_at(world, pose, seed, settings.iterations, fixed_base=True)
         if q is None or world.in_collision(clearance):

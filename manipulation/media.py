@@ -41,6 +41,10 @@ FIELD_OF_VIEW = 50.0
 MARGIN = 1.15
 """The framed box fills at most 1 / MARGIN of the image, in each direction."""
 NEAR, FAR = 0.05, 30.0
+GRIP_DISTANCE = 0.35
+"""Metres from the tool point to the camera of a grip close-up."""
+GRIP_ELEVATION = 20.0
+"""Degrees above the horizontal the close-up looks down from."""
 
 
 @dataclass(frozen=True)
@@ -156,6 +160,8 @@ class Renderer:
     def pose(self, recording: Recording, index: int) -> None:
         self.world.set_robot(recording.robot[index])
         self.world.set_puzzle(recording.puzzle[index])
+        if recording.fingers:
+            self.world.set_fingers(recording.fingers[index])
 
     def corners(self, recording: Recording, index: int) -> np.ndarray:
         """The corners of the axis-aligned boxes of every link of the robot and of the puzzle at ``index``
@@ -240,6 +246,61 @@ def _obj_bounds(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
 def figure_pictures(renderer: Renderer, recording: Recording, size: tuple[int, int] = FRAME_SIZE) -> list[Picture]:
     """The four figure frames (:func:`figure_indices`), each framed on robot and puzzle at its moment."""
     return [renderer.picture(recording, index, size) for index in figure_indices(recording)]
+
+
+def grip_indices(recording: Recording) -> list[int]:
+    """Per action, the snapshot in the middle of its longest stretch with the handle held (actions
+    without one are left out)."""
+    held = np.asarray(recording.holding, dtype=bool)
+    actions = np.asarray(recording.action)
+    out = []
+    for action in sorted(set(recording.action)):
+        best: tuple[int, int] | None = None  # (length, start)
+        start = None
+        for i in [*np.flatnonzero(actions == action), -1]:
+            if i >= 0 and held[i] and start is None:
+                start = i
+            elif (i < 0 or not held[i]) and start is not None:
+                stretch = (i if i >= 0 else int(np.flatnonzero(actions == action)[-1]) + 1) - start
+                best = max(best or (0, 0), (stretch, start))
+                start = None
+        if best is not None:
+            out.append(best[1] + best[0] // 2)
+    return out
+
+
+def grip_picture(renderer: Renderer, recording: Recording, index: int, size: tuple[int, int] = FRAME_SIZE) -> Picture:
+    """A close-up of the gripper at ``index``, seen across the fingers' closing direction from the
+    side away from the robot, so both fingers and the handle between them show."""
+    renderer.pose(recording, index)
+    world = renderer.world
+    position, orientation = world.tool_pose()
+    axes = np.asarray(pb.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+    along = axes[:2, 0] / max(np.linalg.norm(axes[:2, 0]), 1e-9)  # tool x, horizontal: toward the base
+    elevation = math.radians(GRIP_ELEVATION)
+    eye = np.asarray(position) + GRIP_DISTANCE * np.array([-along[0] * math.cos(elevation),
+                                                           -along[1] * math.cos(elevation), math.sin(elevation)])
+    width, height = size
+    view = pb.computeViewMatrix(eye.tolist(), list(position), [0.0, 0.0, 1.0])
+    projection = pb.computeProjectionMatrixFOV(FIELD_OF_VIEW, width / height, NEAR, FAR)
+    _, _, rgba, _, seg = pb.getCameraImage(width, height, view, projection, renderer=pb.ER_TINY_RENDERER,
+                                           physicsClientId=world.client)
+    rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+    return Picture(rgb, np.asarray(seg).reshape(height, width))
+
+
+def write_grip_frames(renderer: Renderer, recording: Recording, folder: Path,
+                      size: tuple[int, int] = FRAME_SIZE) -> list[Path]:
+    """``folder/grip_1..n.png``: a close-up of the fingers on the handle, one per action."""
+    import imageio.v2 as imageio
+
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for number, index in enumerate(grip_indices(recording), start=1):
+        path = folder / f"grip_{number}.png"
+        imageio.imwrite(path, grip_picture(renderer, recording, index, size).rgb)
+        paths.append(path)
+    return paths
 
 
 def write_frames(renderer: Renderer, recording: Recording, folder: Path,

@@ -11,15 +11,17 @@ from pathlib import Path
 from phyrogen_core.folder import owned_directory
 
 from .execution import ManipulationReport, Recording, SceneSetup
-from .media import Renderer, write_frames, write_video
+from .media import Renderer, write_frames, write_grip_frames, write_video
 
 
 def write_outputs(out_root: Path, report: ManipulationReport, recording: Recording, setup: SceneSetup,
                   video: bool = True) -> Path:
-    """``<out_root>/<puzzle>/``: frames/frame_1..4.png, <puzzle>.mp4, report.json (written atomically)."""
+    """``<out_root>/<puzzle>/``: frames/frame_1..4.png, frames/grip_<k>.png (the fingers on the handle
+    in action k), <puzzle>.mp4, report.json (written atomically)."""
     final = Path(out_root) / report.puzzle
     with owned_directory(final, lambda path: owns_output(report.puzzle, path)) as folder, Renderer(setup) as renderer:
         write_frames(renderer, recording, folder / "frames")
+        write_grip_frames(renderer, recording, folder / "frames")
         if video:
             write_video(renderer, recording, folder / f"{report.puzzle}.mp4")
         (folder / "report.json").write_text(report_json(report), encoding="utf-8")
@@ -29,7 +31,7 @@ def write_outputs(out_root: Path, report: ManipulationReport, recording: Recordi
 def owns_output(puzzle: str, path: str) -> bool:
     """Whether ``path`` (inside ``<out_root>/<puzzle>/``) is a file :func:`write_outputs` writes: only
     these are replaced, and any other file a user keeps there stays."""
-    return path in ("report.json", f"{puzzle}.mp4") or re.fullmatch(r"frames/frame_\d+\.png", path) is not None
+    return path in ("report.json", f"{puzzle}.mp4") or re.fullmatch(r"frames/(frame|grip)_\d+\.png", path) is not None
 
 
 def report_json(report: ManipulationReport) -> str:

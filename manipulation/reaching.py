@@ -28,8 +28,9 @@ from .scene import World
 
 BASE_MARGIN = 0.8
 """Metres the base may drive beyond the box spanned by start, goal and the puzzle's floor area."""
-CHECK_STEP = 0.02
-"""Radians (or metres) between collision-checked states along a motion."""
+CHECK_STEP = 0.01
+"""Radians (or metres) between collision-checked states along a motion (0.02 let a 1 cm finger pass
+through the corner of a knob between two checks)."""
 REACH_BUDGET = 30_000
 """Validity checks BIT* may spend on one motion before giving up (about 5 s at BIT*'s 6k checks/s)."""
 

@@ -16,7 +16,7 @@ planned from; see docs/manipulation/README.md.)
 from __future__ import annotations
 
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,7 +27,7 @@ from phyrogen_core.chain import KinematicChain
 from phyrogen_core.export.urdf import chain_to_urdf
 
 from .placement import Placement
-from .robot import ARM_JOINTS, BASE_LINK, ROBOT_JOINTS, TOOL_LINK, RobotSpec, mobile_iiwa_urdf
+from .robot import ARM_JOINTS, BASE_LINK, FINGER_JOINTS, ROBOT_JOINTS, TOOL_LINK, RobotSpec, mobile_iiwa_urdf
 
 PUZZLE_JOINT_FRICTION = 2.0
 """Newtons (or N m) the puzzle joints resist with, so a released object stays where it was left."""
@@ -45,6 +45,10 @@ PUZZLE_CONTACT_FORCE = 1.0
 over 88,000 door-wall contact points of a Move N Times run); a contact pressed harder than this is
 an object pushing another, which no certificate does. A blocked object may stay under
 :data:`PUZZLE_CONTACT_TOLERANCE` deep (Simple Slider: 0.9 mm at 330 N), so depth alone misses it."""
+
+TRACKING_TOLERANCE = 0.002
+"""Metres: two puzzle parts the path brings this close (or touching) may touch under load while
+an object is pulled along it (the grasp tracks the path within about a millimetre)."""
 
 PROBE_HEIGHT = 2.0
 """Metres: height of the floor probe (:meth:`World.floor_clear`), above the tucked robot."""
@@ -66,10 +70,14 @@ class Contact:
     """Newtons of normal force in the contact."""
     time: float = 0.0
     """Simulated seconds since the start of the run."""
+    phase: str = ""
+    """What the robot was doing: driving, closing, following, opening or holding."""
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Where (world metres, on the first link)."""
 
     def describe(self) -> str:
         return (f"{self.body_a} link {self.link_a} hit {self.body_b} link {self.link_b}, "
-                f"{self.depth * 1000:.1f} mm deep, {self.force:.0f} N, at t={self.time:.2f} s")
+                f"{self.depth * 1000:.1f} mm deep, {self.force:.0f} N, at t={self.time:.2f} s ({self.phase})")
 
 
 @dataclass(frozen=True)
@@ -99,7 +107,9 @@ class World:
     """One PyBullet client with the robot, the puzzle and a floor (visual only)."""
 
     def __init__(self, files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False,
-                 puzzle_self_collision: bool = True):
+                 puzzle_self_collision: bool = True, spec: RobotSpec | None = None):
+        spec = spec or RobotSpec()
+        self.spec = spec
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         self.chain = chain
         self.placement = placement
@@ -124,9 +134,20 @@ class World:
         self.base_link = self.robot_link[BASE_LINK]
         self.puzzle_link = _link_indices(self.puzzle, c)
         self.puzzle_joints = [self.puzzle_link[chain.joint(n).child] for n in chain.joint_order]
+        self.finger_joints = [self.robot_link[_child_of(self.robot, name, c)] for name in FINGER_JOINTS]
+        self.finger_links = frozenset(self.finger_joints)
         info = [pb.getJointInfo(self.robot, j, physicsClientId=c) for j in self.robot_joints]
         self.lower = np.array([i[8] for i in info])
         self.upper = np.array([i[9] for i in info])
+        # PyBullet's IK and Jacobians speak of every movable joint, fingers included, in joint order.
+        movable = [j for j in range(pb.getNumJoints(self.robot, physicsClientId=c))
+                   if pb.getJointInfo(self.robot, j, physicsClientId=c)[2] != pb.JOINT_FIXED]
+        self._dof = len(movable)
+        self._robot_dof = [movable.index(j) for j in self.robot_joints]
+        self._finger_dof = [movable.index(j) for j in self.finger_joints]
+        self.finger_closed = float(pb.getJointInfo(self.robot, self.finger_joints[0], physicsClientId=c)[9])
+        for link in self.finger_joints:
+            pb.changeDynamics(self.robot, link, lateralFriction=spec.gripper.pad_friction, physicsClientId=c)
         for j in self.puzzle_joints:
             pb.setJointMotorControl2(self.puzzle, j, pb.VELOCITY_CONTROL, targetVelocity=0.0,
                                      force=PUZZLE_JOINT_FRICTION, physicsClientId=c)
@@ -151,6 +172,43 @@ class World:
         """Place the robot (planning world, or the simulation's initial state only)."""
         pb.resetJointStatesMultiDof(self.robot, self.robot_joints, [[float(v)] for v in q],
                                     physicsClientId=self.client)
+
+    def finger_state(self) -> np.ndarray:
+        """The two fingers' joint values (0 open, :attr:`finger_closed` closed)."""
+        states = pb.getJointStates(self.robot, self.finger_joints, physicsClientId=self.client)
+        return np.array([s[0] for s in states])
+
+    def set_fingers(self, values: Sequence[float]) -> None:
+        """Place the fingers (planning world, renderer, or the simulation's initial state only)."""
+        for j, v in zip(self.finger_joints, values, strict=True):
+            pb.resetJointState(self.robot, j, float(v), physicsClientId=self.client)
+
+    def all_dof(self, q: Sequence[float]) -> list[float]:
+        """Robot joints ``q`` with the fingers as they are, in PyBullet's order of movable joints."""
+        full = [0.0] * self._dof
+        for k, v in zip(self._robot_dof, q, strict=True):
+            full[k] = float(v)
+        for k, v in zip(self._finger_dof, self.finger_state(), strict=True):
+            full[k] = float(v)
+        return full
+
+    def robot_dof(self, full: Sequence[float]) -> np.ndarray:
+        """The robot joints (:data:`ROBOT_JOINTS` order) out of a vector over every movable joint."""
+        return np.asarray(full, dtype=float)[self._robot_dof]
+
+    def inverse_kinematics(self, position: Sequence[float], orientation: Sequence[float], lower: np.ndarray,
+                           upper: np.ndarray, rest: Sequence[float]) -> np.ndarray:
+        """PyBullet's null-space IK for the tool over the robot joints (fingers held where they are)."""
+        fingers = self.finger_state()
+        low, high = self.all_dof(lower), self.all_dof(upper)
+        for k, v in zip(self._finger_dof, fingers, strict=True):
+            low[k], high[k] = v - 1e-6, v + 1e-6
+        ranges = [h - lo for lo, h in zip(low, high, strict=True)]
+        answer = pb.calculateInverseKinematics(self.robot, self.tool, list(position), list(orientation),
+                                               lowerLimits=low, upperLimits=high, jointRanges=ranges,
+                                               restPoses=self.all_dof(rest), maxNumIterations=40,
+                                               residualThreshold=1e-5, physicsClientId=self.client)
+        return self.robot_dof(answer)
 
     def puzzle_state(self) -> np.ndarray:
         """Puzzle joint values in the scaled scene's units (joint order)."""
@@ -190,10 +248,11 @@ class World:
         points = pb.getContactPoints(self.robot, self.robot, physicsClientId=self.client)
         return any(p[8] < 0.0 for p in points)
 
-    def clearance(self, up_to: float) -> float:
-        """Smallest robot-puzzle distance (negative: penetration), or ``up_to`` if nothing is closer."""
+    def clearance(self, up_to: float, planned: frozenset[tuple[int, int]] = frozenset()) -> float:
+        """Smallest robot-puzzle distance (negative: penetration), or ``up_to`` if nothing is closer;
+        ``planned`` (robot link, puzzle link) pairs (the fingers on a held knob) left out."""
         points = pb.getClosestPoints(self.robot, self.puzzle, up_to, physicsClientId=self.client)
-        return min([up_to] + [p[8] for p in points])
+        return min([up_to] + [p[8] for p in points if (p[3], p[4]) not in planned])
 
     def penetration(self, planned: frozenset[tuple[int, int]] = frozenset()) -> float:
         """Deepest robot-puzzle penetration (metres, >= 0) among the last step's contacts, those of
@@ -201,7 +260,8 @@ class World:
         points = pb.getContactPoints(self.robot, self.puzzle, physicsClientId=self.client)
         return max([0.0] + [-p[8] for p in points if (p[3], p[4]) not in planned])
 
-    def unplanned_contact(self, planned: frozenset[tuple[int, int]] = frozenset()) -> Contact | None:
+    def unplanned_contact(self, planned: frozenset[tuple[int, int]] = frozenset(),
+                          plan_touches: Callable[[int, int], bool] = lambda a, b: False) -> Contact | None:
         """A contact of the last physics step that the plan did not allow, or None: the deepest
         robot-puzzle one, else the most loaded one between puzzle parts.
 
@@ -209,7 +269,10 @@ class World:
         grasped object), robot-puzzle contact within :data:`ROBOT_CONTACT_TOLERANCE` (numerical
         noise), and puzzle parts touching within :data:`PUZZLE_CONTACT_TOLERANCE` with at most
         :data:`PUZZLE_CONTACT_FORCE` (their certificates let them touch; PyBullet's contacts blur
-        by about a millimetre)."""
+        by about a millimetre), or under load where ``plan_touches(link_a, link_b)``: the path
+        itself brings the two within tracking error of each other there (a certificate may slide
+        an object along a wall: Move N Times' target passes 0.9 mm from one), so the object's
+        tracking error presses it on."""
         c = self.client
         worst: Contact | None = None
         for point in pb.getContactPoints(self.robot, self.puzzle, physicsClientId=c):
@@ -218,18 +281,24 @@ class World:
                 continue
             if worst is None or depth > worst.depth:
                 worst = Contact("robot", self.robot_link_name[point[3]], "puzzle",
-                                self.puzzle_link_name[point[4]], depth, point[9])
+                                self.puzzle_link_name[point[4]], depth, point[9], position=_xyz(point[5]))
         if worst is not None:
             return worst
         for point in pb.getContactPoints(self.puzzle, self.puzzle, physicsClientId=c):
             depth = -point[8]
             force = point[9]
-            if depth <= PUZZLE_CONTACT_TOLERANCE and force <= PUZZLE_CONTACT_FORCE:
+            if depth <= PUZZLE_CONTACT_TOLERANCE and (force <= PUZZLE_CONTACT_FORCE
+                                                      or plan_touches(point[3], point[4])):
                 continue
             if worst is None or (force, depth) > (worst.force, worst.depth):
                 a, b = sorted((self.puzzle_link_name[point[3]], self.puzzle_link_name[point[4]]))
-                worst = Contact("puzzle", a, "puzzle", b, depth, force)
+                worst = Contact("puzzle", a, "puzzle", b, depth, force, position=_xyz(point[5]))
         return worst
+
+    def distance_between(self, link_a: int, link_b: int, up_to: float) -> float:
+        """The distance between two puzzle links as the puzzle stands (``up_to`` if farther)."""
+        points = pb.getClosestPoints(self.puzzle, self.puzzle, up_to, link_a, link_b, physicsClientId=self.client)
+        return min([up_to] + [p[8] for p in points])
 
     def base_clear(self, xy: np.ndarray, heading: float, margin: float = COLLISION_MARGIN) -> bool:
         """Whether the base alone, at ``xy`` facing ``heading``, keeps ``margin`` from the puzzle
@@ -254,22 +323,23 @@ class World:
         return not pb.getClosestPoints(probe, self.puzzle, 0.0, physicsClientId=c)
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
-        """6 x 10 tool Jacobian (linear rows first) at robot joints ``q``."""
-        zeros = [0.0] * len(q)
-        linear, angular = pb.calculateJacobian(self.robot, self.tool, (0.0, 0.0, 0.0), list(map(float, q)),
+        """6 x 10 tool Jacobian (linear rows first) at robot joints ``q`` (the fingers, which do not
+        move the tool point, left out)."""
+        zeros = [0.0] * self._dof
+        linear, angular = pb.calculateJacobian(self.robot, self.tool, (0.0, 0.0, 0.0), self.all_dof(q),
                                                zeros, zeros, physicsClientId=self.client)
-        return np.vstack([np.asarray(linear), np.asarray(angular)])
+        return np.vstack([np.asarray(linear), np.asarray(angular)])[:, self._robot_dof]
 
 
-def open_worlds(files: SceneFiles, chain: KinematicChain, placement: Placement,
-                gui: bool = False, puzzle_self_collision: bool = True) -> tuple[World, World]:
+def open_worlds(files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False,
+                puzzle_self_collision: bool = True, spec: RobotSpec | None = None) -> tuple[World, World]:
     """The simulation (in a window when ``gui``) and the planning world of one run, built alike:
     the same files, the same collision filters, so the same joint values collide the same way.
 
     ``puzzle_self_collision`` False builds both as before the puzzle's objects collided with each
     other (a negative control: an invalid path then executes)."""
-    simulation = World(files, chain, placement, gui=gui, puzzle_self_collision=puzzle_self_collision)
-    return simulation, World(files, chain, placement, puzzle_self_collision=puzzle_self_collision)
+    simulation = World(files, chain, placement, gui=gui, puzzle_self_collision=puzzle_self_collision, spec=spec)
+    return simulation, World(files, chain, placement, puzzle_self_collision=puzzle_self_collision, spec=spec)
 
 
 def _floor(client: int) -> int:
@@ -294,6 +364,10 @@ def _ignore_near_links(robot: int, client: int) -> None:
     for link in parent:
         for other in ancestors(link):
             pb.setCollisionFilterPair(robot, robot, link, other, 0, physicsClientId=client)
+
+
+def _xyz(v: Sequence[float]) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
 
 
 def rigid_groups(chain: KinematicChain) -> dict[str, str]:

@@ -98,19 +98,34 @@ def test_damped_least_squares_matches_the_closed_form():
     assert manipulability(arm) == pytest.approx(0.0, abs=1e-6)
 
 
-def test_mobile_iiwa_is_one_fixed_base_body_with_ten_joints(tmp_path):
+def test_mobile_iiwa_is_one_fixed_base_body_with_ten_joints_and_a_two_finger_gripper(tmp_path):
+    from manipulation.robot import FINGER_JOINTS
+
     path = tmp_path / "robot.urdf"
-    path.write_text(mobile_iiwa_urdf(RobotSpec()))
+    spec = RobotSpec()
+    path.write_text(mobile_iiwa_urdf(spec))
     client = pb.connect(pb.DIRECT)
     try:
         robot = pb.loadURDF(str(path), useFixedBase=True, physicsClientId=client)
         count = pb.getNumJoints(robot, physicsClientId=client)
         infos = [pb.getJointInfo(robot, j, physicsClientId=client) for j in range(count)]
         movable = [i[1].decode() for i in infos if i[2] != pb.JOINT_FIXED]
-        assert tuple(movable) == ROBOT_JOINTS
-        linear, _ = pb.calculateJacobian(robot, len(infos) - 1, (0, 0, 0), [0.0] * 10, [0.0] * 10, [0.0] * 10,
+        assert sorted(movable) == sorted(ROBOT_JOINTS + FINGER_JOINTS)
+        assert [m for m in movable if m in ROBOT_JOINTS] == list(ROBOT_JOINTS)
+        fingers = [i for i in infos if i[1].decode() in FINGER_JOINTS]
+        assert all(i[8] == 0.0 and i[9] == pytest.approx(spec.gripper.stroke / 2) for i in fingers)
+        tool = next(j for j, i in enumerate(infos) if i[12].decode() == "tool")
+        linear, _ = pb.calculateJacobian(robot, tool, (0, 0, 0), [0.0] * 12, [0.0] * 12, [0.0] * 12,
                                          physicsClientId=client)
-        assert np.asarray(linear).shape == (3, 10)
+        assert np.asarray(linear).shape == (3, 12)
+        # The housing sits on the flange face, not floating off it: its top touches link 7's mesh end.
+        housing = next(j for j, i in enumerate(infos) if i[12].decode() == "gripper")
+        pb.resetJointStatesMultiDof(robot, [j for j, i in enumerate(infos) if i[2] != pb.JOINT_FIXED],
+                                    [[0.0]] * 12, physicsClientId=client)
+        flange = np.asarray(pb.getLinkState(robot, housing - 1 if infos[housing][16] == housing - 1
+                                            else infos[housing][16], physicsClientId=client)[4])
+        top = np.asarray(pb.getLinkState(robot, housing, physicsClientId=client)[4])
+        assert np.linalg.norm(top - flange) == pytest.approx(0.045, abs=1e-6)
     finally:
         pb.disconnect(client)
 

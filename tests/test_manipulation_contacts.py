@@ -41,14 +41,24 @@ def _execute(loaded, path, self_collision: bool):
     from manipulation.solution import Solution
 
     seed_reaching(loaded.record.generator, loaded.name, loaded.record.seed, "invalid")
-    attempt, _, _ = execute_solution(loaded, Solution(path, "test", "invalid path"),
-                                     ExecutionSettings(puzzle_self_collision=self_collision))
-    return attempt
+    attempt, recording, _ = execute_solution(loaded, Solution(path, "test", "invalid path"),
+                                             ExecutionSettings(puzzle_self_collision=self_collision))
+    return attempt, recording
+
+
+def _travel(loaded, path, recording) -> float:
+    """How far the target got along the invalid path at the end (0 at its start, 1 at its goal)."""
+    from manipulation.placement import joint_value_scale, physical_scale
+
+    columns = loaded.chain.factors[loaded.goal.target]
+    final = recording.puzzle[-1] / joint_value_scale(loaded.chain, physical_scale(loaded.record.generator))
+    start, goal = path[0][columns], path[-1][columns]
+    return float(np.max(np.abs(final[columns] - start)) / np.max(np.abs(goal - start)))
 
 
 def test_an_invalid_path_stops_at_a_named_contact_between_the_target_and_a_blocker(invalid):
     generator, seed, loaded, path = invalid
-    attempt = _execute(loaded, path, self_collision=True)
+    attempt, recording = _execute(loaded, path, self_collision=True)
     assert not attempt.success and not attempt.target_at_goal, (generator, seed)
     contact = attempt.contact
     assert contact is not None, attempt.message
@@ -60,13 +70,18 @@ def test_an_invalid_path_stops_at_a_named_contact_between_the_target_and_a_block
     assert loaded.chain.link(blocker).object_name != target
     assert contact.time > 0 and (contact.depth > 0 or contact.force > 0)
     assert "unplanned contact" in attempt.message and blocker in attempt.message
+    assert _travel(loaded, path, recording) < 0.5
 
 
 def test_without_the_puzzles_self_collision_the_invalid_path_executes(invalid):
     """The negative control: with the flag off, nothing stops the target going through its blocker."""
     generator, seed, loaded, path = invalid
-    attempt = _execute(loaded, path, self_collision=False)
-    assert attempt.success and attempt.contact is None, (generator, seed, attempt.message)
+    attempt, recording = _execute(loaded, path, self_collision=False)
+    # No puzzle part reports a contact and the target goes through its blocker (0.05-0.10 of the way
+    # with the flag, 0.92-1.0 without, on these seeds; the
+    # gripper may then touch the blocker the target is buried in, as it lets go).
+    assert attempt.contact is None or attempt.contact.body_a == "robot", (generator, seed, attempt.message)
+    assert _travel(loaded, path, recording) > 0.9, (generator, seed, attempt.message)
 
 
 def test_walls_that_meet_report_no_contact_but_a_moving_object_against_one_does(tmp_path):
