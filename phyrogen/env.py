@@ -281,37 +281,6 @@ class _Catalog:
         return int(rng.integers(len(self.sources))) if len(self.sources) > 1 else 0
 
 
-def _motions(model: CollisionModel, a: np.ndarray, b: np.ndarray, steps: np.ndarray,
-             stop: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Straight joint motions ``a[i] -> b[i]`` (each ``a[i]`` valid), checked in one kernel call.
-
-    Samples lie at ``t = k / count`` (k = 1..count), ``count`` the fewest
-    samples that move no joint more than ``steps`` between them: the states
-    :meth:`CollisionModel.motion_collision` checks, computed the same way.
-    Returns the reached states and which motions collided; a colliding motion
-    ends at its last free sample (``stop``) or at its start, as
-    :meth:`CollisionModel.motion_stop` ends a single env's step.
-    """
-    diff = b - a
-    counts = np.maximum(1.0, np.ceil(np.max(np.abs(diff) / steps, axis=1))).astype(np.int64)
-    segment = np.repeat(np.arange(len(a)), counts)
-    offsets = np.cumsum(counts) - counts
-    local = np.arange(len(segment)) - offsets[segment]
-    t = (local + 1) / counts[segment]
-    points = a[segment] + diff[segment] * t[:, None]
-    valid = model.check_prepared(points)
-    first_bad = np.minimum.reduceat(np.where(valid, counts[segment], local), offsets)
-    collided = first_bad < counts
-    out = b.copy()
-    if collided.any():
-        rows = np.flatnonzero(collided)
-        out[rows] = a[rows]
-        if stop:
-            moved = rows[first_bad[rows] > 0]
-            out[moved] = points[offsets[moved] + first_bad[moved] - 1]
-    return out, collided
-
-
 # -- the environment ------------------------------------------------------------------
 class PuzzleEnv(gym.Env):
     """One PhyRoGen puzzle per episode, as a Gymnasium environment (``PhyRoGen/Puzzle-v0``).
@@ -686,7 +655,8 @@ class PuzzleVectorEnv(VectorEnv):
                 target += start
                 np.minimum(target, task.upper, out=target)
                 np.maximum(target, task.lower, out=target)
-            reached, hit = _motions(task.model, start, np.ascontiguousarray(target), task.steps, self._stop)
+            reached, fraction = task.model.motion_stops(start, np.ascontiguousarray(target), task.steps, self._stop)
+            hit = fraction >= 0.0
             self._states[rows, :d] = reached
             self._obs[rows, :d] = (reached - task.center) * task.inv_half
             previous = self._distance[rows].copy()

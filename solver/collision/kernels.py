@@ -14,15 +14,21 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def _poses(q, kin_int, kin_float, x, y, c, s):
-    yaw = 0.0
-    x[0] = 0.0
-    y[0] = 0.0
-    c[0] = 1.0
-    s[0] = 0.0
-    yaws = np.empty(x.shape[0])
-    yaws[0] = 0.0
+def _poses(q, kin_int, kin_float, x, y, c, s, yaws, full):
+    """Link poses at state ``q`` into x, y, c, s (cos, sin of the yaw) and yaws.
+
+    ``full`` False: only the links whose pose depends on the state (``kin_int[:, 3]``) are
+    computed; the others keep what an earlier call on the same buffers wrote, which is the
+    same (a fixed link's pose depends on no state). The per-state work is then the moving links'."""
+    if full:
+        x[0] = 0.0
+        y[0] = 0.0
+        c[0] = 1.0
+        s[0] = 0.0
+        yaws[0] = 0.0
     for r in range(kin_int.shape[0]):
+        if not full and kin_int[r, 3] == 0:
+            continue
         link, parent, column = kin_int[r, 0], kin_int[r, 1], kin_int[r, 2]
         ox, oy, oyaw, ax, ay, rate = (kin_float[r, 0], kin_float[r, 1], kin_float[r, 2],
                                       kin_float[r, 3], kin_float[r, 4], kin_float[r, 5])
@@ -35,13 +41,21 @@ def _poses(q, kin_int, kin_float, x, y, c, s):
             c2, s2 = math.cos(yaw), math.sin(yaw)
             lx += (c2 * ax - s2 * ay) * value
             ly += (s2 * ax + c2 * ay) * value
-        if rate != 0.0:
-            yaw += rate * value
+            if rate != 0.0:
+                yaw += rate * value
+                c[link] = math.cos(yaw)
+                s[link] = math.sin(yaw)
+            else:  # the same yaw: its cosine and sine are already known
+                c[link] = c2
+                s[link] = s2
+        else:
+            if rate != 0.0:
+                yaw += rate * value
+            c[link] = math.cos(yaw)
+            s[link] = math.sin(yaw)
         x[link] = lx
         y[link] = ly
         yaws[link] = yaw
-        c[link] = math.cos(yaw)
-        s[link] = math.sin(yaw)
 
 
 # Inlined into its callers: a call that passes numba arrays pays reference counting on
@@ -110,9 +124,9 @@ def _pair_collides(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_r
 
 
 @njit(cache=True, nogil=True)
-def _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
+def _state_valid(q, kin_int, kin_float, x, y, c, s, yaws, full, shape_link, shape_nv, shape_center, shape_radius,
                  shape_verts, shape_normals, shape_extent, pairs, tol):
-    _poses(q, kin_int, kin_float, x, y, c, s)
+    _poses(q, kin_int, kin_float, x, y, c, s, yaws, full)
     for p in range(pairs.shape[0]):
         if _pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, shape_link, shape_nv, shape_center,
                           shape_radius, shape_verts, shape_normals, shape_extent, tol, tol):
@@ -124,10 +138,10 @@ def _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_
 def check_states(states, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
                  shape_verts, shape_normals, shape_extent, pairs, tol):
     out = np.empty(states.shape[0], dtype=np.bool_)
-    x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
     for i in range(states.shape[0]):
-        out[i] = _state_valid(states[i], kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center,
-                              shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
+        out[i] = _state_valid(states[i], kin_int, kin_float, x, y, c, s, yaws, i == 0, shape_link, shape_nv,
+                              shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
     return out
 
 
@@ -136,9 +150,9 @@ def state_valid(q, kin_int, kin_float, n_links, shape_link, shape_nv, shape_cent
                 shape_verts, shape_normals, shape_extent, pairs, tol):
     """One state's validity as a bool: :func:`check_states` for a single state without its
     output array, the entry point of the single-state queries (planners' validity checkers)."""
-    x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
-    return _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
-                        shape_verts, shape_normals, shape_extent, pairs, tol)
+    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    return _state_valid(q, kin_int, kin_float, x, y, c, s, yaws, True, shape_link, shape_nv, shape_center,
+                        shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
 
 
 @njit(cache=True, nogil=True)
@@ -165,6 +179,17 @@ def motion_stop(a, b, steps, stop, out, kin_int, kin_float, n_links, shape_link,
     samples would visit, in one call."""
     return _move(a, b, steps, stop, out, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
                  shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns)
+
+
+@njit(cache=True, nogil=True)
+def motion_stops(a, b, steps, stop, out, hits, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                 shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
+    """:func:`motion_stop` for each row of ``a`` and ``b`` (N, d) into ``out`` (N, d); ``hits[i]`` gets
+    row i's fraction."""
+    for i in range(a.shape[0]):
+        hits[i] = _move(a[i], b[i], steps, stop, out[i], kin_int, kin_float, n_links, shape_link, shape_nv,
+                        shape_center, shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol,
+                        pair_columns)
 
 
 STEP_TABLE_ROWS = 6
@@ -217,13 +242,13 @@ def _move(a, b, steps, stop, out, kin_int, kin_float, n_links, shape_link, shape
     for j in range(d):
         out[j] = a[j]
     if stop:
-        x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+        x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
         q = np.empty(d)
         for k in range(1, hit):
             t = k / count
             for j in range(d):
                 q[j] = a[j] + (b[j] - a[j]) * t
-            if not _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center,
+            if not _state_valid(q, kin_int, kin_float, x, y, c, s, yaws, k == 1, shape_link, shape_nv, shape_center,
                                 shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol):
                 break
             for j in range(d):
@@ -247,8 +272,9 @@ def _motion_hit(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, 
         need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
         if need > count:
             count = need
-    x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
     q = np.empty(a.shape[0])
+    full = True
     # The same states as a scan from start to end, visited end first and then by halving
     # strides (odd multiples of each power of two): a collision in the middle of a long
     # motion, the common case for a failed connection, is found after a few states.
@@ -260,9 +286,10 @@ def _motion_hit(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, 
         t = i / count
         for j in range(a.shape[0]):
             q[j] = a[j] + (b[j] - a[j]) * t
-        if not _state_valid(q, kin_int, kin_float, x, y, c, s, shape_link, shape_nv, shape_center,
+        if not _state_valid(q, kin_int, kin_float, x, y, c, s, yaws, full, shape_link, shape_nv, shape_center,
                             shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol):
             return i, count
+        full = False
         if i == count:
             i = stride
         else:
@@ -279,9 +306,9 @@ def _motion_hit(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, 
 def pair_hits(states, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
               shape_verts, shape_normals, shape_extent, pairs, tol):
     hits = np.zeros(pairs.shape[0], dtype=np.bool_)
-    x, y, c, s = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
     for i in range(states.shape[0]):
-        _poses(states[i], kin_int, kin_float, x, y, c, s)
+        _poses(states[i], kin_int, kin_float, x, y, c, s, yaws, i == 0)
         for p in range(pairs.shape[0]):
             if not hits[p] and _pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, shape_link, shape_nv,
                                               shape_center, shape_radius, shape_verts, shape_normals,

@@ -159,7 +159,9 @@ class CollisionModel:
     def _compile_arrays(self) -> None:
         """Flatten kinematics, shapes and candidate pairs into arrays for the compiled kernels."""
         steps = self._joint_steps
-        self._kin_int = np.array([(s[0], s[1], s[5]) for s in steps], dtype=np.int64).reshape(-1, 3)
+        # Columns: link, parent, state column (-1: none), whether the link's pose depends on the state.
+        self._kin_int = np.array([(s[0], s[1], s[5], s[0] in self._moving) for s in steps],
+                                 dtype=np.int64).reshape(-1, 4)
         self._kin_float = np.array([(s[2], s[3], s[4], s[6], s[7], s[8]) for s in steps],
                                    dtype=np.float64).reshape(-1, 6)
         outlines = self._outlines
@@ -260,6 +262,15 @@ class CollisionModel:
         :meth:`motion_collision`'s fraction. All arrays C-contiguous float64 of one value per joint
         (``out`` not ``start``); one compiled call, for a simulation's step."""
         return _kernels.motion_stop(start, end, steps, stop, out, *self._arguments, self._pair_columns)
+
+    def motion_stops(self, starts: np.ndarray, ends: np.ndarray, steps: np.ndarray, stop: bool) -> tuple[np.ndarray,
+                                                                                                        np.ndarray]:
+        """:meth:`motion_stop` for each row of ``starts`` and ``ends`` (N, d; C-contiguous float64), in one
+        compiled call: (where each move ends, each move's fraction)."""
+        out = np.empty_like(starts)
+        hits = np.empty(len(starts))
+        _kernels.motion_stops(starts, ends, steps, stop, out, hits, *self._arguments, self._pair_columns)
+        return out, hits
 
     @staticmethod
     def step_table(max_step: np.ndarray, lower: np.ndarray, upper: np.ndarray, steps: np.ndarray,
