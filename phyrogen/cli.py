@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import functools
 import json
 import math
@@ -148,10 +149,15 @@ def cmd_generate(args) -> int:
 
     started = time.perf_counter()
     done = failed = 0
+    rows: list[dict] = []  # only with --json
     try:
         progress.write(f"{'generator':18s} {'seed':>4s} {'objects':>7s} {'actions':>7s} {'time [s]':>8s}  result",
                        file=sys.stdout)
         for r in run_jobs(jobs, out, args.workers, on_running=show_running):
+            if args.json:
+                rows.append({"generator": r.generator, "seed": r.seed, "objects": r.objects, "actions": r.actions,
+                             "seconds": round(r.seconds, 3), "folder": None if r.error else str(r.folder),
+                             "error": None if r.error is None else r.error.splitlines()[0]})
             result = r.folder if r.error is None else "FAILED: " + r.error.splitlines()[0]
             progress.write(f"{r.generator:18s} {r.seed:4d} {r.objects:7d} {r.actions:7d} {r.seconds:8.2f}  {result}",
                            file=sys.stdout)
@@ -165,6 +171,8 @@ def cmd_generate(args) -> int:
         progress.close()
     wall = time.perf_counter() - started
     print(f"{done - failed}/{done} puzzles in {wall:.1f} s wall time with {args.workers} workers")
+    args.json_result = {"command": "generate", "puzzles": rows, "ok": done - failed, "failed": failed,
+                        "wall_seconds": round(wall, 3)}
     return 1 if failed else 0
 
 
@@ -285,6 +293,8 @@ def cmd_replan(args) -> int:
     check_replan_folder(folder, loaded.name)
     name = loaded.name
     result = replan(loaded, REPLAN_BUDGET if args.budget is None else args.budget, args.seed)
+    args.json_result = {"command": "replan", "puzzle": name, "folder": str(folder), "solved": result.solved,
+                        "budget": result.budget, "seed": args.seed}
     if not result.solved:
         print(f"phyrogen: error: {name}: not solved by RRT-Connect nor LA-RRT within {result.budget} collision "
               f"queries each (seed {args.seed}); the folder is unchanged (a larger --budget may solve it)",
@@ -295,6 +305,8 @@ def cmd_replan(args) -> int:
     for notice in notices:
         print(f"phyrogen: note: {notice}", file=sys.stderr)
     planner = {"rrt_connect": "RRT-Connect", "la_rrt_push": "LA-RRT+push"}[result.planner]
+    args.json_result.update(planner=planner, queries=result.queries, states=len(result.certificate),
+                            dependencies=len(result.dependencies), notices=notices)
     print(f"{name}: new certificate by {planner} in {result.queries} collision queries: "
           f"{len(result.certificate)} states, {len(result.dependencies)} dependencies")
     return 0
@@ -429,6 +441,9 @@ def cmd_manipulate(args) -> int:
     reports = manipulate_folders(folders, Path(args.out), video=not args.no_video,
                                  table=Path(args.table) if args.table else None, gui=args.gui, quiet=args.quiet,
                                  settings=ExecutionSettings(scale=args.scale), runs=runs)
+    args.json_result = {"command": "manipulate", "out": str(Path(args.out)),
+                        "reports": [{**dataclasses.asdict(r), "folder": str(Path(args.out) / r.puzzle)}
+                                    for r in reports]}
     return 0 if all(r.success for r in reports) else 1
 
 
@@ -575,6 +590,10 @@ def cmd_benchmark(args) -> int:
     for line in result.unsaved_solutions:
         print(f"phyrogen: warning: {line}", file=sys.stderr)
     crashed = sum(1 for r in result.records if r.error)
+    args.json_result = {"command": "benchmark", "out": str(Path(args.out)), "database": str(result.database),
+                        "results_page": str(Path(args.out) / "results.html"), "crashed": crashed,
+                        "unsaved_solutions": list(result.unsaved_solutions),
+                        "summary": json.loads((Path(args.out) / "summary.json").read_text(encoding="utf-8"))}
     return 1 if crashed or result.unsaved_solutions else 0
 
 
@@ -747,6 +766,12 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see {self.prog} --help)")
 
 
+def add_json_option(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--json", action="store_true",
+                        help=f"for programs: stdout is one JSON object ({what}); what is printed otherwise goes "
+                             "to stderr")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="phyrogen", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -763,6 +788,7 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
     add_difficulty_options(gen)
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_json_option(gen, "one object per puzzle: generator, seed, objects, actions, seconds, folder, error")
     gen.set_defaults(func=cmd_generate)
     data = sub.add_parser("dataset", help="generate a sharded, resumable dataset with a Parquet manifest "
                                           "(docs/datasets.md); --stats DIR describes one")
@@ -798,6 +824,7 @@ def build_parser() -> argparse.ArgumentParser:
     replan.add_argument("--budget", type=replan_budget_option,
                         help="collision queries each planner may spend (default 100000)")
     replan.add_argument("--seed", type=benchmark_seed_option, default=0, help="seed of the search (default 0)")
+    add_json_option(replan, "solved, planner, queries, states, dependencies")
     replan.set_defaults(func=cmd_replan)
     export = sub.add_parser("export", help="write other formats into puzzle folders: mjcf -> <folder>/mjcf/<name>.xml")
     export.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR",
@@ -851,6 +878,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run nothing: write DIR/results.html again from the finished benchmark in DIR "
                             "(its benchmark.db)")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_json_option(bench, "summary.json's content under 'summary', and the output's paths")
     bench.set_defaults(func=cmd_benchmark)
     manipulate = sub.add_parser("manipulate", help="execute puzzles' solutions with a mobile KUKA iiwa in PyBullet")
     manipulate.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR",
@@ -867,6 +895,7 @@ def build_parser() -> argparse.ArgumentParser:
                             help="a benchmark's output folder: every least-cost LA-RRT solution in its journal is "
                                  "tried, then the certificate (default: the puzzle's best solution, then the "
                                  "certificate)")
+    add_json_option(manipulate, "each puzzle's report.json and its output folder")
     manipulate.set_defaults(func=cmd_manipulate)
     audit = sub.add_parser("audit", help="re-check exported puzzles: certificate replayed in PyBullet, every "
                                          "object tried as superfluous with a large budget")
@@ -941,6 +970,17 @@ def _redeliver(fallback, unraisable) -> None:
         fallback(unraisable)
 
 
+def _run_for_json(args) -> int:
+    """``--json``: the command's own stdout goes to stderr, then its result (``args.json_result``, set by the
+    command) is printed as one JSON object. Bad input raises before, so its stdout stays empty."""
+    args.json_result = None
+    with contextlib.redirect_stdout(sys.stderr):
+        code = args.func(args)
+    if args.json_result is not None:
+        print(json.dumps({**args.json_result, "exit_code": code}, sort_keys=True))
+    return code
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run a command. Bad input: one line on stderr, exit 2. Interrupted (SIGINT, SIGTERM): one
     line, exit 130 or 143, nothing left running. Anything else: one line (the traceback with
@@ -958,7 +998,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         debug = args.debug
-        code = args.func(args)
+        if getattr(args, "json", False):
+            code = _run_for_json(args)
+        else:
+            code = args.func(args)
         if _interrupted is not None:  # dropped in a finalizer, and the command ended before it came again
             raise Interrupted(_interrupted)
         return code
