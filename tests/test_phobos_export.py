@@ -45,7 +45,7 @@ REPOSITORY = Path(__file__).resolve().parent.parent
 VENDOR = REPOSITORY.parent / "shared" / "vendor"
 BLENDER = tool("blender")
 PUZZLES = (("simple_slider", 7), ("continuous_space", 5203), ("grid_world", 5211), ("lockbox_random", 5227),
-           ("move_n_times", 13), ("rooms", 5251))
+           ("move_n_times", 5), ("rooms", 5251))
 """Every generator, on seeds no other test uses: boxes and revolute/prismatic joints, slot-disc prism
 meshes (Lockbox Random), an SE(2) object (Move N Times), 40 links (Rooms)."""
 REQUIREMENTS = ("pyyaml", "scipy<1.15", "numpy<2", "pycollada", "pydot", "lxml", "networkx", "trimesh",
