@@ -33,6 +33,13 @@ WALL_HEIGHT = 0.5
 DOOR_THICKNESS = 0.1
 DOOR_Y = -0.5
 """The door runs along this line, the open top of every corridor."""
+DOOR_CLEARANCE = 0.01
+"""Default metres of gap between the door and the wall ends on either side of its track (the
+prototype's door slides in face contact with them). A physics engine with contact margins and
+friction may jam a door that slides in contact; 0.01 is 2.5 mm at the manipulation scene's scale
+of 0.25 (docs/manipulation/README.md#clearance)."""
+MAX_DOOR_CLEARANCE = 0.025
+"""The door stays at least 0.05 thick (half the walls')."""
 CELL = 1.0
 MAX_N = 20
 """The most door moves accepted: 5n - 4 walls must fit two-digit names (``kit.MAX_OBJECTS``).
@@ -51,6 +58,7 @@ class Door:
     """Item 2: the sliding door for ``moves`` moves, with the three walls of the pocket it closes."""
 
     moves: int
+    clearance: float = DOOR_CLEARANCE
 
 
 @dataclass(frozen=True)
@@ -65,6 +73,7 @@ class MoveNTimesItems:
     """Table I's infinite object sequence: Cuboid, Door(N), Corridor(1), Corridor(2), ..."""
 
     moves: int
+    clearance: float = DOOR_CLEARANCE
 
     def get(self, n: int, rng: np.random.Generator) -> Cuboid | Door | Corridor:
         if n < 1:
@@ -72,7 +81,7 @@ class MoveNTimesItems:
         if n == 1:
             return Cuboid()
         if n == 2:
-            return Door(self.moves)
+            return Door(self.moves, self.clearance)
         return Corridor(n - 2)
 
 
@@ -82,6 +91,9 @@ class MoveNTimesParams:
 
     n: int = parameter(0, f"how many times the door must move (1..{MAX_N}; n = 20 takes about 20-25 s of "
                           f"CPU time); 0: n = Seed, taken from the seed as the paper does", difficulty=True)
+    clearance: float = parameter(DOOR_CLEARANCE, f"metres of gap between the sliding door and the walls on "
+                                                 f"either side of its track, 0..{MAX_DOOR_CLEARANCE} (0: the "
+                                                 f"prototype's door, in face contact with them)")
     interlock_margin: float = kit.interlock_margin_parameter()
 
     def moves(self, seed: int) -> int:
@@ -89,6 +101,7 @@ class MoveNTimesParams:
 
     def validate(self, seed: int) -> None:
         kit.check_interlock_margin(self)
+        kit.check_between(self, "clearance", 0.0, MAX_DOOR_CLEARANCE, "the door must stay at least 0.05 thick")
         if self.n < 0:
             raise ParameterError(f"n must be >= 0 (0 means n = Seed), got {self.n}")
         moves = self.moves(seed)
@@ -135,13 +148,14 @@ def _target(moves: int, motion: Motion, yaw_deg: float) -> PuzzleObject:
                         geometry, geometry, role, limits)
 
 
-def _door(index: int, moves: int, motion: Motion, yaw_deg: float) -> PuzzleObject:
+def _door(index: int, moves: int, motion: Motion, yaw_deg: float, clearance: float = DOOR_CLEARANCE) -> PuzzleObject:
     width = door_width(moves)
-    size = (width, DOOR_THICKNESS, WALL_HEIGHT)
+    thickness = DOOR_THICKNESS - 2 * clearance  # centred on its track: the gap on both sides
+    size = (width, thickness, WALL_HEIGHT)
     role, color = kit.role_and_color(index)
     # The shaft is no wider than the door, so the handle never reaches over the walls.
     geometry = (kit.box_geometry(size, color),
-                *kit.handle(WALL_HEIGHT / 2, color=color, shaft_width=min(kit.HANDLE_SHAFT_WIDTH, DOOR_THICKNESS)))
+                *kit.handle(WALL_HEIGHT / 2, color=color, shaft_width=min(kit.HANDLE_SHAFT_WIDTH, thickness)))
     return PuzzleObject(kit.movable_name(index), motion,
                         Pose.planar(0.5 * CELL, DOOR_Y, WALL_HEIGHT / 2, math.radians(yaw_deg)),
                         geometry, geometry, role, ((-width / 2, width / 2),))
@@ -199,7 +213,7 @@ def _attach(draft: Draft, obj_item: Cuboid | Door | Corridor, joint_item: Motion
         return Draft(draft.objects + (_target(moves, joint_item, tf_item),), _State(moves, goal))
     first_wall = kit.count_fixed(draft.objects)
     if isinstance(obj_item, Door):
-        door = _door(kit.count_movable(draft.objects), obj_item.moves, joint_item, tf_item)
+        door = _door(kit.count_movable(draft.objects), obj_item.moves, joint_item, tf_item, obj_item.clearance)
         return Draft(draft.objects + (door, *_pocket_walls(first_wall)), draft.context)
     walls = corridor_walls(obj_item.index, tf_item, first_wall)
     state = draft.context
@@ -223,8 +237,9 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     Mechanism:
         The target (``obj_00``, SE(2), a 0.375 x 0.5 x 0.5 box at the origin)
         sits in a pocket open to the south. The door (``obj_01``, prismatic
-        along x, (2n - 2) x 0.1 x 0.5 for n > 2, else 2 x 0.1 x 0.5, limits
-        -+ half its width) closes the pocket. Below lie n - 1 nested U-shaped
+        along x, (2n - 2) x (0.1 - 2 clearance) x 0.5 for n > 2, else 2 wide,
+        limits -+ half its width) closes the pocket, ``clearance`` (default
+        0.01) from the wall ends on either side of its track. Below lie n - 1 nested U-shaped
         corridors of fixed walls (0.1 thick, 0.5 high), all open at the top
         where the door runs; from corridor 2 on each has a cap joining its
         entry column to the previous corridor, on alternating sides. Wherever
@@ -258,8 +273,9 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
         The Maker runs n + 1 iterations, not Table I's Seed + 2: the pocket
         comes with the door (Door(N) is the door and the pocket it closes) and
         Corridor(i) is the prototype's corridor i, so the puzzle is exactly the
-        prototype's. The door's handle shaft is 0.1 wide (the door's
-        thickness) instead of 0.2.
+        prototype's. The door's handle shaft is as wide as the door is thick
+        instead of 0.2. The door is 2 x ``clearance`` thinner than the
+        prototype's 0.1, which slid in face contact with the walls.
 
     Design notes: docs/generators.md#move-n-times
     """
@@ -269,7 +285,7 @@ def build(seed: int, params: MoveNTimesParams) -> MakerInput:
     return MakerInput(
         routed_validation=True,
         interlock_margin=params.interlock_margin,
-        objects=MoveNTimesItems(moves),
+        objects=MoveNTimesItems(moves, params.clearance),
         joints=InfiniteSequence((Motion.SE2, Motion.PRISMATIC, Motion.FIXED), repeat_from=2),
         transforms=InfiniteSequence(kit.HALF_TURNS, repeat_from=0),
         n_objects=moves + 1,
