@@ -145,14 +145,54 @@ def check_states(states, kin_int, kin_float, n_links, shape_link, shape_nv, shap
     return out
 
 
+PACKED_HEADER = 5
+"""Leading values of :func:`state_valid_packed`'s ``ints``: links, kinematic rows, shapes, vertices
+per shape, pairs."""
+
+
 @njit(cache=True, nogil=True)
-def state_valid(q, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
-                shape_verts, shape_normals, shape_extent, pairs, tol):
-    """One state's validity as a bool: :func:`check_states` for a single state without its
-    output array, the entry point of the single-state queries (planners' validity checkers)."""
-    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
-    return _state_valid(q, kin_int, kin_float, x, y, c, s, yaws, True, shape_link, shape_nv, shape_center,
-                        shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
+def state_valid_packed(q, ints, floats):
+    """One state's validity as a bool (the single-state queries' entry point), with the model's
+    arrays packed into two (``CollisionModel._pack``): a call from Python pays for each argument
+    it passes, and this one passes three instead of thirteen.
+    The arrays are views of the packed ones, holding the same numbers: the same verdicts. The
+    fixed links' poses come packed too (:func:`fixed_poses`), computed by the same code once."""
+    n_links, rows, shapes, k, n_pairs = ints[0], ints[1], ints[2], ints[3], ints[4]
+    o = PACKED_HEADER
+    kin_int = ints[o:o + rows * 4].reshape((rows, 4))
+    o += rows * 4
+    shape_link = ints[o:o + shapes]
+    o += shapes
+    shape_nv = ints[o:o + shapes]
+    o += shapes
+    pairs = ints[o:o + n_pairs * 2].reshape((n_pairs, 2))
+    kin_float = floats[0:rows * 6].reshape((rows, 6))
+    o = rows * 6
+    shape_center = floats[o:o + shapes * 2].reshape((shapes, 2))
+    o += shapes * 2
+    shape_radius = floats[o:o + shapes]
+    o += shapes
+    shape_verts = floats[o:o + shapes * k * 2].reshape((shapes, k, 2))
+    o += shapes * k * 2
+    shape_normals = floats[o:o + shapes * k * 2].reshape((shapes, k, 2))
+    o += shapes * k * 2
+    shape_extent = floats[o:o + shapes * k].reshape((shapes, k))
+    o += shapes * k
+    tol = floats[o]
+    o += 1
+    # The fixed links' poses, computed once by the model (fixed_poses): only the moving links' are computed here.
+    poses = floats[o:o + 5 * n_links].reshape((5, n_links)).copy()
+    return _state_valid(q, kin_int, kin_float, poses[0], poses[1], poses[2], poses[3], poses[4], False, shape_link,
+                        shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
+
+
+@njit(cache=True, nogil=True)
+def fixed_poses(q, kin_int, kin_float, n_links):
+    """Every link's pose at ``q`` as rows x, y, cos, sin, yaw (N links): the fixed links' entries are
+    the same at any state."""
+    poses = np.empty((5, n_links))
+    _poses(q, kin_int, kin_float, poses[0], poses[1], poses[2], poses[3], poses[4], True)
+    return poses
 
 
 @njit(cache=True, nogil=True)

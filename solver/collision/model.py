@@ -26,6 +26,7 @@ from phyrogen_core.chain import Joint, JointType, KinematicChain, Role, pose_mat
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from solver.collision import kernels as _kernels
 
+_FLOAT64 = np.dtype(np.float64)
 DEFAULT_TOLERANCE = 1e-6
 """Penetration (metres) below which touching shapes count as contact-free."""
 
@@ -210,11 +211,30 @@ class CollisionModel:
         self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in pairs]
         self._arguments = self._args()
         self._state_shape = (len(self.joint_order),)
+        self._packed_int, self._packed_float = self._pack()
 
     def _args(self) -> tuple:
         return (self._kin_int, self._kin_float, len(self._links), self._shape_link, self._shape_nv,
                 self._shape_center, self._shape_radius, self._shape_verts, self._shape_normals,
                 self._shape_extent, self._pairs, self.tolerance)
+
+    def _pack(self) -> tuple[np.ndarray, np.ndarray]:
+        """The kernels' arrays in two flat ones (:func:`~solver.collision.kernels.state_valid_packed`)."""
+        verts = self._shape_verts
+        header = [len(self._links), len(self._kin_int), len(self._shape_link), verts.shape[1], len(self._pairs)]
+        assert len(header) == _kernels.PACKED_HEADER
+        ints = np.concatenate([np.array(header, dtype=np.int64), self._kin_int.ravel(), self._shape_link,
+                               self._shape_nv, self._pairs.ravel()]).astype(np.int64)
+        floats = np.concatenate([self._kin_float.ravel(), self._shape_center.ravel(), self._shape_radius,
+                                 verts.ravel(), self._shape_normals.ravel(), self._shape_extent.ravel(),
+                                 [self.tolerance], self._fixed_poses().ravel()]).astype(np.float64)
+        return ints, floats
+
+    def _fixed_poses(self) -> np.ndarray:
+        """(5, links): x, y, cos, sin and yaw of every link at the zero state; the fixed links' are
+        theirs at any state."""
+        zero = np.zeros(len(self.joint_order))
+        return _kernels.fixed_poses(zero, self._kin_int, self._kin_float, len(self._links))
 
     # -- queries -----------------------------------------------------------
     @property
@@ -236,10 +256,10 @@ class CollisionModel:
         return _kernels.check_states(states, *self._arguments)
 
     def is_valid(self, state: Sequence[float]) -> bool:
-        if type(state) is np.ndarray and state.dtype == np.float64 and state.shape == self._state_shape \
-                and state.flags.c_contiguous:
-            # The planners' single-state query: straight to the compiled entry point, no copy.
-            return _kernels.state_valid(state, *self._arguments)
+        if type(state) is np.ndarray and state.dtype is _FLOAT64 and state.shape == self._state_shape:
+            # The planners' single-state query: straight to the compiled entry point with three
+            # arguments, no copy (a strided row is read in place).
+            return _kernels.state_valid_packed(state, self._packed_int, self._packed_float)
         return bool(_kernels.check_states(self._as_states(state), *self._arguments)[0])
 
     def check_motion(self, start: Sequence[float], end: Sequence[float], steps: np.ndarray) -> bool:
@@ -349,5 +369,6 @@ def warm_up() -> None:
     model = CollisionModel(build_chain(objects))
     states = np.zeros((2, 2))
     model.check(states)
+    model.is_valid(states[0])
     model.check_motion(states[0], states[1] + 1.0, np.full(2, 0.1))
     model.colliding_objects(states)
