@@ -104,10 +104,12 @@ class Report:
     error: str | None = None
     puzzle: Puzzle | None = None
     notices: tuple[str, ...] = ()  # e.g. a changed puzzle's old renders moved to stale/<n>/
+    cpu_seconds: float = 0.0  # the worker's CPU time for the job (benchmarks/generation_speed.py)
 
 
 def _run_job(job: Job, out_root: str | None) -> Report:
     started = time.perf_counter()
+    cpu = time.process_time()
     try:
         spec = get_generator(job.generator)
         params = job.params if job.params is not None else spec.parse_params(job.overrides)
@@ -127,13 +129,14 @@ def _run_job(job: Job, out_root: str | None) -> Report:
         chain = puzzle.planning_chain
         return Report(job.generator, job.seed, sum(o.is_movable for o in puzzle.objects),
                       count_actions(puzzle.certificate, chain.factors), time.perf_counter() - started,
-                      folder, None, puzzle, tuple(notices))
+                      folder, None, puzzle, tuple(notices), cpu_seconds=time.process_time() - cpu)
     except (ParameterError, GenerationError) as exc:
-        return Report(job.generator, job.seed, seconds=time.perf_counter() - started, error=str(exc))
+        return Report(job.generator, job.seed, seconds=time.perf_counter() - started, error=str(exc),
+                      cpu_seconds=time.process_time() - cpu)
     except Exception as exc:  # a bug: keep the traceback for the report
         detail = traceback.format_exc(limit=6)
         return Report(job.generator, job.seed, seconds=time.perf_counter() - started,
-                      error=f"{type(exc).__name__}: {exc}\n{detail}")
+                      error=f"{type(exc).__name__}: {exc}\n{detail}", cpu_seconds=time.process_time() - cpu)
 
 
 def _cost_hint(job: Job) -> float:
