@@ -35,7 +35,8 @@ a puzzle is solvable (the Maker's validator and necessity judge), benchmark runs
 other, and pipelines (generation, dataset, audit, import, replan) put all of them to work.
 """
 
-OMPL_USERS_ABOVE_SOLVER = {"manipulation.reaching": "plans the arm's reaching motions with OMPL's BIT*"}
+OMPL_USERS_ABOVE_SOLVER = {"manipulation.reaching": "plans the arm's reaching motions with OMPL's BIT*",
+                           "manipulation.source": "runs a short LA-RRT benchmark for a puzzle's default solution"}
 """Modules above the solver that use OMPL themselves (not just to read or densify a path)."""
 
 
