@@ -29,8 +29,9 @@ from solver.planning.problem import densify
 
 from .floor import BORDER, FloorMap, floor_map
 from .following import TIME_STEP, FollowSettings, Stop, command, drive_along, follow, hold, time_trajectory
-from .grasp import GraspPoint, grasp_point
+from .grasp import GraspPoint, grasp_point, gripper_refusals
 from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
+from .physics import PuzzleMaterial, with_masses
 from .placement import Placement, centred_placement, joint_value_scale, link_pose, physical_scale, scale_chain
 from .reaching import REACH_BUDGET, ReachingError, plan_motion, seed_reaching
 from .robot import ARM_REST, ARM_TUCKED, RobotSpec
@@ -45,6 +46,7 @@ from .scene import (
     write_scene_files,
 )
 from .solution import BenchmarkRun, Solution, candidate_solutions
+from .source import ShortBenchmark, ensure_benchmark_solution
 from .transforms import inverse, matrix, quaternion
 
 PENETRATION_TOLERANCE = 0.002
@@ -69,6 +71,11 @@ FINGER_TOUCH = 1e-3
 """Metres: a finger whose contact with the handle is closer than this touches it."""
 GRIP_CONSTRAINT_FORCE = 5000.0
 """Newtons the grasp constraint may pull with (while both fingers hold the handle)."""
+APPROACH_HEIGHT = 0.05
+"""Metres the tool rises straight up off a handle after a release, and comes straight down onto
+the next (the fingertips start 3 cm above the knob)."""
+APPROACH_STEP = 0.001
+"""Radians (or metres) per physics step, at most, of each joint while the tool rises or descends."""
 HOME_CLEARANCE = 0.8
 """Metres between the base's centre at the start and the puzzle's floor area (on its -x side)."""
 
@@ -98,6 +105,11 @@ class ExecutionSettings:
     max_regrasps_per_action: int = 12
     record_every: int = 8
     """Record the scene for frames and video every this many physics steps."""
+    material: PuzzleMaterial = PuzzleMaterial()
+    """Density and joint friction of the puzzle's pieces (masses from their volume)."""
+    short_benchmark: ShortBenchmark | None = ShortBenchmark()
+    """Run this benchmark first on a puzzle with no best solution and no benchmark runs given
+    (:mod:`manipulation.source`); None: execute the certificate then."""
     puzzle_self_collision: bool = True
     """Whether the puzzle's objects and walls collide with each other (False: the scene as it was
     before they did, where an invalid path executed; kept as a negative control)."""
@@ -158,6 +170,8 @@ class ManipulationReport:
     """Every solution tried, in order, each with its per-action reports."""
     contact: Contact | None = None
     """The unplanned contact that stopped the last attempt, if one did."""
+    benchmark_seconds: float = 0.0
+    """Wall time of the short benchmark run first for a solution (0: none ran)."""
 
     @classmethod
     def of_attempts(cls, puzzle: str, generator: str, seed: int,
@@ -254,8 +268,6 @@ class _Run:
         return self.offset @ link_pose(self.chain, link, state)
 
     def tool_pose(self, link: str, tool_at_link: np.ndarray, state: np.ndarray) -> np.ndarray:
-        """The tool pose holding ``link`` at the commanded ``state`` (which the path is at now)."""
-        self.plan_state = state
         return self.link_world(link, state) @ tool_at_link
 
     # -- one action ----------------------------------------------------------
@@ -291,7 +303,8 @@ class _Run:
                 result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
                                 self.settings.follow, self.on_step, object_done, self.sim.puzzle_state,
                                 lambda up_to: self.sim.clearance(up_to, self.planned), self.sim.touches_itself,
-                                lambda: self.grip is not None)
+                                lambda: self.grip is not None,
+                                lambda now: setattr(self, "plan_state", trajectory.state_at(now)))
                 stop = result.stop.value
                 stopped_at = result.time
             else:
@@ -307,7 +320,10 @@ class _Run:
             if regrasps > self.settings.max_regrasps_per_action:
                 raise ExecutionError(f"moving {action.object_name}: more than "
                                      f"{self.settings.max_regrasps_per_action} regrasps ({'; '.join(stops)})")
-            t = stopped_at
+            # A regrasp after the path's end still gets the follower's settling window to pull the
+            # object back (from the end itself the follower had no time left, and a drifted object
+            # was released where it lay, again and again).
+            t = min(stopped_at, trajectory.duration)
             failed_base = self.sim.robot_state()[:2]
         error = np.abs(self.sim.puzzle_state()[columns] - end[columns]) / self.value_scale[columns]
         return ActionReport(action.object_name, regrasps, tuple(stops), float(np.max(error)))
@@ -374,7 +390,8 @@ class _Run:
                 raise ExecutionError(f"no collision-free IK solution at the grasp point of {grasp.link} "
                                      f"({np.round(point, 3).tolist()})")
             try:
-                path = np.vstack([lift[:-1], self.reach(lift[-1], solution.q, floor)])
+                descent = self.vertical(solution.q)[::-1]
+                path = self.reach(lift[-1], descent[0], floor)
                 break
             except ReachingError as exc:
                 error = exc
@@ -384,9 +401,32 @@ class _Run:
         self.planning += time.perf_counter() - started
         started = time.perf_counter()
         self.phase = "driving"
+        # Straight up off the last handle, over to above this one, straight down around it: the
+        # open fingers never sweep sideways past a knob (a planned motion passing beside it, tracked
+        # by torque-limited motors, brushed it with a finger).
+        drive_along(self.sim, lift, self.on_step, max_step=APPROACH_STEP)
         drive_along(self.sim, path, self.on_step)
+        drive_along(self.sim, descent, self.on_step, max_step=APPROACH_STEP)
         self.phase = "holding"
         self.execution += time.perf_counter() - started
+
+    def vertical(self, q: np.ndarray) -> np.ndarray:
+        """A joint path from ``q`` raising the tool straight up by :data:`APPROACH_HEIGHT` (the base
+        still), every state clear of the puzzle by the planning margin, in the planning world;
+        ReachingError if IK or the margin fails on the way."""
+        self.planner.set_robot(q)
+        pose = matrix(*self.planner.tool_pose())
+        states = [np.asarray(q, dtype=float)]
+        count = int(np.ceil(APPROACH_HEIGHT / 0.005))
+        for k in range(1, count + 1):
+            above = pose.copy()
+            above[2, 3] += APPROACH_HEIGHT * k / count
+            nxt = solve_at(self.planner, above, states[-1], fixed_base=True)
+            if nxt is None or self.planner.in_collision():
+                raise ReachingError(f"the tool cannot rise {APPROACH_HEIGHT * 100:.0f} cm straight up "
+                                    "from the grasp, clear of the puzzle")
+            states.append(nxt)
+        return np.array(states)
 
     def reach(self, start: np.ndarray, goal: np.ndarray, floor: FloorMap) -> np.ndarray:
         """A collision-free robot path from ``start`` to the grasp ``goal``: one BIT* search when
@@ -409,8 +449,13 @@ class _Run:
         return np.vstack([tuck, drive[1:], untuck[1:]])
 
     def lift_off(self, start: np.ndarray) -> np.ndarray:
-        """A short straight path lifting the tool clear of the puzzle, when the released robot is
-        closer to it than the planning margin; else just ``start``."""
+        """The released robot's way off: the tool straight up by :data:`APPROACH_HEIGHT` (the open
+        fingers rise off the handle they held); where that fails, a short straight lift clear of the
+        planning margin when the robot is closer to the puzzle than it; else just ``start``."""
+        try:
+            return self.vertical(start)
+        except ReachingError:
+            pass
         self.planner.set_robot(start)
         if not self.planner.in_collision():
             return start[None, :]
@@ -460,8 +505,10 @@ class _Run:
                                      physicsClientId=self.sim.client)
 
     def open_gripper(self) -> None:
-        """Release: the constraint goes, the fingers open (fully, or for :data:`OPEN_STEPS`)."""
-        self.release_constraint()
+        """Release: the fingers open (fully, or for :data:`OPEN_STEPS`); the constraint goes the
+        step the first of them leaves the handle (:meth:`on_step`), or once they are open. (Removed
+        before the fingers moved, the squeezed handle sprang out of them: a 0.9 kg Move N Times
+        target left its goal tolerance at every release.)"""
         self.command_fingers(0.0)
         self.phase = "opening"
         q = self.sim.robot_state()
@@ -471,6 +518,7 @@ class _Run:
             command(self.sim, q)
             pb.stepSimulation(physicsClientId=self.sim.client)
             self.on_step()
+        self.release_constraint()
         self.planned = frozenset()
         self.phase = "holding"
 
@@ -519,6 +567,8 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings
                    runs: Sequence[BenchmarkRun] = ()) -> tuple[ManipulationReport, Recording, SceneSetup]:
     """Execute the puzzle in ``folder``; returns the report, the recording and the scene setup.
 
+    A puzzle with no best solution and no ``runs`` gets one first from
+    ``settings.short_benchmark`` (:func:`~manipulation.source.ensure_benchmark_solution`).
     The solutions of :func:`~manipulation.solution.candidate_solutions` (with the
     benchmark journal's ``runs``) are tried in order, each from the puzzle's start,
     until one succeeds; the recording and scene are those of the last one tried.
@@ -528,6 +578,20 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings
     folder = Path(folder)
     loaded = read_puzzle_dir(folder)
     generator, name, seed = puzzle_identity(loaded, folder)
+    scale = settings.scale if settings.scale is not None else physical_scale(generator)
+    refusals = gripper_refusals(scale_chain(loaded.chain, scale), settings.robot.gripper, GRASP_CLEARANCE)
+    if refusals:
+        # Before any simulation (and before a benchmark): no solution could be executed.
+        message = "refused before simulation: the gripper cannot hold " + "; ".join(refusals)
+        report = ManipulationReport(name, generator, seed, scale, "none", 0, 0, 0, 0.0, 0.0, 0.0, False, False,
+                                    0.0, message)
+        return report, Recording(), SceneSetup(scale_chain(loaded.chain, scale), Placement(scale, (0.0, 0.0)),
+                                               settings.robot)
+    started = time.perf_counter()
+    if settings.short_benchmark is not None and not runs:
+        ensure_benchmark_solution(folder, settings.short_benchmark)
+        loaded = read_puzzle_dir(folder)
+    benchmark_seconds = time.perf_counter() - started
     attempts: list[AttemptReport] = []
     for solution in candidate_solutions(folder, loaded, runs):
         # Seeded per solution too: an attempt's outcome does not depend on the attempts before it.
@@ -536,7 +600,9 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings
         attempts.append(attempt)
         if attempt.success:
             break
-    return ManipulationReport.of_attempts(name, generator, seed, attempts), recording, setup
+    report = replace(ManipulationReport.of_attempts(name, generator, seed, attempts),
+                     benchmark_seconds=benchmark_seconds)
+    return report, recording, setup
 
 
 def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: ExecutionSettings, gui: bool = False,
@@ -547,12 +613,13 @@ def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: Executi
     factors = {name: cols for name, cols in chain.factors.items() if name != "goal"}
     actions = split_actions(solution.path, factors)
     placement = scene_placement(loaded, solution.path, settings)
-    scaled = scale_chain(chain, placement.scale)
+    scaled = with_masses(scale_chain(chain, placement.scale), settings.material)
     value_scale = joint_value_scale(chain, placement.scale)
     setup = SceneSetup(scaled, placement, settings.robot)
     with temporary_folder() as tmp:
         files = write_scene_files(Path(tmp), scaled, settings.robot)
-        sim, planner = open_worlds(files, scaled, placement, gui, settings.puzzle_self_collision, settings.robot)
+        sim, planner = open_worlds(files, scaled, placement, gui, settings.puzzle_self_collision, settings.robot,
+                                   settings.material)
         run = _Run(loaded, scaled, placement, sim, planner, value_scale, settings)
         try:
             home = np.array([-placement.half_extent[0] - HOME_CLEARANCE, 0.0, 0.0, *ARM_REST])

@@ -115,7 +115,8 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
            object_done: Callable[[], bool], object_state: Callable[[], np.ndarray],
            clearance_now: Callable[[float], float] = lambda up_to: up_to,
            touches_itself: Callable[[], bool] = lambda: False,
-           holding: Callable[[], bool] = lambda: True) -> FollowResult:
+           holding: Callable[[], bool] = lambda: True,
+           on_time: Callable[[float], None] = lambda t: None) -> FollowResult:
     """Track ``tool_pose_at(trajectory.state_at(t))`` from ``start_time`` to the end, stepping physics.
 
     ``on_step`` runs after every physics step (recording, contact checks);
@@ -128,7 +129,8 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     held still, may stand a few millimetres from a wall);
     ``touches_itself()`` whether the robot touched itself in the last step: it stops the
     motion too, since the planner cannot start from a robot in self-collision;
-    ``holding()`` whether the gripper still holds the object (a finger lost contact: stop).
+    ``holding()`` whether the gripper still holds the object (a finger lost contact: stop);
+    ``on_time(t)`` is told, before each step, where along the trajectory the step ends.
     Joint velocities are scaled down together to the robot's speed limits.
     Every stop ends with the robot held still for ``hold_steps``.
     """
@@ -147,6 +149,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     lower, upper = world.lower[arm], world.upper[arm]
     while t < end:
         t_next = t + TIME_STEP
+        on_time(t_next)
         bias += settings.integral_gain * TIME_STEP * (trajectory.state_at(t) - object_state())
         desired = tool_pose_at(trajectory.state_at(t_next) + bias)
         ahead = tool_pose_at(trajectory.state_at(t_next + TIME_STEP) + bias)

@@ -16,6 +16,8 @@ from phyrogen_core.chain import KinematicChain, pose_matrix
 from phyrogen_core.export.urdf import collision_bounds
 from phyrogen_core.geometry import Box, Cylinder
 
+from .robot import GripperSpec
+
 KNOB_NAME = "knob"
 
 
@@ -77,3 +79,33 @@ def grasp_point(chain: KinematicChain, object_name: str) -> GraspPoint:
 
 def _xyz(v: np.ndarray) -> tuple[float, float, float]:
     return (float(v[0]), float(v[1]), float(v[2]))
+
+
+FINGER_MARGIN = 0.003
+"""Metres the fingertips keep above whatever lies under the handle (the shaft's top)."""
+
+
+def gripper_refusals(chain: KinematicChain, gripper: GripperSpec, clearance: float) -> list[str]:
+    """Why the gripper cannot hold some movable object of ``chain`` (at the scene's scale), one
+    line per object; empty when it holds them all. Decided from the geometry alone, before any
+    simulation: a handle wider than the open fingers less ``clearance`` on each side (the room a
+    grasp keeps from the puzzle), or too short for the finger pads above what lies under it."""
+    problems = []
+    movable = sorted({link.object_name for link in chain.links if link.object_name and any(
+        j.is_active for j in chain.joints if j.child == link.name)})
+    for name in movable:
+        try:
+            grasp = grasp_point(chain, name)
+        except ValueError as exc:
+            problems.append(str(exc))
+            continue
+        widest = gripper.stroke - 2 * clearance
+        what = "handle" if grasp.on_knob else "body (it has no handle)"
+        if grasp.grip_width > widest:
+            problems.append(f"{name}: its {what} is {grasp.grip_width * 1000:.1f} mm wide; the gripper opens to "
+                            f"{gripper.stroke * 1000:.0f} mm and needs {clearance * 1000:.0f} mm on each side "
+                            f"(at most {widest * 1000:.0f} mm)")
+        if grasp.size[2] < gripper.grasp_depth + FINGER_MARGIN:
+            problems.append(f"{name}: its {what} is {grasp.size[2] * 1000:.1f} mm tall; the finger pads need "
+                            f"{(gripper.grasp_depth + FINGER_MARGIN) * 1000:.0f} mm of it clear of what is below")
+    return problems

@@ -41,9 +41,9 @@ FIELD_OF_VIEW = 50.0
 MARGIN = 1.15
 """The framed box fills at most 1 / MARGIN of the image, in each direction."""
 NEAR, FAR = 0.05, 30.0
-GRIP_DISTANCE = 0.35
+GRIP_DISTANCE = 0.2
 """Metres from the tool point to the camera of a grip close-up."""
-GRIP_ELEVATION = 20.0
+GRIP_ELEVATION = 25.0
 """Degrees above the horizontal the close-up looks down from."""
 
 

@@ -19,11 +19,13 @@ def write_outputs(out_root: Path, report: ManipulationReport, recording: Recordi
     """``<out_root>/<puzzle>/``: frames/frame_1..4.png, frames/grip_<k>.png (the fingers on the handle
     in action k), <puzzle>.mp4, report.json (written atomically)."""
     final = Path(out_root) / report.puzzle
-    with owned_directory(final, lambda path: owns_output(report.puzzle, path)) as folder, Renderer(setup) as renderer:
-        write_frames(renderer, recording, folder / "frames")
-        write_grip_frames(renderer, recording, folder / "frames")
-        if video:
-            write_video(renderer, recording, folder / f"{report.puzzle}.mp4")
+    with owned_directory(final, lambda path: owns_output(report.puzzle, path)) as folder:
+        if recording.robot:  # a puzzle refused before any simulation has nothing to show
+            with Renderer(setup) as renderer:
+                write_frames(renderer, recording, folder / "frames")
+                write_grip_frames(renderer, recording, folder / "frames")
+                if video:
+                    write_video(renderer, recording, folder / f"{report.puzzle}.mp4")
         (folder / "report.json").write_text(report_json(report), encoding="utf-8")
     return final
 

@@ -26,11 +26,10 @@ import pybullet as pb
 from phyrogen_core.chain import KinematicChain
 from phyrogen_core.export.urdf import chain_to_urdf
 
+from .physics import PuzzleMaterial, joint_friction
 from .placement import Placement
 from .robot import ARM_JOINTS, BASE_LINK, FINGER_JOINTS, ROBOT_JOINTS, TOOL_LINK, RobotSpec, mobile_iiwa_urdf
 
-PUZZLE_JOINT_FRICTION = 2.0
-"""Newtons (or N m) the puzzle joints resist with, so a released object stays where it was left."""
 COLLISION_MARGIN = 0.004
 """Metres: closer than this, robot and puzzle count as colliding while planning."""
 
@@ -107,8 +106,10 @@ class World:
     """One PyBullet client with the robot, the puzzle and a floor (visual only)."""
 
     def __init__(self, files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False,
-                 puzzle_self_collision: bool = True, spec: RobotSpec | None = None):
+                 puzzle_self_collision: bool = True, spec: RobotSpec | None = None,
+                 material: PuzzleMaterial | None = None):
         spec = spec or RobotSpec()
+        material = material or PuzzleMaterial()
         self.spec = spec
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         self.chain = chain
@@ -148,9 +149,12 @@ class World:
         self.finger_closed = float(pb.getJointInfo(self.robot, self.finger_joints[0], physicsClientId=c)[9])
         for link in self.finger_joints:
             pb.changeDynamics(self.robot, link, lateralFriction=spec.gripper.pad_friction, physicsClientId=c)
-        for j in self.puzzle_joints:
+        friction = joint_friction(chain, material)
+        for name, j in zip(chain.joint_order, self.puzzle_joints, strict=True):
+            # Coulomb friction as PyBullet models it: a motor holding zero velocity with that force.
             pb.setJointMotorControl2(self.puzzle, j, pb.VELOCITY_CONTROL, targetVelocity=0.0,
-                                     force=PUZZLE_JOINT_FRICTION, physicsClientId=c)
+                                     force=friction[name], physicsClientId=c)
+            pb.changeDynamics(self.puzzle, j, jointDamping=material.joint_damping, physicsClientId=c)
         _ignore_near_links(self.robot, c)
         self.puzzle_link_name = {index: name for name, index in self.puzzle_link.items()}
         self.robot_link_name = {index: name for name, index in self.robot_link.items()}
@@ -332,14 +336,15 @@ class World:
 
 
 def open_worlds(files: SceneFiles, chain: KinematicChain, placement: Placement, gui: bool = False,
-                puzzle_self_collision: bool = True, spec: RobotSpec | None = None) -> tuple[World, World]:
+                puzzle_self_collision: bool = True, spec: RobotSpec | None = None,
+                material: PuzzleMaterial | None = None) -> tuple[World, World]:
     """The simulation (in a window when ``gui``) and the planning world of one run, built alike:
     the same files, the same collision filters, so the same joint values collide the same way.
 
     ``puzzle_self_collision`` False builds both as before the puzzle's objects collided with each
     other (a negative control: an invalid path then executes)."""
-    simulation = World(files, chain, placement, gui=gui, puzzle_self_collision=puzzle_self_collision, spec=spec)
-    return simulation, World(files, chain, placement, puzzle_self_collision=puzzle_self_collision, spec=spec)
+    simulation = World(files, chain, placement, gui, puzzle_self_collision, spec, material)
+    return simulation, World(files, chain, placement, False, puzzle_self_collision, spec, material)
 
 
 def _floor(client: int) -> int:

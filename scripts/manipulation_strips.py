@@ -3,7 +3,9 @@
     python scripts/manipulation_strips.py OUT_DIR DEST_DIR [--width 320] [--puzzles a,b,...]
 
 Each strip is the puzzle's four frames (start, two intermediate, final) side by side, scaled to
-``--width`` pixels each, written as ``DEST_DIR/<puzzle>.png``: small enough for the docs.
+``--width`` pixels each, written as ``DEST_DIR/<puzzle>.png``: small enough for the docs; and,
+when the run wrote them, its grip close-ups (one per action: the fingers on the handle) as
+``DEST_DIR/<puzzle>_grips.png``.
 """
 
 from __future__ import annotations
@@ -39,6 +41,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"error: no frames in {args.out_dir / name / 'frames'}", file=sys.stderr)
             return 2
         strip(frames, args.width).save(args.dest / f"{name}.png", optimize=True)
+        grips = sorted((args.out_dir / name / "frames").glob("grip_*.png"),
+                       key=lambda p: int(p.stem.split("_")[1]))
+        if grips:
+            strip(grips, args.width).save(args.dest / f"{name}_grips.png", optimize=True)
     return 0
 
 

@@ -146,9 +146,12 @@ def test_robot_executes_a_simple_slider_end_to_end(tmp_path):
     assert report.success, report.message
     assert report.target_at_goal
     assert report.max_penetration <= 0.002
-    assert report.actions == count_actions(puzzle.certificate, puzzle.planning_chain.factors)
     out = write_outputs(tmp_path / "out", report, recording, setup, video=False)
-    assert sorted(p.name for p in (out / "frames").iterdir()) == [f"frame_{i}.png" for i in range(1, 5)]
+    # The default solution source: a short benchmark's best LA-RRT path (the folder had none).
+    assert report.solution.startswith("benchmark best: LA-RRT run "), report.solution
+    assert report.actions == count_actions(puzzle.certificate, puzzle.planning_chain.factors)
+    expected = [f"frame_{i}.png" for i in range(1, 5)] + [f"grip_{i}.png" for i in range(1, report.actions + 1)]
+    assert sorted(p.name for p in (out / "frames").iterdir()) == sorted(expected)
     assert json.loads((out / "report.json").read_text())["success"] is True
 
 

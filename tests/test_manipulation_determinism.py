@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import pytest
 
-TIMING_FIELDS = ("planning_seconds", "execution_seconds")
+TIMING_FIELDS = ("planning_seconds", "execution_seconds", "benchmark_seconds")
 """Wall-clock measurements: the only report fields allowed to differ between equal runs."""
 
 

@@ -1,0 +1,132 @@
+"""The modelled gripper: handles it cannot hold are refused before any simulation, and the object
+is bound to the tool only while both fingers touch its handle (opening them releases it)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+SEED = 5219
+"""A fresh seed no other test uses."""
+
+
+@pytest.fixture(scope="module")
+def slider(tmp_path_factory):
+    from phyrogen_core.export import write_puzzle
+    from solver.pipelines.generation import generate_puzzle
+
+    return write_puzzle(generate_puzzle("simple_slider", SEED, {"n_objects": 2}), tmp_path_factory.mktemp("gripper"))
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    import manipulation.execution as execution
+
+    def started(*args, **kwargs):
+        raise AssertionError("a simulation (or the short benchmark) started")
+
+    monkeypatch.setattr(execution, "execute_solution", started)
+    monkeypatch.setattr(execution, "ensure_benchmark_solution", started)
+
+
+@pytest.mark.parametrize(("scale", "why"), [(2.0, "wide"), (0.06, "tall")])
+def test_a_handle_the_gripper_cannot_hold_is_refused_before_any_simulation(slider, scale, why, no_simulation,
+                                                                           tmp_path):
+    """At scale 2 the 5 cm knob is 100 mm wide (the fingers open to 85 mm); at 0.06 it is 12 mm
+    tall, less than the pads' 20 mm and a margin."""
+    from manipulation.execution import ExecutionSettings, execute_puzzle
+    from manipulation.outputs import write_outputs
+
+    report, recording, setup = execute_puzzle(slider, ExecutionSettings(scale=scale))
+    assert not report.success and report.solutions_tried == 0
+    assert report.message.startswith("refused before simulation: the gripper cannot hold")
+    assert "obj_00" in report.message and "obj_01" in report.message and why in report.message
+    out = write_outputs(tmp_path / "out", report, recording, setup, video=False)
+    assert sorted(p.name for p in out.iterdir()) == ["report.json"]
+
+
+def test_every_generators_handles_fit_the_gripper_at_its_physical_scale():
+    """The control: at the scales the runs use, nothing is refused."""
+    from manipulation.grasp import gripper_refusals
+    from manipulation.ik import GRASP_CLEARANCE
+    from manipulation.placement import physical_scale, scale_chain
+    from manipulation.robot import GripperSpec
+    from phyrogen_core.registry import all_generators
+    from solver.pipelines.generation import generate_puzzle
+
+    sizes = {"move_n_times": {"n": 1}, "simple_slider": {"n_objects": 2}, "rooms": {"n_rooms": 2, "doors": 1},
+             "lockbox_random": {"n_objects": 3}, "grid_world": {"n_objects": 3}, "continuous_space": {"n_objects": 3}}
+    for generator in sorted(all_generators()):
+        known = set(all_generators()[generator].default_params().__dataclass_fields__)
+        params = {k: v for k, v in sizes.get(generator, {}).items() if k in known}
+        chain = scale_chain(generate_puzzle(generator, SEED, params).chain, physical_scale(generator))
+        assert gripper_refusals(chain, GripperSpec(), GRASP_CLEARANCE) == [], generator
+
+
+def test_the_object_is_bound_only_while_both_fingers_touch_it(slider, tmp_path):
+    """Close on the handle: both fingers touch, the grasp binds the object. Hold: still bound.
+    Open the fingers: the binding goes as soon as a finger leaves, and the tool then moves away
+    without the object."""
+    import pybullet as pb
+
+    from manipulation.execution import ExecutionSettings, _Run, scene_placement
+    from manipulation.following import TIME_STEP, Trajectory, command
+    from manipulation.grasp import grasp_point
+    from manipulation.physics import with_masses
+    from manipulation.placement import joint_value_scale, scale_chain
+    from manipulation.reaching import seed_reaching
+    from manipulation.robot import ARM_REST
+    from manipulation.scene import open_worlds, write_scene_files
+    from manipulation.transforms import inverse, matrix
+    from phyrogen_core.export import read_puzzle_dir
+
+    loaded = read_puzzle_dir(slider)
+    settings = ExecutionSettings(short_benchmark=None)
+    certificate = np.asarray(loaded.certificate, dtype=float)
+    placement = scene_placement(loaded, certificate, settings)
+    chain = with_masses(scale_chain(loaded.chain, placement.scale), settings.material)
+    value_scale = joint_value_scale(loaded.chain, placement.scale)
+    sim, planner = open_worlds(write_scene_files(tmp_path, chain, settings.robot), chain, placement)
+    seed_reaching("simple_slider", loaded.name, SEED, "gripper test")
+    try:
+        run = _Run(loaded, chain, placement, sim, planner, value_scale, settings)
+        home = np.array([-placement.half_extent[0] - 0.8, 0.0, 0.0, *ARM_REST])
+        sim.set_robot(home)
+        command(sim, home)
+        grasp = grasp_point(chain, loaded.goal.target)
+        link = sim.puzzle_link[grasp.link]
+        still = Trajectory(np.array([0.0, 1.0]), np.vstack([sim.puzzle_state()] * 2))
+        run.grasp_here(grasp, still, 0.0, None)
+        assert run.grip is None and not run.fingers_hold(link)  # open fingers around the handle
+        assert run.close_gripper(link) and run.fingers_hold(link)
+        tool_at_link = inverse(run.link_world(grasp.link, sim.puzzle_state())) @ matrix(*sim.tool_pose())
+        run.attach(link, tool_at_link)
+        q = sim.robot_state()
+        for _ in range(60):  # held: the binding stays
+            command(sim, q)
+            pb.stepSimulation(physicsClientId=sim.client)
+            run.on_step()
+        assert run.grip is not None
+        run.command_fingers(0.0)
+        released_after = None
+        for step in range(60):
+            command(sim, q)
+            pb.stepSimulation(physicsClientId=sim.client)
+            run.on_step()
+            if run.grip is None:
+                released_after = step
+                break
+        # Released as the fingers left the handle (they open at 0.15 m/s).
+        assert released_after is not None and released_after < 30, released_after
+        assert not run.fingers_hold(link)
+        before, tool_before = sim.puzzle_state().copy(), np.asarray(sim.tool_pose()[0])
+        lifted = q.copy()
+        lifted[3 + 1] -= 0.2  # shoulder back: the tool rises and moves away
+        for _ in range(int(1.0 / TIME_STEP)):
+            command(sim, lifted)
+            pb.stepSimulation(physicsClientId=sim.client)
+        assert np.linalg.norm(np.asarray(sim.tool_pose()[0]) - tool_before) > 0.05
+        assert np.allclose(sim.puzzle_state(), before, atol=1e-4), (before, sim.puzzle_state())
+    finally:
+        sim.close()
+        planner.close()
