@@ -12,7 +12,9 @@ if [ ! -x "$ROOT/.venv/bin/python" ]; then
 fi
 VENV="$ROOT/.venv"
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
-"$VENV/bin/python" -m pip install --quiet -e "$ROOT[${PHYROGEN_EXTRAS:-blender,manipulation,interop,datasets,dev}]"
+# PHYROGEN_EXTRAS: the optional extras to install (unset: all of them; empty: the base packages only).
+EXTRAS="${PHYROGEN_EXTRAS-blender,manipulation,interop,datasets,dev}"
+"$VENV/bin/python" -m pip install --quiet -e "$ROOT${EXTRAS:+[$EXTRAS]}"
 
 # System packages for headless rendering, the Blender binary and browser checks.
 # Installed only when running as root on a Debian-like machine and missing.
