@@ -527,6 +527,16 @@ def owned_directory(final: str | Path, owns: Callable[[str], bool]) -> Iterator[
         yield temporary
 
 
+def carry_others(old: str | Path, new: str | Path, owns: Callable[[str], bool]) -> None:
+    """Hard-link (or copy) into the folder ``new`` every file of the folder ``old`` that ``owns``
+    does not name (POSIX paths inside ``old``) and ``new`` does not hold, at the same place: for a
+    stage that swaps in a whole folder of its own files (the benchmark's ``logs/``), so that a
+    user's file in the old one is kept. Nothing when ``old`` is missing or a symbolic link."""
+    old = Path(old)
+    if old.is_dir() and not old.is_symlink():
+        _carry(old, Path(new), owns, lambda path: True)
+
+
 STALE_FOLDER = "stale"
 """Where :func:`stage_directory` keeps the renders and solutions of a puzzle that was regenerated differently."""
 

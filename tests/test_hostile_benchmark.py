@@ -269,16 +269,83 @@ def test_a_finished_benchmark_replaces_only_its_own_entries(puzzles, tmp_path, c
     out = tmp_path / "bench"
     (out / "mine").mkdir(parents=True)
     (out / "mine" / "notes.txt").write_text("keep me")
+    # An earlier benchmark's folder (its journal: it stopped before a run finished), its runs crashed.
+    (out / JOURNAL).touch()
     (out / "errors.txt").write_text("from an earlier benchmark whose runs crashed")
+    (out / "logs" / "notes").mkdir(parents=True)
+    (out / "logs" / "notes" / "reading.md").write_text("a user's notes beside the logs")
+    (out / "logs" / "hostile_9.log").write_text("an earlier benchmark's log of a puzzle not run now")
     code, stdout, err = benchmark(capsys, puzzles, out)
     assert code == 0, err
     assert "| hostile_1 |" in stdout
     assert sorted(p.name for p in out.iterdir()) == ["benchmark.db", "fig4.png", "logs", "mine", "results.html",
                                                       JOURNAL, "summary.json", "summary.md"]
     assert (out / "mine" / "notes.txt").read_text() == "keep me"
-    assert sorted(p.name for p in (out / "logs").iterdir()) == ["hostile_1.log", "hostile_2.log"]
+    assert sorted(p.name for p in (out / "logs").iterdir()) == ["hostile_1.log", "hostile_2.log", "notes"]
+    assert (out / "logs" / "notes" / "reading.md").read_text() == "a user's notes beside the logs"
     assert len((out / JOURNAL).read_text().splitlines()) == 2
     assert all((puzzle_dir(puzzles, s) / "solutions" / "la_rrt_best.json").is_file() for s in (1, 2))
+
+
+def _users_summary(out: Path, outside: Path) -> tuple[Path, str]:
+    (out / "summary.md").write_text("my own summary of something else")
+    return out / "summary.md", "was not written by phyrogen benchmark"
+
+
+def _users_results_page(out: Path, outside: Path) -> tuple[Path, str]:
+    (out / "results.html").write_text("<p>my page</p>")
+    return out / "results.html", "was not written by phyrogen benchmark"
+
+
+def _linked_summary(out: Path, outside: Path) -> tuple[Path, str]:
+    (out / JOURNAL).touch()  # a benchmark's folder: still, the link is not the benchmark's to replace
+    (out / "summary.md").symlink_to(outside / "mine.md")
+    return out / "summary.md", "symbolic link"
+
+
+def _linked_journal(out: Path, outside: Path) -> tuple[Path, str]:
+    (out / JOURNAL).symlink_to(outside / "mine.md")  # appending would write outside the folder
+    return out / JOURNAL, "symbolic link"
+
+
+def _linked_logs(out: Path, outside: Path) -> tuple[Path, str]:
+    (out / JOURNAL).touch()
+    (out / "logs").symlink_to(outside, target_is_directory=True)
+    return out / "logs", "symbolic link"
+
+
+def _users_jsonl(out: Path, outside: Path) -> tuple[Path, str]:
+    (out / JOURNAL).write_text('{"my": "data"}\n["more"]\n')  # appending runs would change a user's file
+    return out / JOURNAL, "not a benchmark journal"
+
+
+@pytest.mark.parametrize("damage", [_users_summary, _users_results_page, _linked_summary, _linked_journal,
+                                    _linked_logs, _users_jsonl], ids=lambda f: f.__name__.strip("_"))
+def test_a_users_file_or_link_at_an_output_name_is_refused_before_any_run(damage, puzzles, tmp_path, capsys):
+    out, outside = tmp_path / "bench", tmp_path / "outside"
+    out.mkdir()
+    outside.mkdir()
+    (outside / "mine.md").write_text("a user's file elsewhere")
+    path, fragment = damage(out, outside)
+    before, elsewhere = tree(out), tree(outside)
+    assert_refused(*benchmark(capsys, puzzles, out), str(path), fragment)
+    assert (tree(out), tree(outside)) == (before, elsewhere)
+    assert not any(puzzle_dir(puzzles, 1).glob("solutions"))
+
+
+def test_a_benchmark_folder_without_its_journal_is_still_the_benchmarks(puzzles, tmp_path, capsys):
+    """Negative control: deleting the journal (to run everything again) leaves a folder whose
+    ``benchmark.db`` says whose the other entries are; they are replaced."""
+    out = tmp_path / "bench"
+    assert benchmark(capsys, puzzles, out)[0] == 0
+    (out / JOURNAL).unlink()
+    (out / "summary.md").write_text("the earlier benchmark's summary")
+    code, stdout, err = benchmark(capsys, puzzles, out)
+    assert code == 0, err
+    assert (out / "summary.md").read_text() != "the earlier benchmark's summary"
+    (out / JOURNAL).unlink()
+    (out / "benchmark.db").write_bytes(b"SQLite format 3\x00 but no benchmark")
+    assert_refused(*benchmark(capsys, puzzles, out), f"{out} holds no {JOURNAL} and no benchmark database")
 
 
 def test_a_journal_that_is_not_a_file_is_refused_before_any_run(puzzles, tmp_path, capsys):

@@ -38,7 +38,10 @@ runs, planners or puzzles reuses what it holds; delete it to run everything
 again. The other outputs (``logs/``, ``benchmark.db``, ``errors.txt``,
 ``summary.md``, ``summary.json``, ``fig4.png``, ``results.html``; :data:`OUTPUT_ENTRIES`) are built in a
 temporary folder inside ``out`` once all runs are done and each is swapped
-in with a rename; any other entry of ``out`` is left alone.
+in with a rename; any other entry of ``out`` is left alone, and so is a user's
+file in ``logs/`` that is no ``.log``. A link at one of these names, or a file
+of theirs in a folder no benchmark wrote, is refused before any run
+(:func:`check_output_folder`).
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ import json
 import math
 import os
 import platform
+import re
 import shutil
 import stat
 import tempfile
@@ -65,6 +69,7 @@ from phyrogen_core.folder import (
     OutputError,
     PuzzleFolder,
     PuzzleFormatError,
+    carry_others,
     read_folder_file,
     require_stage_folder,
     require_writable_dir,
@@ -421,6 +426,64 @@ OUTPUT_ENTRIES = ("logs", "benchmark.db", "errors.txt", "summary.md", "summary.j
 """The entries of the output folder that a finished benchmark writes, replacing the old ones (an entry
 it does not produce this time, say ``errors.txt``, is removed); every other entry is left alone."""
 _STAGING_PREFIX = ".benchmark-staging."
+DATABASE_TABLES = ("experiments", "runs")
+"""Tables every benchmark database has (OMPL's schema): what tells a benchmark's ``benchmark.db`` from another file."""
+
+
+def check_output_folder(out: Path) -> None:
+    """What a benchmark would replace in its output folder ``out``, checked before any run.
+
+    The journal and :data:`OUTPUT_ENTRIES` must be of their kind (``logs`` a folder, the rest
+    regular files), none a symbolic link: replacing a link deletes it, and appending to a linked
+    journal writes outside the folder. An output entry is replaced only in a folder a benchmark
+    wrote, one whose ``runs.jsonl`` is a journal (empty, or with a run in it) or whose
+    ``benchmark.db`` is a benchmark database: a user's own ``summary.md`` or ``results.html`` in
+    another folder is refused, not overwritten. Raises :class:`~phyrogen_core.folder.OutputError`,
+    one line naming the path."""
+    out = Path(out)
+    if not out.is_dir():
+        return
+    present = [name for name in (JOURNAL, *OUTPUT_ENTRIES) if os.path.lexists(out / name)]
+    for name in present:
+        path = out / name
+        if path.is_symlink():
+            raise OutputError(f"{path} is a symbolic link; a benchmark replaces only its own files in its output "
+                              "folder: move the link, or choose another --out")
+        if name == "logs" and not path.is_dir():
+            raise OutputError(f"{path} is not a folder; a benchmark writes its logs there: move it, or choose "
+                              "another --out")
+        if name != "logs" and not path.is_file():
+            raise OutputError(f"{path} is not a regular file; a benchmark replaces it with its own: move it, or "
+                              "choose another --out")
+    if JOURNAL in present and not _is_journal(out / JOURNAL):
+        raise OutputError(f"{out / JOURNAL} is not a benchmark journal (no line of it is a run); move it, or "
+                          "choose another --out")
+    outputs = [name for name in present if name != JOURNAL]
+    if outputs and JOURNAL not in present and not _is_benchmark_database(out / "benchmark.db"):
+        raise OutputError(f"{out / outputs[0]} was not written by phyrogen benchmark ({out} holds no {JOURNAL} "
+                          "and no benchmark database); move it, or choose another --out")
+
+
+def _is_journal(path: Path) -> bool:
+    try:
+        if os.stat(path).st_size == 0:
+            return True  # a benchmark stopped before its first run finished
+    except OSError:
+        return False
+    return bool(read_journal(path))
+
+
+def _is_benchmark_database(path: Path) -> bool:
+    import sqlite3
+
+    if path.is_symlink() or not path.is_file():
+        return False
+    try:
+        with contextlib.closing(sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)) as db:
+            tables = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    except sqlite3.Error:
+        return False
+    return all(table in tables for table in DATABASE_TABLES)
 
 
 def puzzle_digest(puzzle: PuzzleFolder) -> str:
@@ -548,7 +611,8 @@ class Journal:
 
     def __init__(self, path: Path):
         self.path = Path(path)
-        self._fd = os.open(self.path, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        # O_NOFOLLOW: a link there would take the journal outside the folder (refused up front as well).
+        self._fd = os.open(self.path, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, 0o644)
         try:
             try:
                 fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -691,6 +755,7 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
         raise ValueError("no puzzles to benchmark")
     out = Path(out)
     require_writable_dir(out)
+    check_output_folder(out)  # a user's summary.md or a link there is refused, not replaced
     seen: dict[str, PuzzleFolder] = {}
     digests: dict[str, str] = {}
     for puzzle in puzzles:
@@ -839,6 +904,8 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
             from solver.benchmark.results_page import write_results_page
 
             write_results_page(staging)
+        # Only the logs are the benchmark's in logs/: a user's notes there go into the new folder.
+        carry_others(plan.out / "logs", staging / "logs", lambda path: re.fullmatch(r"[^/]+\.log", path) is not None)
         for name in OUTPUT_ENTRIES:
             new, final = staging / name, plan.out / name
             # A folder cannot be renamed over an existing one: move the old entry out of the way first.
