@@ -8,7 +8,9 @@ one line. The pieces make the same run as one call (``test_the_pieces_make_the_s
 
 The puzzle cannot be solved (a wall seals the slider from its goal), so an uninterrupted run
 spends its whole budget, 10^8 queries (minutes). ``replan`` runs the same function after
-RRT-Connect has spent the same budget, which takes too long for a test at 10^8. The signal is
+RRT-Connect has spent the same budget, which takes hours at 10^8: its test stands in for that
+RRT-Connect with one that returns unsolved at once, and tests RRT-Connect's own search apart,
+each signalled once it has spent a CPU second searching. For ``import`` the signal is
 sent once the command's process has allocated the search trees for that budget (3.2 GB of
 address space at once, against 0.33 GB before: the loop is starting), and that it stopped at
 once is measured in the CPU time it spends after the signal, not on the clock; the clock is
@@ -138,3 +140,94 @@ def test_the_pieces_make_the_same_run(piece, monkeypatch):
                              result.iterations, rng.random()))
             assert runs[0] == runs[1], (generator, seed, fixed, piece)
             assert runs[0][3] >= 3_000 or runs[0][0], runs[0]  # the budget spent, or solved
+
+
+# -- replan: both of its searches ------------------------------------------------------------------
+PHASE_WRAPPER = """
+import sys
+from pathlib import Path
+
+import solver.pipelines.replanning as replanning
+from phyrogen.cli import main
+from phyrogen_core.maker import SolveResult
+
+flag, phase = Path(sys.argv[1]), sys.argv[2]
+real = {"rrt_connect": replanning.rrt_connect, "la_rrt": replanning.la_rrt_within}[phase]
+
+
+def started(*args, **kwargs):
+    flag.touch()  # the search of this phase starts now
+    return real(*args, **kwargs)
+
+
+if phase == "la_rrt":
+    # RRT-Connect, having spent its budget: at 10^8 queries the real one takes hours to get here.
+    replanning.rrt_connect = lambda problem, budget, rng, resolution: SolveResult(False, checks=budget)
+    replanning.la_rrt_within = started
+else:
+    replanning.rrt_connect = started
+sys.exit(main(sys.argv[3:]))
+"""
+SEARCHING_CPU = 1.0
+"""CPU seconds a phase has run before the signal: past its set-up, inside its search (which would
+take minutes at this budget)."""
+
+
+def sealed_folder(root: Path) -> Path:
+    """A puzzle folder whose only movable object, a block, a wall seals from its goal: no search solves it."""
+    from phyrogen_core.chain import GREEN, Geometry, Role
+    from phyrogen_core.export import write_puzzle
+    from phyrogen_core.geometry import Box, Pose
+    from phyrogen_core.objects import Motion, PuzzleObject
+    from phyrogen_core.puzzle import Goal, Puzzle
+
+    block, wall = Box((0.2, 0.2, 0.2)), Box((0.2, 2.0, 0.5))
+    objects = (
+        PuzzleObject("obj_00", Motion.PRISMATIC, Pose.planar(0.0, 0.0, 0.1), (Geometry(block, color=GREEN),),
+                     (Geometry(block, color=GREEN),), Role.TARGET, ((0.0, 2.0),), (1.0, 0.0, 0.0)),
+        PuzzleObject("fixed_00_wall", Motion.FIXED, Pose.planar(1.0, 0.0, 0.25), (Geometry(wall),),
+                     (Geometry(wall),), Role.STATIC),
+    )
+    puzzle = Puzzle(objects, Goal("obj_00", {"obj_00": 2.0}), "sealed", 1, {})
+    return write_puzzle(puzzle.with_certificate([puzzle.start, (2.0,)]), root)
+
+
+def files_of(root: Path) -> dict[str, bytes | None]:
+    return {str(p.relative_to(root)): p.read_bytes() if p.is_file() else None for p in sorted(root.rglob("*"))}
+
+
+@pytest.mark.parametrize("phase", ["rrt_connect", "la_rrt"])
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_replan_stops_each_of_its_searches_at_once(phase, signum, tmp_path):
+    folder = sealed_folder(tmp_path / "puzzles")
+    before = files_of(tmp_path / "puzzles")
+    flag = tmp_path / "searching"
+    process = subprocess.Popen([sys.executable, "-c", PHASE_WRAPPER, str(flag), phase, "replan", str(folder),
+                                "--budget", str(BUDGET)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, start_new_session=True)
+    try:
+        wait_until(lambda: process.poll() is not None or flag.exists(), f"the start of {phase}")
+        assert process.poll() is None, process.communicate()
+        at_start = cpu_seconds(process.pid)
+        wait_until(lambda: process.poll() is not None or cpu_seconds(process.pid) - at_start >= SEARCHING_CPU,
+                   f"{SEARCHING_CPU} CPU seconds into {phase}")
+        assert process.poll() is None, process.communicate()
+        before_signal = after = cpu_seconds(process.pid)
+        process.send_signal(signum)
+
+        def ended() -> bool:
+            nonlocal after
+            now = cpu_seconds(process.pid)
+            after = now if now is not None else after
+            return process.poll() is not None
+
+        wait_until(ended, "the end of the interrupted replan")
+        out, err = process.communicate(timeout=BACKSTOP)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+    assert (process.returncode, out, err) == (128 + signum, "", "phyrogen: interrupted\n"), (process.returncode,
+                                                                                             out, err)
+    assert after - before_signal < STOPPED_CPU, after - before_signal
+    assert files_of(tmp_path / "puzzles") == before  # no new certificate, no temporary left
