@@ -19,7 +19,7 @@ bl_info = {
 
 
 def register() -> None:
-    from .environment import ensure_project_importable
+    from .environment import ensure_project_importable, use_numba_cache
 
     try:
         ensure_project_importable()
@@ -28,9 +28,25 @@ def register() -> None:
 
         missing_dependencies.register(str(exc))
         return
+    use_numba_cache(_numba_cache_folder())
     from . import ui
 
     ui.register()
+
+
+def _numba_cache_folder() -> str | None:
+    """Where an installed add-on's jobs keep numba's compiled kernels: the extension's user folder
+    (Blender 4.2+), the user's configuration folder for the legacy zip; None in a checkout, whose
+    environment keeps them beside the sources, shared with the command line."""
+    from pathlib import Path
+
+    import bpy
+
+    if (__package__ or "").startswith("bl_ext."):
+        return bpy.utils.extension_path_user(__package__, path="numba-cache", create=True)
+    if (Path(__file__).resolve().parent / "site-packages").is_dir():
+        return bpy.utils.user_resource("CONFIG", path="phyrogen/numba-cache", create=True)
+    return None
 
 
 def unregister() -> None:

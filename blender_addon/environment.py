@@ -7,6 +7,9 @@ packages. Two things supply them:
   Blender 4.2+ installs into its extensions' site-packages and puts on
   ``sys.path``: nothing to find, but worker processes started with Blender's
   own Python need that folder on their ``PYTHONPATH`` (:func:`share_with_workers`);
+- the legacy add-on zip's ``site-packages`` folder beside this file (Blender
+  3.x installs no wheels): appended to ``sys.path`` here, after Blender's own
+  folders, and shared with the workers the same way;
 - the project's virtual environment ($PHYROGEN_VENV, or ``.venv`` beside a
   checkout): its site-packages are added with :func:`site.addsitedir` so that
   ``.pth`` files (the editable install of PhyRoGen itself) are honoured, and
@@ -25,6 +28,8 @@ from pathlib import Path
 
 REPOSITORY = Path(__file__).resolve().parent.parent
 ENVIRONMENT_VARIABLE = "PHYROGEN_VENV"
+BUNDLED_SITE_PACKAGES = Path(__file__).resolve().parent / "site-packages"
+"""The legacy add-on zip's unpacked wheels (``scripts/build_addon.py``); absent in a checkout and the extension."""
 
 
 def candidate_environments() -> list[Path]:
@@ -58,6 +63,9 @@ def ensure_project_importable() -> None:
 
     Raises ImportError naming the environments that were tried.
     """
+    if BUNDLED_SITE_PACKAGES.is_dir() and str(BUNDLED_SITE_PACKAGES) not in sys.path:
+        site.addsitedir(str(BUNDLED_SITE_PACKAGES))  # appended: a Blender's own numpy comes first
+    make_bundled_binaries_executable()
     try:
         import numpy  # noqa: F401
 
@@ -84,8 +92,9 @@ def missing_message(problem: str, extension: bool) -> str:
     """What to do when PhyRoGen's packages cannot be imported (``problem``: the ImportError's text);
     ``extension``: this runs as a Blender extension, which can bundle them."""
     version = f"{sys.version_info.major}.{sys.version_info.minor}"
-    ways = [f"install the PhyRoGen extension zip that bundles them (scripts/build_addon.py builds it, for "
-            f"Linux x86-64 and Python {version})"] if extension else []
+    zip_name = "extension zip" if extension else "legacy add-on zip (phyrogen-<version>-legacy.zip)"
+    ways = [f"install the PhyRoGen {zip_name} that bundles them (scripts/build_addon.py builds it, for "
+            f"Linux x86-64 and Python 3.11; this Blender's Python is {version})"]
     checkout = "a PhyRoGen checkout" if extension else str(REPOSITORY)
     ways.append(f"set {ENVIRONMENT_VARIABLE} to a Python {version} environment where PhyRoGen is installed "
                 f"('python{version} -m venv .venv && .venv/bin/pip install -e .' in {checkout}) and start again")
@@ -94,8 +103,23 @@ def missing_message(problem: str, extension: bool) -> str:
             + f". Environments tried: {tried}.")
 
 
-WORKER_MODULES = ("phyrogen_core", "solver", "ompl", "numba", "llvmlite", "tqdm")
-"""What worker processes (``phyrogen generate``) import beyond the standard library and numpy."""
+WORKER_MODULES = ("phyrogen_core", "solver", "ompl", "numba", "llvmlite", "tqdm", "numpy", "matplotlib", "pybullet",
+                  "pybullet_data", "imageio", "imageio_ffmpeg", "PIL")
+"""What worker processes (``phyrogen generate``, ``benchmark``, ``manipulate``) import beyond the standard library."""
+
+
+def make_bundled_binaries_executable() -> None:
+    """Give imageio-ffmpeg's bundled ``ffmpeg`` back its executable bit, which unpacking a zip (Blender's
+    add-on installer) drops; without it Manipulate's video fails. Only a file that is ours to change."""
+    folder = module_search_path("imageio_ffmpeg")
+    if folder is None:
+        return
+    for binary in (Path(folder) / "imageio_ffmpeg" / "binaries").glob("ffmpeg*"):
+        try:
+            if binary.is_file() and not os.access(binary, os.X_OK) and os.access(binary, os.W_OK):
+                binary.chmod(binary.stat().st_mode | 0o111)
+        except OSError:
+            pass
 
 
 def module_search_path(name: str) -> str | None:
@@ -173,3 +197,25 @@ def render_worker_command() -> list[str]:
         return [worker_python(), "-m", "blender_addon.render_worker"]
     return [blender, "--background", "--factory-startup", "--python-exit-code", "1",
             "--python-expr", _IN_BLENDER.format(repository=str(REPOSITORY)), "--"]
+
+
+NUMBA_CACHE_VARIABLE = "NUMBA_CACHE_DIR"
+
+
+def use_numba_cache(folder: str | Path | None) -> None:
+    """Let the workers' numba keep its compiled kernels in ``folder`` (NUMBA_CACHE_DIR, inherited by every
+    job), unless the user set one: an installed add-on must not write into its own install folder, and
+    without a cache every Generate would compile the collision kernels again (1 to 2 minutes)."""
+    if folder is not None:
+        os.environ.setdefault(NUMBA_CACHE_VARIABLE, str(folder))
+
+
+def collision_kernels_cached() -> bool:
+    """Whether numba's cache holds the compiled collision kernels (``solver/collision/kernels.py``), so
+    that a job starts without compiling them: in NUMBA_CACHE_DIR when set, else beside the source."""
+    root = os.environ.get(NUMBA_CACHE_VARIABLE)
+    if root:
+        return Path(root).is_dir() and next(Path(root).rglob("kernels.*.nbi"), None) is not None
+    folder = module_search_path("solver")
+    return folder is not None and next((Path(folder) / "solver" / "collision" / "__pycache__").glob(
+        "kernels.*.nbi"), None) is not None

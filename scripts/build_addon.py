@@ -1,19 +1,27 @@
-"""Build the Blender extension zip from ``blender_addon/``: ``python scripts/build_addon.py [--out DIR]``.
+"""Build PhyRoGen's Blender add-on zips from ``blender_addon/``: ``python scripts/build_addon.py [--out DIR]``.
 
-Uses Blender's own extension builder (shipped with the bpy wheel, or given
-with ``--builder``), so the zip is what Blender 4.2+ installs. Older Blender
-(3.4+) installs ``blender_addon`` as a legacy add-on from the same zip.
-Prints the path of the zip.
+Two zips, each self-contained for Linux x86-64 and Python 3.11 (prints both paths):
 
-The zip is self-contained: it bundles, as the manifest's ``wheels``, what
-Generate and Re-plan need for Blender 4.2+'s Python 3.11 on Linux x86-64:
-PhyRoGen itself (a wheel built from this repository) and OMPL, numba with
-llvmlite, and tqdm, at the versions ``pyproject.toml`` pins. numpy is not
-bundled: Blender ships it (1.x in 4.2 to 4.5), and a second copy would shadow
-Blender's own for every add-on (extensions' wheels come first on sys.path).
+- ``phyrogen-<version>.zip``, the extension for Blender 4.2+ (Edit > Preferences >
+  Get Extensions > Install from Disk), built with Blender's own extension
+  builder (shipped with the bpy wheel, or given with ``--builder``). Its
+  manifest's ``wheels`` bundle what every panel button runs: PhyRoGen itself
+  (a wheel built from this repository), OMPL, numba with llvmlite, tqdm,
+  matplotlib (Benchmark's plots), pybullet, imageio and imageio-ffmpeg
+  (Manipulate's simulation, frames and video), at the versions
+  ``pyproject.toml`` pins, and what they require. numpy is not bundled: Blender
+  ships it (1.x in 4.2 to 4.5), and a second copy would shadow Blender's own for
+  every add-on (extensions' wheels come first on sys.path).
+- ``phyrogen-<version>-legacy.zip``, the legacy add-on for Blender 3.x (Edit >
+  Preferences > Add-ons > Install): one folder, ``phyrogen_blender/``, with
+  ``bl_info`` in its ``__init__.py`` and the same wheels unpacked into
+  ``phyrogen_blender/site-packages/``, numpy included (Debian's Blender 3.4 has
+  none). The add-on appends that folder to ``sys.path`` (after Blender's own, so
+  a Blender's numpy wins) and puts it on its workers' ``PYTHONPATH``.
+
 Wheels are downloaded once into ``build/wheels`` (git-ignored; ``--wheels DIR``
-for another cache); later builds work offline. ``--no-wheels`` builds the thin
-zip that needs PhyRoGen's virtual environment (``PHYROGEN_VENV``).
+for another cache); later builds work offline. ``--no-wheels`` builds thin zips
+that need PhyRoGen's virtual environment (``PHYROGEN_VENV``).
 """
 
 from __future__ import annotations
@@ -25,22 +33,30 @@ import subprocess
 import sys
 import tempfile
 import tomllib
+import zipfile
 from pathlib import Path
 
 REPOSITORY = Path(__file__).resolve().parent.parent
 SOURCE = REPOSITORY / "blender_addon"
 WHEEL_CACHE = REPOSITORY / "build" / "wheels"
 
-BUNDLED = ("ompl", "numba", "tqdm")
-"""Project dependencies that generation and planning import (llvmlite comes with numba)."""
+BUNDLED = ("ompl", "numba", "tqdm", "matplotlib", "pybullet", "imageio", "imageio-ffmpeg")
+"""Project dependencies the panel's buttons import: Generate, Re-plan (OMPL, numba; llvmlite comes with
+numba), Benchmark (matplotlib's plots), Manipulate (pybullet; imageio and imageio-ffmpeg write its frames
+and video)."""
+EXTRAS = ("manipulation",)
+"""Optional dependency groups of ``pyproject.toml`` that the panel needs (Manipulate's frames and video)."""
 PROVIDED_BY_BLENDER = ("numpy",)
-"""Resolved with the bundle (numba needs a compatible one) but not bundled: Blender ships them."""
+"""Resolved with the bundle (numba needs a compatible one) but not in the extension: Blender 4.2+ ships
+them. The legacy zip bundles them too (appended to sys.path, so a Blender's own copy wins)."""
 NOT_BUNDLED = {
-    "numpy": "Blender ships numpy (1.x in Blender 4.2 to 4.5); a bundled copy would shadow Blender's own",
-    "pybullet": "only manipulation and audit use it, not the panel",
-    "matplotlib": "only benchmark plots use it, not the panel",
+    "numpy": "Blender 4.2+ ships numpy (1.x in Blender 4.2 to 4.5); in the extension a bundled copy would "
+             "shadow Blender's own",
 }
-"""Why each project dependency outside ``BUNDLED`` stays out of the zip (a test checks the list is complete)."""
+"""Why each project dependency outside ``BUNDLED`` stays out of the extension (a test checks the list is complete)."""
+LEGACY_MODULE = "phyrogen_blender"
+"""The legacy add-on's folder and module name: not ``phyrogen``, the command line's package, which the
+bundled site-packages also holds."""
 PLATFORM = "linux-x64"
 WHEEL_PLATFORMS = ("manylinux_2_28_x86_64", "manylinux2014_x86_64")  # Blender 4.2+ on Linux needs glibc 2.28
 PYTHON_VERSION = "3.11"  # Blender 4.2 to 4.5 (and the bpy 4.5 wheel)
@@ -61,8 +77,11 @@ def find_builder() -> Path:
 
 
 def project_requirements() -> dict[str, str]:
-    """``pyproject.toml``'s dependencies, by lower-case distribution name -> requirement string."""
-    dependencies = tomllib.loads((REPOSITORY / "pyproject.toml").read_text(encoding="utf-8"))["project"]["dependencies"]
+    """``pyproject.toml``'s dependencies and those of :data:`EXTRAS`, by lower-case distribution name ->
+    requirement string."""
+    project = tomllib.loads((REPOSITORY / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    dependencies = [*project["dependencies"],
+                    *(r for extra in EXTRAS for r in project["optional-dependencies"][extra])]
     return {re.split(r"[<>=!~ \[;]", requirement, maxsplit=1)[0].lower(): requirement
             for requirement in dependencies}
 
@@ -77,9 +96,9 @@ def _pip(arguments: list[str]) -> subprocess.CompletedProcess:
                           capture_output=True, text=True)
 
 
-def dependency_wheels(cache: Path) -> list[Path]:
+def dependency_wheels(cache: Path, provided: bool = False) -> list[Path]:
     """Wheels of ``BUNDLED`` and what they need for Blender's Python on Linux x86-64, from ``cache``
-    (downloaded into it when missing); those of ``PROVIDED_BY_BLENDER`` are left out."""
+    (downloaded into it when missing); those of ``PROVIDED_BY_BLENDER`` only with ``provided``."""
     requirements = project_requirements()
     missing = [name for name in (*BUNDLED, *PROVIDED_BY_BLENDER) if name not in requirements]
     if missing:
@@ -102,7 +121,7 @@ def dependency_wheels(cache: Path) -> list[Path]:
     listing = _pip(["download", "--no-index", "--find-links", str(cache), *target, *wanted])
     chosen = sorted({Path(match) for match in re.findall(r"(\S+\.whl)", listing.stdout)}, key=lambda p: p.name)
     wheels = [cache / path.name for path in chosen
-              if distribution_name(path) not in PROVIDED_BY_BLENDER and (cache / path.name).is_file()]
+              if (provided or distribution_name(path) not in PROVIDED_BY_BLENDER) and (cache / path.name).is_file()]
     found = {distribution_name(w) for w in wheels}
     if listing.returncode != 0 or not set(BUNDLED) <= found:
         raise RuntimeError(f"the wheels in {cache} do not cover {list(BUNDLED)} (found {sorted(found)}): "
@@ -164,23 +183,80 @@ def build(out_dir: Path, builder: Path | None = None, wheels: bool = True, cache
                                  "--output-dir", str(out_dir)], capture_output=True, text=True)
     if result.returncode != 0:
         raise RuntimeError(f"extension build failed ({result.returncode}): {result.stdout}{result.stderr}")
-    zips = sorted(out_dir.glob("phyrogen-*.zip"), key=lambda p: p.stat().st_mtime)
+    zips = sorted((p for p in out_dir.glob("phyrogen-*.zip") if not p.name.endswith("-legacy.zip")),
+                  key=lambda p: p.stat().st_mtime)
     if not zips:
         raise RuntimeError(f"the builder wrote no zip into {out_dir}: {result.stdout}")
     return zips[-1]
 
 
+def unpack_wheel(wheel: Path, site_packages: Path) -> None:
+    """Install ``wheel`` into ``site_packages`` as pip would for a pure/platlib wheel: its files, with
+    ``<name>.data/purelib`` and ``platlib`` merged in (scripts and data files are not needed)."""
+    with zipfile.ZipFile(wheel) as archive:
+        for member in archive.infolist():
+            parts = Path(member.filename).parts
+            if parts and parts[0].endswith(".data"):
+                if len(parts) < 3 or parts[1] not in ("purelib", "platlib"):
+                    continue
+                target = site_packages.joinpath(*parts[2:])
+            else:
+                target = site_packages / member.filename
+            if member.is_dir():
+                target.mkdir(parents=True, exist_ok=True)
+                continue
+            target.parent.mkdir(parents=True, exist_ok=True)
+            with archive.open(member) as source, open(target, "wb") as out:
+                shutil.copyfileobj(source, out)
+            mode = (member.external_attr >> 16) & 0o777
+            if mode:
+                target.chmod(mode | 0o644)
+
+
+def build_legacy(out_dir: Path, wheels: bool = True, cache: Path = WHEEL_CACHE) -> Path:
+    """Build the legacy add-on zip for Blender 3.x into ``out_dir`` and return its path (see above)."""
+    manifest = tomllib.loads((SOURCE / "blender_manifest.toml").read_text(encoding="utf-8"))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    target = out_dir / f"phyrogen-{manifest['version']}-legacy.zip"
+    with tempfile.TemporaryDirectory() as staging:
+        root = Path(staging) / LEGACY_MODULE
+        shutil.copytree(SOURCE, root, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "blender_manifest.toml"))
+        if wheels:
+            site_packages = root / "site-packages"
+            for wheel in [*dependency_wheels(cache, provided=True), project_wheel(Path(staging) / "project")]:
+                unpack_wheel(wheel, site_packages)
+        temporary = target.with_name(f".{target.name}.tmp")
+        with zipfile.ZipFile(temporary, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as archive:
+            for path in sorted(root.rglob("*")):
+                if path.is_file():
+                    info = zipfile.ZipInfo.from_file(path, path.relative_to(staging).as_posix())
+                    info.compress_type = zipfile.ZIP_DEFLATED
+                    with open(path, "rb") as source:
+                        archive.writestr(info, source.read())
+        temporary.replace(target)
+    return target
+
+
+KINDS = ("both", "extension", "legacy")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="dist", help="output folder (default: dist)")
+    parser.add_argument("--kind", choices=KINDS, default="both",
+                        help="the extension zip (Blender 4.2+), the legacy add-on zip (Blender 3.x), or both "
+                             "(default; one path per line, the extension's first)")
     parser.add_argument("--builder", type=Path, help="Blender's blender_ext.py (default: the bpy wheel's)")
     parser.add_argument("--wheels", type=Path, default=WHEEL_CACHE,
                         help="cache of the wheels to bundle (default: build/wheels; downloaded when missing)")
     parser.add_argument("--no-wheels", action="store_true",
-                        help="bundle nothing: the thin zip, which needs PhyRoGen's environment (PHYROGEN_VENV)")
+                        help="bundle nothing: thin zips, which need PhyRoGen's environment (PHYROGEN_VENV)")
     args = parser.parse_args(argv)
     try:
-        print(build(Path(args.out), args.builder, wheels=not args.no_wheels, cache=args.wheels))
+        if args.kind in ("both", "extension"):
+            print(build(Path(args.out), args.builder, wheels=not args.no_wheels, cache=args.wheels))
+        if args.kind in ("both", "legacy"):
+            print(build_legacy(Path(args.out), wheels=not args.no_wheels, cache=args.wheels))
     except (FileNotFoundError, RuntimeError) as exc:
         print(f"build_addon: error: {exc}", file=sys.stderr)
         return 1

@@ -23,8 +23,10 @@ pytestmark = pytest.mark.blender
 def extension_zip(tmp_path_factory):
     out = tmp_path_factory.mktemp("dist")
     with wheel_cache_lock():
-        result = subprocess.run([sys.executable, str(REPOSITORY / "scripts" / "build_addon.py"), "--out", str(out)],
-                                capture_output=True, text=True, check=True)
+        # The thin extension: this process has PhyRoGen's environment (the bundled zips are tested in
+        # tests/test_blender_extension.py, from fresh Blenders).
+        result = subprocess.run([sys.executable, str(REPOSITORY / "scripts" / "build_addon.py"), "--out", str(out),
+                                 "--kind", "extension", "--no-wheels"], capture_output=True, text=True, check=True)
     return Path(result.stdout.strip())
 
 

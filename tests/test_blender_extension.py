@@ -1,10 +1,13 @@
-"""The self-contained extension: the zip bundles what Generate needs, and a fresh Blender with only the zip
-installed generates a certified puzzle and re-plans it.
+"""The self-contained zips: each bundles what every panel button runs, and a fresh Blender with nothing but
+the zip installed presses Generate, Validate, Re-plan, Benchmark and Manipulate to completion.
 
-"Fresh Blender" is the bpy 4.5 wheel in a Python that holds nothing else: a new virtual environment whose
-site-packages links bpy and the distributions bpy requires (what a Blender binary ships: numpy, requests,
-zstandard, Cython), with an empty Blender user folder, no PYTHONPATH, no PHYROGEN_VENV and no VIRTUAL_ENV,
-started in an empty folder. PhyRoGen, OMPL, numba and tqdm can come only from the extension's wheels.
+Two zips (``scripts/build_addon.py``): the extension for Blender 4.2+, installed in the bpy 4.5 wheel, and
+the legacy add-on for Blender 3.x, installed in Debian's Blender 3.4.1 through Preferences > Add-ons >
+Install. "Fresh" means an empty Blender user folder (``BLENDER_USER_*``), an empty working folder, no
+PYTHONPATH, PHYROGEN_VENV or VIRTUAL_ENV; for the wheel, also a Python that holds nothing else: a new
+virtual environment whose site-packages links bpy and the distributions bpy requires (what a Blender
+binary ships: numpy, requests, zstandard, Cython). PhyRoGen and its dependencies can come only from the
+zip (``tests/blender_install_script.py`` runs in that Blender).
 """
 
 from __future__ import annotations
@@ -22,10 +25,12 @@ from importlib import metadata
 from pathlib import Path
 
 import pytest
-from blender_support import wheel_cache_lock
+from blender_support import tool, wheel_cache_lock
 
 REPOSITORY = Path(__file__).resolve().parent.parent
 BUILD_ADDON = REPOSITORY / "scripts" / "build_addon.py"
+INSTALL_SCRIPT = REPOSITORY / "tests" / "blender_install_script.py"
+BLENDER = tool("blender")
 
 
 def _build_addon_module():
@@ -82,43 +87,6 @@ def test_workers_do_not_get_a_checkout_on_their_path(no_environment, monkeypatch
     assert os.environ["PYTHONPATH"] == "elsewhere"
 
 
-# The fresh Blender's script: install the zip with the extensions API, press Generate and Validate.
-FRESH_BLENDER_SCRIPT = r'''
-import importlib.util, json, os, sys, traceback
-
-zip_path, out, result_path = sys.argv[1:4]
-modules = ("phyrogen", "phyrogen_core", "solver", "blender_addon", "ompl", "numba", "llvmlite", "tqdm")
-result = {"importable_before": [m for m in modules if importlib.util.find_spec(m) is not None],
-          "sys_path": sys.path}
-try:
-    import bpy
-
-    result["blender"] = bpy.app.version_string
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    result["install"] = sorted(bpy.ops.extensions.package_install_files(
-        filepath=zip_path, repo="user_default", enable_on_install=True))
-    settings = bpy.context.scene.phyrogen
-    settings.generator = "simple_slider"
-    settings.seed = 2
-    settings.output = out
-    result["generate"] = sorted(bpy.ops.phyrogen.generate())
-    result["validate"] = sorted(bpy.ops.phyrogen.validate())
-    folder = os.path.join(out, "simple_slider", "simple_slider_2")
-    with open(os.path.join(folder, "puzzle.json"), "rb") as generated:
-        result["generated_metadata"] = generated.read().decode()
-    result["replan"] = sorted(bpy.ops.phyrogen.replan())  # OMPL in a worker of Blender's own Python
-    result["objects"] = sorted(o.name for o in bpy.data.objects)
-    result["origins"] = {m: getattr(importlib.util.find_spec(m), "origin", None) for m in modules}
-    result["pythonpath"] = os.environ.get("PYTHONPATH", "")
-    # bpy 4.5 hangs at interpreter exit while add-on classes are still registered.
-    bpy.ops.preferences.addon_disable(module="bl_ext.user_default.phyrogen")
-except Exception:
-    result["error"] = traceback.format_exc()
-with open(result_path, "w") as f:
-    json.dump(result, f)
-'''
-
-
 def _requirement_closure(name: str) -> list[metadata.Distribution]:
     """``name``'s distribution and those it requires (without extras), as installed here."""
     found: dict[str, metadata.Distribution] = {}
@@ -165,18 +133,25 @@ def run_fresh_blender(python: Path, script: str, arguments: list[str], tmp_path:
     return result
 
 
-def _build_zip(out: Path, *options: str) -> Path:
+def _build_zip(out: Path, *options: str) -> list[Path]:
     with wheel_cache_lock():
         result = subprocess.run([sys.executable, str(BUILD_ADDON), "--out", str(out), *options],
                                 capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
-    return Path(result.stdout.strip())
+    return [Path(line) for line in result.stdout.split()]
 
 
 @pytest.fixture(scope="module")
-def bundled_zip(tmp_path_factory):
+def zips(tmp_path_factory):
+    """The extension zip and the legacy add-on zip, built once for the module."""
     pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
-    return _build_zip(tmp_path_factory.mktemp("dist"))
+    extension, legacy = _build_zip(tmp_path_factory.mktemp("dist"))
+    return extension, legacy
+
+
+@pytest.fixture(scope="module")
+def bundled_zip(zips):
+    return zips[0]
 
 
 @pytest.mark.blender
@@ -187,7 +162,8 @@ def test_zip_bundles_the_wheels_its_manifest_lists(bundled_zip):
     bundled = sorted(n for n in archive.namelist() if n.startswith("wheels/"))
     assert sorted(w.removeprefix("./") for w in manifest["wheels"]) == bundled
     names = {build_addon.distribution_name(Path(n)) for n in bundled}
-    assert names == {*build_addon.BUNDLED, "llvmlite", "phyrogen"}
+    assert {*build_addon.BUNDLED, "llvmlite", "phyrogen"} <= names  # and what they require
+    assert not names & set(build_addon.PROVIDED_BY_BLENDER)  # Blender's own numpy stays Blender's
     assert manifest["platforms"] == ["linux-x64"]
     # PhyRoGen's own wheel holds every package Generate runs, and no test or script.
     (own,) = [n for n in bundled if build_addon.distribution_name(Path(n)) == "phyrogen"]
@@ -196,41 +172,98 @@ def test_zip_bundles_the_wheels_its_manifest_lists(bundled_zip):
     assert tops == {"phyrogen", "phyrogen_core", "solver", "blender_addon", "manipulation"}
 
 
-@pytest.mark.blender
-@pytest.mark.slow
-def test_fresh_blender_with_only_the_zip_generates_and_replans(bundled_zip, tmp_path):
+def check_installed_jobs(result: dict, out: Path, installed: Path) -> None:
+    """What every fresh-install test asserts of ``tests/blender_install_script.py``'s result: all five
+    buttons finished, from the zip's files, and their outputs hold."""
     from phyrogen_core.export import read_puzzle_dir
     from solver.planning.problem import verify_certificate
 
-    python = fresh_blender_python(tmp_path / "blender-python")
-    home, out = tmp_path / "home", tmp_path / "out"
-    result = run_fresh_blender(python, FRESH_BLENDER_SCRIPT, [str(bundled_zip), str(out)], tmp_path)
     assert result["importable_before"] == []  # nothing of PhyRoGen's, before the zip is installed
-    assert result["blender"].startswith("4.5")
-    assert result["install"] == ["FINISHED"]
-    assert result["generate"] == ["FINISHED"] and result["validate"] == ["FINISHED"]
-    assert result["replan"] == ["FINISHED"], result
-    assert {"base_link", "obj_00", "obj_01"} <= set(result["objects"])
-    # PhyRoGen and its dependencies come from the wheels the extension installed, for Blender's
-    # process and (on PYTHONPATH) for the generation worker that Generate started.
-    extensions = home / "resources" / "extensions"
+    assert result["panels"] == ["PHYROGEN_PT_panel"]
+    assert result["missing"] == {"benchmark": [], "manipulate": []}  # every button shown
+    for job in ("generate", "validate", "replan", "benchmark", "manipulate", "generate_again"):
+        assert result[job] == ["FINISHED"], (job, result.get(f"{job}_message"))
+    # PhyRoGen and its dependencies come from the installed zip, for Blender's process and (on
+    # PYTHONPATH) for the workers that the jobs started.
     for module, origin in result["origins"].items():
-        assert origin is not None and Path(origin).is_relative_to(extensions), (module, origin)
-    assert all(Path(p).is_relative_to(extensions) for p in result["pythonpath"].split(os.pathsep))
+        assert origin is not None and Path(origin).is_relative_to(installed), (module, origin)
+    assert all(Path(p).is_relative_to(installed) for p in result["pythonpath"].split(os.pathsep))
+    # numba's compiled kernels: none before the first job, kept for the next ones in the user's folder.
+    assert not result["cached_before"] and result["first_run_note"].startswith("compiling collision kernels")
+    assert result["cached_after"] and result["first_run_note_after"] == ""
+    package = Path(result["module_file"]).parent  # an installed add-on must not write into its own folder
+    assert not Path(result["numba_cache"]).is_relative_to(package)
+    assert not any(Path(result["numba_cache"]).is_relative_to(p) for p in result["pythonpath"].split(os.pathsep))
 
     folder = out / "simple_slider" / "simple_slider_2"
-    assert (folder / "urdf" / "simple_slider_2.urdf").is_file() and (folder / "srdf" / "simple_slider_2.srdf").is_file()
     loaded = read_puzzle_dir(folder)  # strictly: metadata agrees with the URDF
     assert len(loaded.certificate) >= 2 and loaded.record.provenance.replanned is not None
     assert verify_certificate(loaded.chain, loaded.certificate, loaded.goal) == []
-    # The same puzzle as PhyRoGen's own environment makes.
-    reference = tmp_path / "reference"
-    subprocess.run([sys.executable, "-m", "phyrogen", "generate", "--generator", "simple_slider", "--seeds", "2",
-                    "--out", str(reference), "--quiet"], check=True, capture_output=True, cwd=REPOSITORY)
-    made = reference / "simple_slider" / "simple_slider_2"
-    for name in ("urdf/simple_slider_2.urdf", "srdf/simple_slider_2.srdf"):
-        assert (folder / name).read_bytes() == (made / name).read_bytes(), name
-    assert result["generated_metadata"] == (made / "puzzle.json").read_text()  # as generated, before Re-plan
+    assert f"States\t{len(loaded.certificate)}" in result["replan_table"]
+    benchmark = json.loads((out / "benchmark" / "simple_slider_2" / "summary.json").read_text())
+    assert [row.split("\t")[:2] for row in result["benchmark_table"][1:]] == [
+        [c["planner"].removesuffix(" (ours)"), f"{c['successes']}/{c['runs']}"] for c in benchmark["cells"]]
+    report = json.loads((out / "manipulation" / "simple_slider_2" / "report.json").read_text())
+    assert report["success"], report
+    assert (out / "manipulation" / "simple_slider_2" / "simple_slider_2.mp4").stat().st_size > 0
+    assert len(list((out / "manipulation" / "simple_slider_2" / "frames").glob("frame_*.png"))) == 4
+    assert (out / "simple_slider" / "simple_slider_3" / "puzzle.json").is_file()
+
+
+def _fresh_environment(home: Path) -> dict[str, str]:
+    environment = {k: v for k, v in os.environ.items()
+                   if k not in ("PYTHONPATH", "PHYROGEN_VENV", "VIRTUAL_ENV", "PYTHONHOME", "NUMBA_CACHE_DIR")
+                   and not k.startswith("BLENDER_")}
+    environment.update(BLENDER_USER_RESOURCES=str(home / "resources"), BLENDER_USER_CONFIG=str(home / "config"),
+                       BLENDER_USER_SCRIPTS=str(home / "scripts"))
+    return environment
+
+
+def _install_and_press(command: list[str], kind: str, zip_path: Path, tmp_path: Path) -> dict:
+    home, work, out, result_path = tmp_path / "home", tmp_path / "cwd", tmp_path / "out", tmp_path / "result.json"
+    work.mkdir()
+    run = subprocess.run([*command, "--", kind, str(zip_path), str(out), str(result_path)],
+                         capture_output=True, text=True, timeout=1800, cwd=work, env=_fresh_environment(home))
+    assert result_path.is_file(), run.stdout[-3000:] + run.stderr[-3000:]
+    result = json.loads(result_path.read_text())
+    assert "error" not in result, result["error"] + run.stdout[-3000:] + run.stderr[-3000:]
+    print(f"{kind}: Blender {result['blender']}, seconds {result['seconds']}, load {result['load']}")
+    return result
+
+
+@pytest.mark.blender
+@pytest.mark.slow
+def test_fresh_blender_4_with_only_the_extension_zip_runs_every_job(bundled_zip, tmp_path):
+    python = fresh_blender_python(tmp_path / "blender-python")
+    result = _install_and_press([str(python), str(INSTALL_SCRIPT)], "extension", bundled_zip, tmp_path)
+    assert result["blender"].startswith("4.5") and result["install"] == ["FINISHED"]
+    check_installed_jobs(result, tmp_path / "out", tmp_path / "home" / "resources" / "extensions")
+
+
+@pytest.mark.blender
+@pytest.mark.slow
+@pytest.mark.skipif(BLENDER is None, reason="no blender binary here (apt-get install blender)")
+def test_fresh_blender_3_with_only_the_legacy_zip_runs_every_job(zips, tmp_path):
+    _, legacy = zips
+    command = [BLENDER, "--background", "--factory-startup", "--python-exit-code", "1", "--python",
+               str(INSTALL_SCRIPT)]
+    result = _install_and_press(command, "legacy", legacy, tmp_path)
+    assert result["blender"].startswith("3.") and result["install"] == ["FINISHED"]
+    assert result["enable"] == ["FINISHED"]
+    assert Path(result["module_file"]).is_relative_to(tmp_path / "home" / "scripts" / "addons" / "phyrogen_blender")
+    check_installed_jobs(result, tmp_path / "out", tmp_path / "home" / "scripts" / "addons" / "phyrogen_blender")
+
+
+@pytest.mark.blender
+def test_legacy_zip_is_one_add_on_folder_with_bl_info(zips):
+    _, legacy = zips
+    names = zipfile.ZipFile(legacy).namelist()
+    assert {n.split("/")[0] for n in names} == {"phyrogen_blender"}  # nothing scattered into addons/
+    init = zipfile.ZipFile(legacy).read("phyrogen_blender/__init__.py").decode()
+    assert "bl_info" in init and '"blender": (3, 4, 0)' in init
+    tops = {n.split("/")[2] for n in names if n.startswith("phyrogen_blender/site-packages/") and n.count("/") > 2}
+    assert {"phyrogen", "phyrogen_core", "solver", "ompl", "numba", "numpy", "matplotlib", "pybullet",
+            "imageio_ffmpeg"} <= tops
 
 
 THIN_ZIP_SCRIPT = r'''
@@ -261,7 +294,7 @@ with open(result_path, "w") as f:
 @pytest.mark.slow
 def test_without_the_wheels_the_panel_says_what_to_do(tmp_path):
     pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
-    thin = _build_zip(tmp_path / "dist", "--no-wheels")
+    (thin,) = _build_zip(tmp_path / "dist", "--no-wheels", "--kind", "extension")
     assert not [n for n in zipfile.ZipFile(thin).namelist() if n.endswith(".whl")]
     python = fresh_blender_python(tmp_path / "blender-python")
     result = run_fresh_blender(python, THIN_ZIP_SCRIPT, [str(thin)], tmp_path)
