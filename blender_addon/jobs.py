@@ -47,17 +47,30 @@ class JobResult:
     def ok(self) -> bool:
         return self.returncode == 0 and not self.cancelled
 
+    def json(self) -> dict:
+        """The command's result: the one JSON object that ``--json`` prints on stdout.
+        Raises ValueError when stdout holds none."""
+        try:
+            value = json.loads(self.stdout)
+        except ValueError:
+            raise ValueError(f"the command printed no JSON result (stdout: {self.stdout[-200:]!r})") from None
+        if not isinstance(value, dict):
+            raise ValueError(f"the command's JSON result is not an object: {self.stdout[-200:]!r}")
+        return value
+
 
 def phyrogen_command(*arguments: str) -> list[str]:
-    """``phyrogen ARGUMENTS`` in the project's Python."""
-    return [worker_python(), "-m", "phyrogen", *arguments]
+    """``phyrogen ARGUMENTS --json`` in the project's Python: the result comes as JSON (:meth:`JobResult.json`)."""
+    return [worker_python(), "-m", "phyrogen", *arguments, "--json"]
 
 
 class Job:
     """A command running in its own process group; :meth:`poll` it until it returns a :class:`JobResult`."""
 
-    def __init__(self, label: str, command: Sequence[str], cwd: str | Path | None = None):
+    def __init__(self, label: str, command: Sequence[str], cwd: str | Path | None = None, note: str = ""):
         self.label = label
+        self.note = note
+        """What the job does before it shows progress, e.g. that it compiles the collision kernels first."""
         self.command = list(command)
         self.started = time.monotonic()
         self._folder = Path(tempfile.mkdtemp(prefix="phyrogen-job-"))
@@ -102,6 +115,8 @@ class Job:
         if self.cancelling:
             return f"{self.label}: cancelling..."
         shown = f"{fraction:.0%}" if fraction is not None else "running"
+        if (fraction is None or fraction == 0) and self.note:
+            shown = self.note
         detail = line.split("]", 1)[-1].strip(" ,") if fraction is not None else ""
         detail = detail if len(detail) <= 60 else detail[:57] + "..."
         return (f"{self.label}: {shown}, {self.elapsed():.0f} s" + (f" ({detail})" if detail else "")
@@ -220,32 +235,56 @@ def one_line_error(result: JobResult, label: str) -> str:
     why = result.last_line
     return f"{label} failed (exit code {result.returncode})" + (f": {why}" if why else "")
 
-# -- what the panel shows of each command's output ---------------------------------------------
+# -- what the panel shows of each command's result (its --json object) ----------------------------
 
 
-def benchmark_summary(folder: Path) -> list[str]:
-    """One line per planner from a benchmark's ``summary.json`` (of one puzzle): solved runs of all
-    runs with the 95 % interval of the rate, the median time to a first solution (over all runs) and
-    the median action cost. Read from the
-    file the benchmark writes for programs, never from its printed table."""
-    try:
-        summary = json.loads((Path(folder) / "summary.json").read_text(encoding="utf-8"))
-        cells = summary["cells"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        return [f"no benchmark summary in {folder}: {exc}"]
-    out = []
-    for cell in cells:  # short enough for one line of the default sidebar: "BIT*: 3/3 [44-100 %], 0.02 s, 2 actions"
-        rate = f"{cell['successes']}/{cell['runs']} [{100 * cell['rate_low']:.0f}-{100 * cell['rate_high']:.0f} %]"
-        time = (cell.get("time_to_first") or {}).get("median")
-        cost = (cell.get("final_cost") or {}).get("median")
-        median = "none within budget" if time is None else f"{time:.2g} s"
-        actions = "" if cost is None else f", {cost:g} actions"
-        out.append(f"{cell['planner']}: {rate}, {median}{actions}")
-    return out
+@dataclass(frozen=True)
+class ResultTable:
+    """A job's result as the panel's table: column titles and rows of cells (text)."""
+
+    columns: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+
+
+def _seconds(value) -> str:
+    return "-" if value is None else f"{value:.2g} s" if value < 10 else f"{value:.0f} s"
+
+
+def generate_table(result: dict) -> ResultTable:
+    """``phyrogen generate --json`` of one puzzle: what was made, one quantity a row."""
+    (puzzle,) = result["puzzles"]
+    return ResultTable(("Puzzle", puzzle["generator"] + "_" + str(puzzle["seed"])),
+                       (("Objects", str(puzzle["objects"])), ("Actions", str(puzzle["actions"])),
+                        ("Time", _seconds(puzzle["seconds"]))))
+
+
+def replan_table(result: dict) -> ResultTable:
+    """``phyrogen replan --json``: the new certificate, one quantity a row."""
+    return ResultTable(("Certificate", "new"),
+                       (("Planner", result["planner"]), ("Queries", str(result["queries"])),
+                        ("States", str(result["states"])), ("Dependencies", str(result["dependencies"]))))
+
+
+def benchmark_table(result: dict) -> ResultTable:
+    """``phyrogen benchmark --json`` (``summary.json`` under ``summary``): per planner the solved runs of all
+    runs and the median time to a first solution (over all runs; "none" when at most half solved)."""
+    rows = []
+    for cell in result["summary"]["cells"]:
+        median = (cell.get("time_to_first") or {}).get("median")
+        rows.append((cell["planner"].removesuffix(" (ours)"), f"{cell['successes']}/{cell['runs']}",
+                     "none" if median is None else _seconds(median)))
+    return ResultTable(("Planner", "Solved", "Time"), tuple(rows))
+
+
+def manipulation_table(report: dict) -> ResultTable:
+    """One ``phyrogen manipulate --json`` report: how the execution went, one quantity a row."""
+    return ResultTable(("Execution", "succeeded" if report.get("success") else "failed"),
+                       (("Actions", str(report.get("actions", "?"))), ("Regrasps", str(report.get("regrasps", "?"))),
+                        ("Planning", _seconds(report.get("planning_seconds"))),
+                        ("Execution", _seconds(report.get("execution_seconds")))))
 
 
 def manipulation_summary(report: dict) -> str:
     """The outcome in a ``phyrogen manipulate`` report (``report.json``), in one line."""
     outcome = "succeeded" if report.get("success") else f"failed: {report.get('message', '?')}"
-    return (f"{report.get('puzzle', '?')}: execution {outcome}; {report.get('actions', '?')} actions, "
-            f"{report.get('regrasps', '?')} regrasps, solution: {report.get('solution', '?')}")
+    return f"{report.get('puzzle', '?')}: execution {outcome} with {report.get('solution', '?')}"

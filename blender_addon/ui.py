@@ -16,18 +16,33 @@ in the panel. One such job runs at a time.
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import json
+import math
 import textwrap
 import typing
 from collections.abc import Callable
 from pathlib import Path
 
 import bpy
+from mathutils import Vector
 
 from phyrogen_core.folder import PuzzleFolder, name_problem
 from phyrogen_core.registry import ParameterError, all_generators
 
-from .jobs import Job, JobResult, benchmark_summary, manipulation_summary, one_line_error, phyrogen_command
+from .environment import collision_kernels_cached
+from .jobs import (
+    Job,
+    JobResult,
+    ResultTable,
+    benchmark_table,
+    generate_table,
+    manipulation_summary,
+    manipulation_table,
+    one_line_error,
+    phyrogen_command,
+    replan_table,
+)
 from .phobos import PHOBOS_FOLDER, ensure_phobostype, phobos_enabled, recognise_phobos_when_loaded, remove_phobostype
 
 _PROPERTY_OF_TYPE = {bool: bpy.props.BoolProperty, int: bpy.props.IntProperty, float: bpy.props.FloatProperty,
@@ -49,6 +64,12 @@ def _parameter_group(name: str, params_type: type) -> type:
     return type(f"PHYROGEN_PG_{name}", (bpy.types.PropertyGroup,), {"__annotations__": annotations})
 
 
+class PHYROGEN_PG_result_row(bpy.types.PropertyGroup):  # noqa: N801 (Blender's naming)
+    """One row of the last job's result table: its cells, tab-separated."""
+
+    cells: bpy.props.StringProperty(name="Cells")
+
+
 def _settings_class(groups: dict[str, type]) -> type:
     generators = all_generators()
     annotations = {
@@ -68,8 +89,11 @@ def _settings_class(groups: dict[str, type]) -> type:
                                    ("FAILED", "Failed", "the command failed"),
                                    ("CANCELLED", "Cancelled", "stopped by the user")]),
         "result_message": bpy.props.StringProperty(name="Message", description="What the last job said"),
-        "result_details": bpy.props.StringProperty(name="Details", description="The last job's summary, "
-                                                                               "one line per entry"),
+        "result_columns": bpy.props.StringProperty(name="Columns", description="Titles of the last job's "
+                                                                               "result table, tab-separated"),
+        "result_rows": bpy.props.CollectionProperty(type=PHYROGEN_PG_result_row, name="Result",
+                                                    description="The last job's result table"),
+        "result_row_index": bpy.props.IntProperty(name="Row", default=-1),
         "manipulation_output": bpy.props.StringProperty(
             name="Manipulation output", subtype="DIR_PATH",
             description="The last manipulation run's folder: frames/, the video, report.json"),
@@ -151,7 +175,22 @@ class Operation:
 
     label: str
     start: Callable[[bpy.types.Context], Job]
-    finish: Callable[[bpy.types.Context, JobResult], tuple[str, list[str]]]
+    finish: Callable[[bpy.types.Context, JobResult], tuple[str, ResultTable | None]]
+    needs: tuple[str, ...] = ()
+    """Modules the command imports beyond Generate's (the button is hidden, with a line, without them)."""
+    install: str = ""
+    """What to install when ``needs`` are missing."""
+
+
+def missing_modules(operation: str) -> list[str]:
+    """The modules ``operation``'s command needs that cannot be imported here (where the workers import
+    them too: the bundled wheels, or the project's environment)."""
+    return [name for name in OPERATIONS[operation].needs if importlib.util.find_spec(name) is None]
+
+
+def first_run_note() -> str:
+    """The status line while a job's numba kernels are not compiled yet (the first job after installing)."""
+    return "" if collision_kernels_cached() else "compiling collision kernels (first run only, 1-2 min)..."
 
 
 OPERATIONS: dict[str, Operation] = {}
@@ -168,6 +207,10 @@ def begin(context, operation: str) -> Job:
     """Start ``operation``'s job (bad input raises before any process starts)."""
     if _running:
         raise RuntimeError(f"{_running[0][1].label} is still running; wait for it or cancel it")
+    missing = missing_modules(operation)
+    if missing:
+        spec = OPERATIONS[operation]
+        raise RuntimeError(f"{spec.label} needs {', '.join(missing)}: {spec.install}")
     settings = context.scene.phyrogen
     job = OPERATIONS[operation].start(context)
     _running.append((operation, job))
@@ -204,10 +247,10 @@ def conclude(context, operation: str, job: Job, result: JobResult) -> tuple[bool
     _running.clear()
     settings.job_status = ""
     settings.result_label = job.label
-    details: list[str] = []
+    table: ResultTable | None = None
     if result.ok:
         try:
-            message, details = OPERATIONS[operation].finish(context, result)
+            message, table = OPERATIONS[operation].finish(context, result)
             state = "DONE"
         except (ParameterError, ValueError, KeyError, OSError, RuntimeError) as exc:
             message, state = f"{job.label} failed: {exc}", "FAILED"
@@ -215,8 +258,25 @@ def conclude(context, operation: str, job: Job, result: JobResult) -> tuple[bool
         message, state = one_line_error(result, job.label), "CANCELLED" if result.cancelled else "FAILED"
     settings.result_state = state
     settings.result_message = message
-    settings.result_details = "\n".join(details)
+    store_table(settings, table)
     return state == "DONE", message
+
+
+def store_table(settings, table: ResultTable | None) -> None:
+    """The result table into the settings (drawn as a UI list), or none."""
+    settings.result_rows.clear()
+    settings.result_columns = "\t".join(table.columns) if table is not None else ""
+    for row in table.rows if table is not None else ():
+        settings.result_rows.add().cells = "\t".join(row)
+    settings.result_row_index = -1
+
+
+def result_table(settings) -> ResultTable | None:
+    """The stored result table (:func:`store_table`)."""
+    if not settings.result_columns:
+        return None
+    return ResultTable(tuple(settings.result_columns.split("\t")),
+                       tuple(tuple(row.cells.split("\t")) for row in settings.result_rows))
 
 
 class _JobOperator:
@@ -267,6 +327,8 @@ class _JobOperator:
             return {"PASS_THROUGH"}
         context.window_manager.event_timer_remove(self._timer)
         _show_status(context, None)
+        # Redrawn once more after this operator has returned, so that the job buttons are back at once.
+        bpy.app.timers.register(_redraw_everything, first_interval=0.05)
         ok, message = outcome if outcome is not None else (False, "the job was lost")
         self.report({"INFO"} if ok else {"WARNING"} if "cancelled" in message else {"ERROR"}, message)
         return {"FINISHED"} if ok else {"CANCELLED"}
@@ -275,10 +337,42 @@ class _JobOperator:
 def _show_status(context, text: str | None) -> None:
     if context.workspace is not None:
         context.workspace.status_text_set(text)
+    _redraw_everything()
+
+
+def _redraw_everything() -> None:
+    """Tag every area of every window for redrawing (the panel, the status bar); as a timer, once."""
+    manager = bpy.context.window_manager
+    for window in manager.windows if manager is not None else ():
+        for area in window.screen.areas:
+            area.tag_redraw()
+    return None
+
+
+def frame_in_views(context, collection: bpy.types.Collection) -> int:
+    """Centre every 3D view of the window on the puzzle's visual objects, at a distance that shows them
+    whole; how many views were framed (none in background mode). The selection stays as it was."""
+    corners = [obj.matrix_world @ Vector(corner) for obj in collection.all_objects
+               if obj.type == "MESH" and getattr(obj, "phobostype", "") == "visual" for corner in obj.bound_box]
+    if not corners or context.window_manager is None:
+        return 0
+    low = Vector(tuple(min(c[i] for c in corners) for i in range(3)))
+    high = Vector(tuple(max(c[i] for c in corners) for i in range(3)))
+    radius = max((high - low).length / 2, 0.1)
+    framed = 0
     for window in context.window_manager.windows:
         for area in window.screen.areas:
-            if area.type == "VIEW_3D":
-                area.tag_redraw()
+            if area.type != "VIEW_3D":
+                continue
+            space = area.spaces.active
+            view = space.region_3d
+            view.view_location = (low + high) / 2
+            # The view's narrower field of view (35 mm sensor) must hold the bounding sphere, with a margin.
+            half_angle = math.atan(18 / max(space.lens, 1.0))
+            view.view_distance = 1.15 * radius / math.sin(half_angle)
+            area.tag_redraw()
+            framed += 1
+    return framed
 
 
 class PHYROGEN_OT_generate(_JobOperator, bpy.types.Operator):  # noqa: N801 (Blender's naming)
@@ -295,25 +389,35 @@ def _start_generate(context) -> Job:
     spec, params = chosen_params(settings)
     spec.check(settings.seed, params)
     return Job(f"Generate {spec.name}_{settings.seed}",
-               generate_command(spec.name, settings.seed, params, _output(settings)))
+               generate_command(spec.name, settings.seed, params, _output(settings)), note=first_run_note())
 
 
-def _finish_generate(context, result: JobResult) -> tuple[str, list[str]]:
+def _finish_generate(context, result: JobResult) -> tuple[str, ResultTable]:
     from .scene import build_puzzle_folder
 
     settings = context.scene.phyrogen
-    spec, _ = chosen_params(settings)
-    folder = PuzzleFolder.at(_output(settings), spec.name, f"{spec.name}_{settings.seed}").path
+    made = result.json()
+    (puzzle,) = made["puzzles"]
+    if puzzle.get("error"):
+        raise RuntimeError(puzzle["error"])
+    folder = Path(puzzle["folder"])
     old = bpy.data.collections.get(folder.name)
     if old is not None:
         _remove_collection(old)
     built = build_puzzle_folder(folder, context.scene)
     settings.puzzle = built.collection.name
-    return f"{folder.name}: written to {folder}", _table_rows(result.stdout)
+    frame_in_views(context, built.collection)
+    return f"{folder.name}: written to {folder}", generate_table(made)
 
 
-def _table_rows(stdout: str) -> list[str]:
-    return [" ".join(line.split()) for line in stdout.splitlines() if line.strip()][:4]
+def override_text(value) -> str:
+    """A parameter's value as ``--set key=VALUE`` text that the registry converts back to the same value
+    (``ring``, not ``'ring'``; ``true``; every digit of a float)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
 
 
 def generate_command(generator: str, seed: int, params, out: Path) -> list[str]:
@@ -322,7 +426,7 @@ def generate_command(generator: str, seed: int, params, out: Path) -> list[str]:
     A separate process keeps generation deterministic (OMPL is seeded once per
     process) and works inside a Blender binary, whose own Python lacks our dependencies.
     """
-    overrides = [f"--set={f.name}={getattr(params, f.name)!r}" for f in dataclasses.fields(params)]
+    overrides = [f"--set={f.name}={override_text(getattr(params, f.name))}" for f in dataclasses.fields(params)]
     return phyrogen_command("generate", "--generator", generator, "--seeds", str(seed), "--out", str(out),
                             "--workers", "1", *overrides)
 
@@ -353,21 +457,22 @@ def _start_replan(context) -> Job:
     collection = current_collection(context)
     folder = puzzle_folder(settings, collection).path
     export_collection(collection, folder)
-    return Job(f"Re-plan {collection.name}", phyrogen_command("replan", str(folder)))
+    return Job(f"Re-plan {collection.name}", phyrogen_command("replan", str(folder)), note=first_run_note())
 
 
-def _finish_replan(context, result: JobResult) -> tuple[str, list[str]]:
+def _finish_replan(context, result: JobResult) -> tuple[str, ResultTable]:
     from .scene import build_puzzle_folder
 
     settings = context.scene.phyrogen
-    collection = current_collection(context)
-    folder = puzzle_folder(settings, collection).path
-    name = collection.name
-    _remove_collection(collection)
+    replanned = result.json()
+    folder = Path(replanned["folder"])
+    collection = bpy.data.collections.get(replanned["puzzle"])
+    if collection is not None:
+        _remove_collection(collection)
     built = build_puzzle_folder(folder, context.scene)
     settings.puzzle = built.collection.name
-    lines = [line for line in result.stdout.splitlines() if line.strip()]
-    return (lines[-1] if lines else f"{name}: re-planned"), []
+    return (f"{replanned['puzzle']}: new certificate by {replanned['planner']}, {replanned['states']} states",
+            replan_table(replanned))
 
 
 class PHYROGEN_OT_benchmark(_JobOperator, bpy.types.Operator):  # noqa: N801
@@ -392,13 +497,12 @@ def _start_benchmark(context) -> Job:
         raise ValueError(f"{folder.path} holds no puzzle; press Generate or Export URDF first")
     return Job(f"Benchmark {collection.name}",
                phyrogen_command("benchmark", "--puzzles", str(folder.path), "--profile", "quick", "--until", "first",
-                                "--out", str(benchmark_folder(settings, collection))))
+                                "--out", str(benchmark_folder(settings, collection))), note=first_run_note())
 
 
-def _finish_benchmark(context, result: JobResult) -> tuple[str, list[str]]:
-    collection = current_collection(context)
-    out = benchmark_folder(context.scene.phyrogen, collection)
-    return f"{collection.name}: quick benchmark in {out}", benchmark_summary(out)
+def _finish_benchmark(context, result: JobResult) -> tuple[str, ResultTable]:
+    made = result.json()
+    return f"{current_collection(context).name}: quick benchmark in {made['out']}", benchmark_table(made)
 
 
 class PHYROGEN_OT_manipulate(_JobOperator, bpy.types.Operator):  # noqa: N801
@@ -422,27 +526,25 @@ def _start_manipulate(context) -> Job:
     if not folder.metadata.is_file():
         raise ValueError(f"{folder.path} holds no puzzle; press Generate or Export URDF first")
     return Job(f"Manipulate {collection.name}",
-               phyrogen_command("manipulate", str(folder.path), "--out", str(manipulation_root(settings))))
+               phyrogen_command("manipulate", str(folder.path), "--out", str(manipulation_root(settings))),
+               note=first_run_note())
 
 
-def _finish_manipulate(context, result: JobResult) -> tuple[str, list[str]]:
+def _finish_manipulate(context, result: JobResult) -> tuple[str, ResultTable]:
     settings = context.scene.phyrogen
-    collection = current_collection(context)
-    out = manipulation_root(settings) / collection.name
-    report = json.loads((out / "report.json").read_text(encoding="utf-8"))
-    settings.manipulation_output = str(out)
-    seconds = {key: float(report.get(f"{key}_seconds", 0.0)) for key in ("planning", "execution", "simulated")}
-    details = [f"planning {seconds['planning']:.1f} s, execution {seconds['execution']:.1f} s "
-               f"({seconds['simulated']:.1f} s simulated)",
-               f"video, frames, report.json in {out.relative_to(_output(settings))}"]
-    return manipulation_summary(report), details
+    (report,) = result.json()["reports"]
+    settings.manipulation_output = report["folder"]
+    return manipulation_summary(report), manipulation_table(report)
 
 
+_INSTALL = ("install the PhyRoGen zip that bundles it, or pip install it into PHYROGEN_VENV "
+            "(pip install -e . in a checkout)")
 OPERATIONS.update({
     "generate": Operation("Generate", _start_generate, _finish_generate),
     "replan": Operation("Re-plan", _start_replan, _finish_replan),
-    "benchmark": Operation("Benchmark", _start_benchmark, _finish_benchmark),
-    "manipulate": Operation("Manipulate", _start_manipulate, _finish_manipulate),
+    "benchmark": Operation("Benchmark", _start_benchmark, _finish_benchmark, ("matplotlib",), _INSTALL),
+    "manipulate": Operation("Manipulate", _start_manipulate, _finish_manipulate,
+                            ("pybullet", "imageio", "imageio_ffmpeg"), _INSTALL),
 })
 
 
@@ -600,6 +702,22 @@ class PHYROGEN_OT_render(bpy.types.Operator):  # noqa: N801
         return f"rendered {len(paths)} views of {collection.name}"
 
 
+class PHYROGEN_UL_results(bpy.types.UIList):  # noqa: N801 (Blender's naming)
+    """The last job's result table, one row per item (the columns' titles are drawn above it)."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0, flt_flag=0):
+        draw_cells(layout, item.cells.split("\t"))
+
+
+def draw_cells(layout, cells) -> None:
+    """A table row: the first cell (a name) takes half the width, the others share the rest."""
+    split = layout.split(factor=0.5)
+    split.label(text=cells[0] if cells else "")
+    row = split.row()
+    for cell in cells[1:]:
+        row.label(text=cell)
+
+
 class PHYROGEN_PT_panel(bpy.types.Panel):  # noqa: N801
     bl_label = "PhyRoGen"
     bl_idname = "PHYROGEN_PT_panel"
@@ -608,52 +726,75 @@ class PHYROGEN_PT_panel(bpy.types.Panel):  # noqa: N801
     bl_category = "PhyRoGen"
 
     def draw(self, context):
-        # Labels do not wrap: the job's lines are wrapped to about as many characters as fit.
-        characters = int(context.region.width / (7 * context.preferences.system.ui_scale)) - 4
+        # Labels do not wrap: the job's message is wrapped to about as many characters as fit.
+        # About 8 pixels a character of the default font, less the box's margins and an icon.
+        characters = int(context.region.width / (8 * context.preferences.system.ui_scale)) - 5
         draw_panel(self.layout, context.scene.phyrogen, width=max(characters, 20))
 
 
 def draw_panel(layout, settings, phobos: bool | None = None, width: int = 60) -> None:
     """The panel's content (a function of the settings, so a test can draw it into a fake layout);
     ``phobos``: whether to show Export with Phobos, by default while the Phobos add-on is enabled;
-    ``width``: characters per line of the job's outcome."""
-    layout.prop(settings, "generator")
+    ``width``: characters per line of the job's message.
+
+    Every field's name is a label of its own above the field: beside it, in the sidebar's default
+    width, names were cut ("Gene..."). Buttons are one per row for the same reason. While a job runs,
+    its progress and Cancel take the job buttons' place: Blender keeps drawing a clicked button that
+    its operator disabled greyed until the pointer leaves it, so the buttons are not drawn disabled
+    but left out, and come back enabled when the job ends."""
+    _labelled(layout, settings, "generator", "Generator")
     layout.prop(settings, "seed")
-    row = layout.row()
-    row.scale_y = 1.6
-    row.operator("phyrogen.generate", icon="MOD_BUILD")
-    # One operator a row: the sidebar is narrow by default, and three a row cut every label short.
-    column = layout.column(align=True)
-    column.scale_y = 1.2
-    column.operator("phyrogen.replan", icon="FILE_REFRESH")
-    column.operator("phyrogen.benchmark", icon="TIME")
-    column.operator("phyrogen.manipulate", icon="ARMATURE_DATA")
+    if running_job() is not None:
+        draw_job(layout, settings, width)
+    else:
+        row = layout.row()
+        row.scale_y = 1.6
+        row.operator("phyrogen.generate", icon="MOD_BUILD")
+        column = layout.column(align=True)
+        column.scale_y = 1.2
+        column.operator("phyrogen.replan", icon="FILE_REFRESH")
+        for operation, icon in (("benchmark", "TIME"), ("manipulate", "ARMATURE_DATA")):
+            missing = missing_modules(operation)
+            if missing:  # hidden, with one line saying what to install
+                column.label(text=f"{OPERATIONS[operation].label} needs {', '.join(missing)}", icon="INFO")
+            else:
+                column.operator(f"phyrogen.{operation}", icon=icon)
     column = layout.column(align=True)
     column.operator("phyrogen.validate", icon="CHECKMARK")
     column.operator("phyrogen.export_urdf", icon="EXPORT")
     column.operator("phyrogen.render", icon="RENDER_STILL")
-    draw_job(layout, settings, width)
+    if running_job() is None:
+        draw_job(layout, settings, width)
     spec = all_generators()[settings.generator]
     box = layout.box()
     box.label(text=f"{spec.title} parameters")
     group = getattr(settings, f"params_{spec.name}")
     for field in editable_fields(spec.params):
         box.prop(group, field.name)
-    layout.prop(settings, "output")
-    layout.prop(settings, "engine")
+    _labelled(layout, settings, "output", "Output folder")
+    _labelled(layout, settings, "engine", "Render engine")
     show_phobos = phobos_enabled() if phobos is None else phobos
     if show_phobos:
         box = layout.box()
         box.operator("phyrogen.export_phobos", icon="EXPORT")
-        box.prop(settings, "phobos_output")
+        _labelled(box, settings, "phobos_output", "Phobos output (empty: the puzzle's phobos/)")
+
+
+def _labelled(layout, data, name: str, text: str) -> None:
+    """A field with its name on the line above."""
+    column = layout.column(align=True)
+    column.label(text=text)
+    column.prop(data, name, text="")
 
 
 def draw_job(layout, settings, width: int = 60) -> None:
-    """The running job's progress and a Cancel button, else the last job's outcome (lines wrapped at
-    ``width`` characters)."""
+    """The running job's progress and a Cancel button, else the last job's outcome: a line, its message
+    (wrapped at ``width`` characters) and its result table as a UI list."""
     if running_job() is not None:
         box = layout.box()
-        box.label(text=settings.job_status or "running", icon="SORTTIME")
+        for index, part in enumerate(textwrap.wrap(settings.job_status or "running", width,
+                                                   break_on_hyphens=False) or ["running"]):
+            box.label(text=part, icon="SORTTIME" if index == 0 else "NONE")
         box.operator("phyrogen.cancel_job", icon="CANCEL")
         return
     if settings.result_state == "NONE":
@@ -662,16 +803,21 @@ def draw_job(layout, settings, width: int = 60) -> None:
     icon = {"DONE": "CHECKMARK", "FAILED": "ERROR", "CANCELLED": "CANCEL"}[settings.result_state]
     state = {"DONE": "done", "FAILED": "failed", "CANCELLED": "cancelled"}[settings.result_state]
     box.label(text=f"{settings.result_label.split(' ')[0]}: {state}", icon=icon)  # the message names the puzzle
-    for line in [settings.result_message, *settings.result_details.splitlines()]:
-        for part in textwrap.wrap(line, width, subsequent_indent="  ", break_on_hyphens=False):
-            box.label(text=part)
+    for part in textwrap.wrap(settings.result_message, width, subsequent_indent="  ", break_on_hyphens=False):
+        box.label(text=part)
+    table = result_table(settings)
+    if table is not None and table.rows:
+        draw_cells(box, table.columns)
+        box.template_list("PHYROGEN_UL_results", "", settings, "result_rows", settings, "result_row_index",
+                          rows=min(max(len(table.rows), 1), 5))
     if settings.result_label.startswith("Manipulate") and settings.manipulation_output:
         row = box.row(align=True)
         row.operator("phyrogen.open_manipulation", text="Video", icon="FILE_MOVIE").what = "VIDEO"
         row.operator("phyrogen.open_manipulation", text="Frames", icon="FILE_FOLDER").what = "FRAMES"
 
 
-_OPERATORS = (PHYROGEN_OT_generate, PHYROGEN_OT_replan, PHYROGEN_OT_benchmark, PHYROGEN_OT_manipulate,
+_OPERATORS = (PHYROGEN_UL_results,
+              PHYROGEN_OT_generate, PHYROGEN_OT_replan, PHYROGEN_OT_benchmark, PHYROGEN_OT_manipulate,
               PHYROGEN_OT_cancel_job, PHYROGEN_OT_open_manipulation, PHYROGEN_OT_validate, PHYROGEN_OT_export_urdf,
               PHYROGEN_OT_export_phobos,
               PHYROGEN_OT_render, PHYROGEN_PT_panel)
@@ -681,11 +827,12 @@ _registered: list[type] = []
 def register() -> None:
     ensure_phobostype()
     groups = {name: _parameter_group(name, spec.params) for name, spec in all_generators().items()}
-    classes = [*groups.values(), _settings_class(groups), *_OPERATORS]
+    settings = _settings_class(groups)
+    classes = [*groups.values(), PHYROGEN_PG_result_row, settings, *_OPERATORS]
     for cls in classes:
         bpy.utils.register_class(cls)
         _registered.append(cls)
-    bpy.types.Scene.phyrogen = bpy.props.PointerProperty(type=classes[len(groups)])
+    bpy.types.Scene.phyrogen = bpy.props.PointerProperty(type=settings)
     recognise_phobos_when_loaded()
 
 

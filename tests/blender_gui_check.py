@@ -1,11 +1,14 @@
 """Runs inside the real Blender UI (under Xvfb): clicks the panel's Generate, then (after an edit of
 the scene) Re-plan, then Manipulate with xdotool, each a job in a subprocess watched by a modal operator.
 
-    blender --factory-startup --python tests/blender_gui_check.py -- RESULT.json SCREENSHOT.png
+    blender --factory-startup --python tests/blender_gui_check.py -- RESULT.json SCREENSHOT.png [BEFORE.png DURING.png]
 
 Started by tests/test_blender_binary.py. The add-on must be installed as
 the legacy add-on ``phyrogen`` (BLENDER_USER_SCRIPTS) and PHYROGEN_VENV set.
-Writes RESULT.json with what it saw, takes Blender's own screenshot, quits.
+Writes RESULT.json with what it saw, takes Blender's own screenshots (the 3D view with the panel before
+the first click and after the last job; the whole window, status bar included, while Manipulate runs),
+quits. Nothing zooms or moves the view: what the screenshots show is what the panel did, at the
+sidebar's default width; the last one is taken without moving the mouse after the job ended.
 """
 
 import json
@@ -16,7 +19,9 @@ import time
 
 import bpy
 
-RESULT, SCREENSHOT = sys.argv[sys.argv.index("--") + 1:][:2]
+ARGUMENTS = sys.argv[sys.argv.index("--") + 1:]
+RESULT, SCREENSHOT = ARGUMENTS[:2]
+BEFORE, DURING = (ARGUMENTS[2:4] if len(ARGUMENTS) >= 4 else (None, None))
 PUZZLE = "simple_slider_1"
 state = {"clicks": [], "tab_clicks": [], "started": time.monotonic(), "errors": [], "drawn": False, "steps": [],
          "step": 0, "attempt": 0, "clicked_at": None, "running_ticks": 0, "statuses": [], "click": None,
@@ -36,13 +41,13 @@ def edit_scene():
     bpy.data.objects["obj_01"].location.y += 0.25
 
 
-# The Generate row is the third of the panel, below the header, generator and seed rows; Re-plan,
+# The Generate row comes below the header, the "Generator" label, its drop-down and the seed; Re-plan,
 # Benchmark and Manipulate follow it, one a row (about 29 px each). The first candidate that starts a
 # job is the button; a miss lands on the panel's background, or on a neighbour whose job runs and
 # does not count (its outcome has the wrong label).
-STEPS = (Step("Generate", 0.5, (96, 88, 104)),
-         Step("Re-plan", 0.5, (130, 124, 136), before=edit_scene),
-         Step("Manipulate", 0.5, (188, 182, 194)))
+STEPS = (Step("Generate", 0.5, (118, 112, 124, 106, 130)),
+         Step("Re-plan", 0.5, (152, 146, 158, 140, 164), before=edit_scene),
+         Step("Manipulate", 0.5, (210, 204, 216, 198, 222)))
 CLICK_TICKS = 10
 """Timer ticks after xdotool has delivered a click before it counts as a miss. A tick runs at most once
 per pass of Blender's event loop, and one pass reads the click, runs the button's operator (which
@@ -63,19 +68,19 @@ def view3d():
 
 
 def finish(ok):
-    window, area, _ = view3d()
-    main_region = next(r for r in area.regions if r.type == "WINDOW")
-    with bpy.context.temp_override(window=window, area=area, region=main_region):
-        if ok:
-            bpy.ops.view3d.view_all()
-    subprocess.Popen(["xdotool", "mousemove", str(window.x + 40), str(window.height // 2)])  # off the buttons
+    # No mouse move and no zoom: the screenshot shows the view the panel framed and the buttons as
+    # the panel redrew them when the job ended.
     bpy.app.timers.register(lambda: screenshot_and_quit(ok), first_interval=1.5)
 
 
-def screenshot_and_quit(ok):
+def screenshot_area(path):
     window, area, _ = view3d()
     with bpy.context.temp_override(window=window, area=area):
-        bpy.ops.screen.screenshot_area(filepath=SCREENSHOT)  # the 3D view with the panel
+        bpy.ops.screen.screenshot_area(filepath=path)  # the 3D view with the panel
+
+
+def screenshot_and_quit(ok):
+    screenshot_area(SCREENSHOT)
     collection = bpy.data.collections.get(PUZZLE)
     objects = sorted(o.name for o in collection.all_objects) if collection else []
     settings = bpy.context.scene.phyrogen
@@ -84,7 +89,9 @@ def screenshot_and_quit(ok):
                    "errors": state["errors"], "steps": state["steps"],
                    "manipulation_output": settings.manipulation_output, "output": settings.output,
                    "panel": [settings.result_label, settings.result_state, settings.result_message,
-                             *settings.result_details.splitlines()],
+                             settings.result_columns, *(row.cells for row in settings.result_rows)],
+                   "during": state.get("during"),
+                   "buttons_enabled_after": bpy.ops.phyrogen.generate.poll(),
                    "blender": bpy.app.version_string}, stream)
     bpy.ops.wm.quit_blender()
 
@@ -165,6 +172,8 @@ def poll():
         finish(False)
         return None
     if state["clicked_at"] is None:
+        if BEFORE is not None and state["step"] == 0 and state["attempt"] == 0:
+            screenshot_area(BEFORE)
         if step.before is not None and state["attempt"] == 0:
             step.before()
         # Taken before every attempt: a neighbour's job that a missed click started changes it too.
@@ -174,6 +183,11 @@ def poll():
         return TICK
     if settings.job_status:
         state["running_ticks"] += 1
+        if DURING is not None and step.label == "Manipulate" and state.get("during") is None:
+            window, _, _ = view3d()
+            with bpy.context.temp_override(window=window):
+                bpy.ops.screen.screenshot(filepath=DURING)  # the whole window: the status bar's progress too
+            state["during"] = settings.job_status
         if not state["statuses"] or state["statuses"][-1] != settings.job_status:
             state["statuses"].append(settings.job_status)
         return TICK

@@ -98,6 +98,10 @@ class FakeLayout:
         return self
 
     column = row
+    split = row
+
+    def template_list(self, list_type, *_, **__):
+        self.log.append(("list", list_type))
 
     def box(self):
         return self

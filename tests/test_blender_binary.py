@@ -62,15 +62,19 @@ def test_panel_generate_replan_manipulate_clicks_in_the_real_ui(tmp_path):
     addon = tmp_path / "scripts" / "addons" / "phyrogen"
     shutil.copytree(REPOSITORY / "blender_addon", addon, ignore=shutil.ignore_patterns("__pycache__"))
     result_path, screenshot = tmp_path / "result.json", tmp_path / "panel.png"
+    before, during = tmp_path / "panel-before.png", tmp_path / "panel-during.png"
     run = subprocess.run(
         ["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", BLENDER, "--factory-startup", "--python",
-         str(REPOSITORY / "tests" / "blender_gui_check.py"), "--", str(result_path), str(screenshot)],
+         str(REPOSITORY / "tests" / "blender_gui_check.py"), "--", str(result_path), str(screenshot), str(before),
+         str(during)],
         capture_output=True, text=True, timeout=400, env=blender_environment(tmp_path), cwd=tmp_path)
     assert result_path.is_file(), run.stdout[-3000:] + run.stderr[-3000:]
     result = json.loads(result_path.read_text())
     assert result["ok"], result
     assert {"base_link", "goal", "obj_00", "obj_01"} <= set(result["objects"])
-    assert screenshot.is_file() and screenshot.stat().st_size > 10_000
+    assert all(p.is_file() and p.stat().st_size > 10_000 for p in (screenshot, before, during))
+    assert result["during"].startswith("Manipulate simple_slider_1: ")  # the status line while it ran
+    assert result["buttons_enabled_after"]
     # Each click ran its job in a subprocess: the UI's timers kept running meanwhile (not frozen),
     # with the job's progress in the status bar, and its outcome landed in the panel.
     assert [step["step"] for step in result["steps"]] == ["Generate", "Re-plan", "Manipulate"]
@@ -83,6 +87,7 @@ def test_panel_generate_replan_manipulate_clicks_in_the_real_ui(tmp_path):
     assert verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start) == []
     report = json.loads((Path(result["manipulation_output"]) / "report.json").read_text())
     assert result["panel"][:2] == ["Manipulate simple_slider_1", "DONE"]
+    assert result["panel"][3] == "Execution\t" + ("succeeded" if report["success"] else "failed")  # the table
     assert result["panel"][2].startswith("simple_slider_1: execution " + ("succeeded" if report["success"]
                                                                           else "failed"))
     assert (Path(result["manipulation_output"]) / "simple_slider_1.mp4").is_file()
