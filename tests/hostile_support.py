@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import re
 import shutil
 import xml.etree.ElementTree as ET
@@ -81,6 +82,33 @@ def format_error(read: Callable[[], Any]) -> str:
     message = str(caught.value)
     assert "\n" not in message, message
     return message
+
+
+def snapshot(root: Path) -> dict[str, object]:
+    """Every path under ``root`` with its bytes (a link's target, None for a folder or a FIFO): what
+    "nothing created, nothing changed" compares. Links are not followed, FIFOs not opened."""
+    def content(path: Path) -> object:
+        if path.is_symlink():
+            return ("link", os.readlink(path))
+        return path.read_bytes() if path.is_file() else None
+
+    return {p.relative_to(root).as_posix(): content(p) for p in sorted(root.rglob("*"))}
+
+
+def refused(argv: list[str], capsys, root: Path, *fragments: str) -> str:
+    """``phyrogen argv`` in this process: exit 2, nothing on stdout, one stderr line holding
+    ``fragments`` and no traceback, and ``root`` unchanged; returns that line."""
+    from phyrogen.cli import main
+
+    before = snapshot(root)
+    code = main(argv)
+    out, err = capsys.readouterr()
+    assert (code, out) == (2, ""), (code, out, err)
+    assert err.count("\n") == 1 and err.startswith("phyrogen: error: ") and "Traceback" not in err, err
+    for fragment in fragments:
+        assert fragment in err, (fragment, err)
+    assert snapshot(root) == before
+    return err
 
 
 def cli_check(folder: Path) -> tuple[int, str, str]:

@@ -23,10 +23,12 @@ import os
 import signal
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hostile_support import snapshot
 from waiting import BACKSTOP, wait_until
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -75,14 +77,14 @@ def address_space(pid: int) -> int:
     return int(line.split()[1]) * 1024
 
 
-def interrupt_the_search(argv: list[str], signum: int, tmp_path: Path) -> tuple[int, str, str, float]:
-    """Run ``phyrogen argv``, send ``signum`` once the search's trees are allocated; (exit code,
-    stdout, stderr, CPU seconds spent after the signal)."""
-    process = subprocess.Popen([sys.executable, "-m", "phyrogen", *argv], cwd=ROOT, stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True, start_new_session=True)
+def interrupt_when(command: list[str], ready: Callable[[subprocess.Popen], bool], what: str,
+                   signum: int) -> tuple[int, str, str, float]:
+    """Run ``command``, send ``signum`` once ``ready(process)``; (exit code, stdout, stderr, CPU
+    seconds spent after the signal)."""
+    process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
     try:
-        wait_until(lambda: process.poll() is not None or address_space(process.pid) > TREES_BYTES,
-                   "the allocation of the search trees")
+        wait_until(lambda: process.poll() is not None or ready(process), what)
         assert process.poll() is None, process.communicate()
         before = cpu_seconds(process.pid)
         after = before
@@ -101,6 +103,13 @@ def interrupt_the_search(argv: list[str], signum: int, tmp_path: Path) -> tuple[
             process.kill()
             process.communicate()
     return process.returncode, out, err, after - before
+
+
+def interrupt_the_search(argv: list[str], signum: int, tmp_path: Path) -> tuple[int, str, str, float]:
+    """Run ``phyrogen argv``, send ``signum`` once the search's trees are allocated."""
+    return interrupt_when([sys.executable, "-m", "phyrogen", *argv],
+                          lambda process: address_space(process.pid) > TREES_BYTES,
+                          "the allocation of the search trees", signum)
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
@@ -192,42 +201,25 @@ def sealed_folder(root: Path) -> Path:
     return write_puzzle(puzzle.with_certificate([puzzle.start, (2.0,)]), root)
 
 
-def files_of(root: Path) -> dict[str, bytes | None]:
-    return {str(p.relative_to(root)): p.read_bytes() if p.is_file() else None for p in sorted(root.rglob("*"))}
-
-
 @pytest.mark.parametrize("phase", ["rrt_connect", "la_rrt"])
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
 def test_replan_stops_each_of_its_searches_at_once(phase, signum, tmp_path):
     folder = sealed_folder(tmp_path / "puzzles")
-    before = files_of(tmp_path / "puzzles")
+    before = snapshot(tmp_path / "puzzles")
     flag = tmp_path / "searching"
-    process = subprocess.Popen([sys.executable, "-c", PHASE_WRAPPER, str(flag), phase, "replan", str(folder),
-                                "--budget", str(BUDGET)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True, start_new_session=True)
-    try:
-        wait_until(lambda: process.poll() is not None or flag.exists(), f"the start of {phase}")
-        assert process.poll() is None, process.communicate()
-        at_start = cpu_seconds(process.pid)
-        wait_until(lambda: process.poll() is not None or cpu_seconds(process.pid) - at_start >= SEARCHING_CPU,
-                   f"{SEARCHING_CPU} CPU seconds into {phase}")
-        assert process.poll() is None, process.communicate()
-        before_signal = after = cpu_seconds(process.pid)
-        process.send_signal(signum)
+    searching_since: list[float] = []
 
-        def ended() -> bool:
-            nonlocal after
-            now = cpu_seconds(process.pid)
-            after = now if now is not None else after
-            return process.poll() is not None
+    def searching(process: subprocess.Popen) -> bool:
+        # The phase has started (its flag) and spent a CPU second since: inside its search.
+        if not searching_since:
+            if not flag.exists():
+                return False
+            searching_since.append(cpu_seconds(process.pid) or 0.0)
+        return (cpu_seconds(process.pid) or 0.0) - searching_since[0] >= SEARCHING_CPU
 
-        wait_until(ended, "the end of the interrupted replan")
-        out, err = process.communicate(timeout=BACKSTOP)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
-    assert (process.returncode, out, err) == (128 + signum, "", "phyrogen: interrupted\n"), (process.returncode,
-                                                                                             out, err)
-    assert after - before_signal < STOPPED_CPU, after - before_signal
-    assert files_of(tmp_path / "puzzles") == before  # no new certificate, no temporary left
+    code, out, err, cpu = interrupt_when([sys.executable, "-c", PHASE_WRAPPER, str(flag), phase, "replan",
+                                          str(folder), "--budget", str(BUDGET)], searching,
+                                         f"{SEARCHING_CPU} CPU seconds into {phase}", signum)
+    assert (code, out, err) == (128 + signum, "", "phyrogen: interrupted\n"), (code, out, err)
+    assert cpu < STOPPED_CPU, cpu
+    assert snapshot(tmp_path / "puzzles") == before  # no new certificate, no temporary left

@@ -11,38 +11,12 @@ import sys
 from pathlib import Path
 
 import pytest
-from hostile_support import hostile_puzzle, urdf_file
+from hostile_support import hostile_puzzle, refused, urdf_file
 
-from phyrogen.cli import main
 from phyrogen_core.export import write_puzzle
 
 REPOSITORY = Path(__file__).resolve().parent.parent
 AS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
-
-
-def snapshot(root: Path) -> dict[str, object]:
-    """Every path under ``root`` with its bytes (a link's target, None for a folder): what "nothing
-    created, nothing changed" compares."""
-    def content(path: Path) -> object:
-        if path.is_symlink():
-            return ("link", os.readlink(path))
-        return None if path.is_dir() else path.read_bytes()
-
-    return {p.relative_to(root).as_posix(): content(p) for p in sorted(root.rglob("*"))}
-
-
-def refused(argv: list[str], capsys, root: Path, *fragments: str) -> str:
-    """Run ``phyrogen argv``: exit 2, stdout empty, one stderr line holding ``fragments``, ``root`` unchanged."""
-    before = snapshot(root)
-    code = main(argv)
-    out, err = capsys.readouterr()
-    assert (code, out) == (2, ""), (code, out, err)
-    assert err.count("\n") == 1 and err.startswith("phyrogen: error: "), err
-    assert "Traceback" not in err
-    for fragment in fragments:
-        assert fragment in err, (fragment, err)
-    assert snapshot(root) == before
-    return err
 
 
 @pytest.fixture

@@ -18,36 +18,13 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from hostile_support import PARAMETERS, hostile_puzzle
+from hostile_support import PARAMETERS, hostile_puzzle, refused
 
 from phyrogen.cli import main
 from phyrogen_core.export import read_puzzle_dir, write_mjcf, write_puzzle
 from phyrogen_core.folder import OutputError, PuzzleFolder, Stage, atomic_directory
 
 USER = b"a user's own file"
-
-
-def snapshot(root: Path) -> dict[str, object]:
-    """Every path under ``root`` with its bytes (a link's target, None for a folder or a FIFO)."""
-    def content(path: Path) -> object:
-        if path.is_symlink():
-            return ("link", os.readlink(path))
-        return path.read_bytes() if path.is_file() else None
-
-    return {p.relative_to(root).as_posix(): content(p) for p in sorted(root.rglob("*"))}
-
-
-def refused(argv: list[str], capsys, root: Path, *fragments: str) -> str:
-    """``phyrogen argv``: exit 2, nothing on stdout, one stderr line holding ``fragments``, ``root`` unchanged."""
-    before = snapshot(root)
-    code = main(argv)
-    out, err = capsys.readouterr()
-    assert (code, out) == (2, ""), (code, out, err)
-    assert err.count("\n") == 1 and err.startswith("phyrogen: error: ") and "Traceback" not in err, err
-    for fragment in fragments:
-        assert fragment in err, (fragment, err)
-    assert snapshot(root) == before
-    return err
 
 
 @pytest.fixture
