@@ -132,12 +132,13 @@ _PAGE = """<!DOCTYPE html>
 <title>PhyRoGen puzzles</title>
 <style>
 body {{ font-family: sans-serif; margin: 1em; background: #fff; color: #222; }}
-table {{ border-collapse: collapse; }}
+table {{ border-collapse: collapse; width: 100%; }}
 th {{ font-weight: 600; padding: 4px; }}
 th.seed {{ writing-mode: vertical-rl; transform: rotate(180deg); white-space: nowrap; }}
 td {{ padding: 4px; vertical-align: top; }}
 figure {{ margin: 0; text-align: center; }}
-img {{ width: 240px; height: auto; display: block; border: 1px solid #ccc; }}
+/* Pictures shrink with the window (up to 240 px), so that the six columns fit without sideways scrolling. */
+img {{ width: 100%; max-width: 240px; height: auto; display: block; border: 1px solid #ccc; box-sizing: border-box; }}
 .picture {{ position: relative; cursor: pointer; }}
 .picture img.solution {{ position: absolute; left: 0; top: 0; }}
 .picture img.solution[hidden] {{ display: none; }}
@@ -145,7 +146,7 @@ img {{ width: 240px; height: auto; display: block; border: 1px solid #ccc; }}
           background: rgba(0, 0, 0, 0.55); color: #fff; pointer-events: none; }}
 .picture.playing .badge {{ background: rgba(30, 120, 40, 0.85); }}
 figcaption {{ font-size: 12px; margin-top: 2px; }}
-.missing {{ width: 240px; height: 180px; line-height: 180px; background: #eee; color: #888; }}
+.missing {{ width: 100%; max-width: 240px; height: 180px; line-height: 180px; background: #eee; color: #888; }}
 </style>
 </head>
 <body>
