@@ -269,6 +269,17 @@ MESH_FILE = re.compile(r"[^/]+_(?:visual|collision)_\d+_\d+\.obj")
 """The name of a mesh file the export stage writes (``<link>_<visual|collision>_<geometry>_<piece>.obj``)."""
 
 
+PHOBOS_FILE = re.compile(r"phobos/(?:urdf/[^/]+\.urdf|meshes/obj/[^/]+)")
+"""A file the Blender add-on's Export with Phobos writes (``blender_addon.phobos``): Phobos's URDF
+and its OBJ meshes; anything else in ``phobos/`` is a user's."""
+
+
+def phobos_owns(relative: str) -> bool:
+    """Whether ``relative`` (a POSIX path inside a folder Export with Phobos writes) is Phobos's own
+    file (:data:`PHOBOS_FILE`): what :func:`owned_directory` replaces there, keeping the rest."""
+    return PHOBOS_FILE.fullmatch(f"phobos/{relative}") is not None
+
+
 def stage_owns(stage: Stage, name: str, relative: str) -> bool:
     """Whether ``relative`` (a POSIX path inside puzzle ``name``'s folder) is a file ``stage`` writes.
 
@@ -288,8 +299,7 @@ def stage_owns(stage: Stage, name: str, relative: str) -> bool:
         return relative == f"{name}.blend" or (
             parts[0] == "images" and inner is not None
             and re.fullmatch(rf"{re.escape(name)}_(?:\d{{2,}}\.png|solution\.webp)", inner) is not None)
-    # The add-on's Phobos export replaces its folder whole (blender_addon.phobos).
-    return relative == f"mjcf/{name}.xml" or parts[0] == "phobos"
+    return relative == f"mjcf/{name}.xml" or PHOBOS_FILE.fullmatch(relative) is not None
 
 
 def owned_files(folder: str | Path, stage: Stage, name: str) -> list[str]:
@@ -297,20 +307,18 @@ def owned_files(folder: str | Path, stage: Stage, name: str) -> list[str]:
     A symbolic link stands for itself: a linked folder is not walked."""
     folder = Path(folder)
     found = []
-    for entry in stage_entries(stage, name):
-        path = folder / entry
-        if not os.path.lexists(path):
-            continue
-        if stage_owns(stage, name, entry):
-            found.append(entry)
-        elif path.is_dir() and not path.is_symlink():
+    pending = [entry for entry in stage_entries(stage, name) if os.path.lexists(folder / entry)]
+    while pending:
+        relative = pending.pop()
+        path = folder / relative
+        is_folder = path.is_dir() and not path.is_symlink()
+        if stage_owns(stage, name, relative) and (not is_folder or "/" not in relative):
+            found.append(relative)
+        elif is_folder:
             try:
-                children = os.listdir(path)
+                pending += [f"{relative}/{child}" for child in os.listdir(path)]
             except OSError:
                 continue
-            found += [f"{entry}/{child}" for child in children
-                      if stage_owns(stage, name, f"{entry}/{child}")
-                      and ((path / child).is_symlink() or not (path / child).is_dir())]
     return sorted(found)
 
 
@@ -495,7 +503,7 @@ def stage_directory(final: str | Path, stage: Stage, name: str,
         moving = bool(made_from_it) and not same_stage_entries(
             final, temporary, owned, owns=lambda path: stage_owns(stage, name, path))
         leave = set(own) | (set(made_from_it) if moving else set())
-        _carry(final, temporary, leave.__contains__, shared.__contains__)
+        _carry(final, temporary, leave.__contains__, lambda path: path.split("/")[0] in shared)
         if moving:
             slot = _stale_slot(temporary)
             (temporary / slot).mkdir(parents=True)

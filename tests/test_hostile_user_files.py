@@ -18,7 +18,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from hostile_support import PARAMETERS, hostile_puzzle, refused
+from hostile_support import PARAMETERS, hostile_puzzle, refused, snapshot
 
 from phyrogen.cli import main
 from phyrogen_core.export import read_puzzle_dir, write_mjcf, write_puzzle
@@ -61,7 +61,8 @@ def put(path: Path, data: bytes = USER) -> Path:
 
 # -- A. a user's files inside a stage's folders ----------------------------------------------------
 USER_FILES = ("urdf/MY_URDF_NOTES.txt", "urdf/my_robot.urdf", "srdf/mine.srdf", "meshes/my_part.obj",
-              "meshes/sub/deeper.txt", "images/notes.txt", "solutions/my_path.json", "mjcf/my_scene_with_robot.xml")
+              "meshes/sub/deeper.txt", "images/notes.txt", "solutions/my_path.json", "mjcf/my_scene_with_robot.xml",
+              "phobos/MY_PHOBOS_NOTES.txt", "phobos/urdf/notes.txt", "phobos/meshes/my_mesh.obj")
 
 
 @pytest.mark.parametrize("rendered", [False, True], ids=["alone", "with renders"])
@@ -71,6 +72,8 @@ def test_regenerating_a_changed_puzzle_keeps_a_users_files_inside_its_folders(pl
     if rendered:
         put(place.images / "hostile_1_00.png", b"render")
         put(place.best_solution, b"{}")
+        put(place.path / "phobos" / "urdf" / "hostile_1.urdf", b"Phobos's URDF")
+        put(place.path / "phobos" / "meshes" / "obj" / "obj_00.obj", b"Phobos's mesh")
     old_urdf = place.urdf.read_bytes()
     notices: list[str] = []
     write_puzzle(replace(hostile_puzzle(), parameters={**PARAMETERS, "size": 2.0}), tmp_path / "out", None, notices)
@@ -84,8 +87,11 @@ def test_regenerating_a_changed_puzzle_keeps_a_users_files_inside_its_folders(pl
         assert (stale / "urdf" / "hostile_1.urdf").read_bytes() == old_urdf
         assert not (place.images / "hostile_1_00.png").exists() and not place.best_solution.exists()
         moved = sorted(p.relative_to(stale).as_posix() for p in stale.rglob("*") if p.is_file())
-        assert all(stage_owns(Stage.EXPORT, place.name, p) or p in ("images/hostile_1_00.png",
-                                                                     "solutions/la_rrt_best.json") for p in moved)
+        assert (stale / "phobos" / "urdf" / "hostile_1.urdf").read_bytes() == b"Phobos's URDF"
+        assert not (place.path / "phobos" / "meshes" / "obj").exists()
+        assert all(stage_owns(Stage.EXPORT, place.name, p) or p in (
+            "images/hostile_1_00.png", "solutions/la_rrt_best.json", "phobos/urdf/hostile_1.urdf",
+            "phobos/meshes/obj/obj_00.obj") for p in moved), moved
         assert "solutions/la_rrt_best.json" in moved and any(p.startswith("meshes/") for p in moved)
         assert len(notices) == 1
     else:
@@ -105,6 +111,25 @@ def test_a_stage_still_replaces_and_removes_its_own_files(place, tmp_path):
     assert not (place.meshes / "gone_visual_9_9.obj").exists()
     assert (place.meshes / "my_part.obj").read_bytes() == USER
     assert sorted(p.name for p in place.meshes.glob("*_*_*_*.obj")) == own
+
+
+def test_export_with_phobos_replaces_only_phobos_files(tmp_path):
+    """The folder rule Export with Phobos swaps its folder in by (``blender_addon.phobos``): Phobos's
+    URDF and OBJ meshes are replaced, an old mesh it no longer writes goes, a user's file stays."""
+    from phyrogen_core.folder import owned_directory, phobos_owns
+
+    final = tmp_path / "phobos"
+    for path in ("urdf/hostile_1.urdf", "meshes/obj/obj_00.obj", "meshes/obj/gone.obj"):
+        put(final / path, b"an earlier export")
+    for path in ("notes.txt", "urdf/notes.txt", "meshes/my_mesh.obj", "renders/view.png"):
+        put(final / path)
+    with owned_directory(final, phobos_owns) as temporary:
+        put(temporary / "urdf" / "hostile_1.urdf", b"new")
+        put(temporary / "meshes" / "obj" / "obj_00.obj", b"new")
+    assert snapshot(final) == {"meshes": None, "meshes/my_mesh.obj": USER, "meshes/obj": None,
+                               "meshes/obj/obj_00.obj": b"new", "notes.txt": USER, "renders": None,
+                               "renders/view.png": USER, "urdf": None, "urdf/hostile_1.urdf": b"new",
+                               "urdf/notes.txt": USER}
 
 
 def test_replan_keeps_a_users_files_in_place_and_moves_only_old_renders(place, capsys):
