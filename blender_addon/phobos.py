@@ -32,7 +32,7 @@ from pathlib import Path
 
 import bpy
 
-from phyrogen_core.folder import atomic_directory
+from phyrogen_core.folder import owned_directory, phobos_owns
 
 from .annotations import PHOBOSTYPES
 
@@ -138,9 +138,11 @@ def _recognise_quietly() -> None:
 def export_with_phobos(collection: bpy.types.Collection, folder: str | Path) -> Path:
     """Export the puzzle in ``collection`` with Phobos as URDF (OBJ meshes) into ``folder``; the URDF's path.
 
-    ``folder`` is replaced as a whole and atomically: it ends up holding
-    Phobos's ``urdf/<name>.urdf`` and ``meshes/obj/``, or, when Phobos fails,
-    stays as it was. Raises RuntimeError when Phobos is not enabled or fails.
+    ``folder`` is swapped in atomically: it ends up holding Phobos's new
+    ``urdf/<name>.urdf`` and ``meshes/obj/`` and every other file of the old
+    one (a user's notes stay; :func:`~phyrogen_core.folder.phobos_owns`), or,
+    when Phobos fails, stays as it was. Raises RuntimeError when Phobos is not
+    enabled or fails.
     """
     if not phobos_enabled():
         raise RuntimeError("the Phobos add-on is not enabled; get it from https://github.com/dfki-ric/phobos "
@@ -159,7 +161,7 @@ def export_with_phobos(collection: bpy.types.Collection, folder: str | Path) -> 
         robot = deriveRobot(root, objectlist=[root, *root.children_recursive])
         if robot is None:
             raise RuntimeError(f"Phobos derived no model from {root.name!r}")
-        with atomic_directory(folder) as temporary:
+        with owned_directory(folder, phobos_owns) as temporary:
             robot.export(outputdir=str(temporary), with_meshes=True, no_smurf=True,
                          export_config=[{"type": "urdf", "mesh_format": "obj", "ros_pathes": False}])
     except RuntimeError:
