@@ -659,7 +659,17 @@ def _link_file(source: str | Path, target: str | Path) -> None:
     try:
         os.link(source, target)
     except OSError:
-        shutil.copy2(source, target)
+        # No hard link here (another owner's file under protected_hardlinks, a file system without
+        # them): a regular file is copied; a FIFO is made anew, for opening it to copy would block.
+        mode = os.lstat(source).st_mode
+        if stat.S_ISFIFO(mode):
+            os.mkfifo(target, stat.S_IMODE(mode))
+        elif stat.S_ISREG(mode):
+            shutil.copy2(source, target)
+        else:
+            # Copying a device would stream it (/dev/zero forever); leaving it behind would delete it.
+            raise OutputError(f"{source} is a special file that cannot be hard-linked into the new folder; "
+                              "move it out of the folder") from None
 
 
 @contextmanager

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 from dataclasses import replace
 from pathlib import Path
 
@@ -398,3 +399,20 @@ def test_a_render_keeps_a_users_files_in_images_and_drops_its_own_old_ones(place
     assert (place.images / "my_annotated_view.png").read_bytes() == USER
     # Negative control: the stage's own files are replaced; its old one it did not make again is gone.
     assert sorted(p.name for p in place.images.iterdir()) == ["hostile_1_00.png", "my_annotated_view.png"]
+
+
+def test_a_users_fifo_is_kept_where_hard_links_fail(place, tmp_path, monkeypatch):
+    """Carried over without a hard link (``os.link`` refused), a FIFO of the user's is made anew
+    in the new folder, not opened (which would block) and not left behind; a regular file is copied."""
+    os.mkfifo(place.path / "urdf" / "pipe", 0o640)
+    put(place.path / "urdf" / "notes.txt")
+
+    def no_hard_links(*args, **kwargs):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(os, "link", no_hard_links)
+    write_puzzle(replace(hostile_puzzle(), parameters={**PARAMETERS, "size": 2.0}), tmp_path / "out")
+    pipe = os.lstat(place.path / "urdf" / "pipe")
+    assert stat.S_ISFIFO(pipe.st_mode) and stat.S_IMODE(pipe.st_mode) == 0o640
+    assert (place.path / "urdf" / "notes.txt").read_bytes() == USER
+    assert read_puzzle_dir(place.path).record.parameters["size"] == 2.0  # control: the new puzzle is there
