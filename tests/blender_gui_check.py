@@ -18,6 +18,7 @@ import sys
 import time
 
 import bpy
+import mathutils
 
 ARGUMENTS = sys.argv[sys.argv.index("--") + 1:]
 RESULT, SCREENSHOT = ARGUMENTS[:2]
@@ -91,6 +92,7 @@ def screenshot_and_quit(ok):
                    "panel": [settings.result_label, settings.result_state, settings.result_message,
                              settings.result_columns, *(row.cells for row in settings.result_rows)],
                    "during": state.get("during"),
+                   "view_after_generate": state.get("view_after_generate"),
                    "buttons_enabled_after": bpy.ops.phyrogen.generate.poll(),
                    "blender": bpy.app.version_string}, stream)
     bpy.ops.wm.quit_blender()
@@ -193,6 +195,14 @@ def poll():
         return TICK
     outcome = (settings.result_label, settings.result_message)
     if settings.result_label.startswith(step.label) and outcome != state["before"]:
+        if step.label == "Generate":  # where Generate left the 3D view (it frames the new puzzle)
+            view = view3d()[1].spaces.active.region_3d
+            corners = [list(o.matrix_world @ mathutils.Vector(c)) for o in bpy.data.collections[PUZZLE].all_objects
+                       if o.type == "MESH" and o.phobostype == "visual" for c in o.bound_box]
+            state["view_after_generate"] = {
+                "location": list(view.view_location), "distance": view.view_distance,
+                "low": [min(c[i] for c in corners) for i in range(3)],
+                "high": [max(c[i] for c in corners) for i in range(3)]}
         state["steps"].append({"step": step.label, "state": settings.result_state,
                                "message": settings.result_message, "statuses": state["statuses"],
                                "ticks_while_running": state["running_ticks"], "offset": step.offsets[state["attempt"]],

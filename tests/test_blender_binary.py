@@ -75,6 +75,12 @@ def test_panel_generate_replan_manipulate_clicks_in_the_real_ui(tmp_path):
     assert all(p.is_file() and p.stat().st_size > 10_000 for p in (screenshot, before, during))
     assert result["during"].startswith("Manipulate simple_slider_1: ")  # the status line while it ran
     assert result["buttons_enabled_after"]
+    # Generate framed the new puzzle: the view looks at the middle of its visual objects' bounds (the
+    # default view looks at the origin from about 17 m, where the puzzle was small), from a few metres.
+    view = result["view_after_generate"]
+    middle = [(lo + hi) / 2 for lo, hi in zip(view["low"], view["high"], strict=True)]
+    assert max(abs(a - b) for a, b in zip(view["location"], middle, strict=True)) < 1e-3, view
+    assert 1.0 < view["distance"] < 10.0, view
     # Each click ran its job in a subprocess: the UI's timers kept running meanwhile (not frozen),
     # with the job's progress in the status bar, and its outcome landed in the panel.
     assert [step["step"] for step in result["steps"]] == ["Generate", "Re-plan", "Manipulate"]
