@@ -57,6 +57,8 @@ def test_every_certified_puzzle_gets_a_short_looping_animation(rendered):
             first = movie.convert("RGB")
             movie.seek(movie.n_frames - 1)
             last = movie.convert("RGB")
+            # The solved puzzle is one image shown for the hold (about a second), the frames before it one frame each.
+            assert movie.info["duration"] >= 1000 > 1000 / fps
         # The puzzle moved: the first and last frames differ somewhere.
         assert ImageChops.difference(first, last).getbbox() is not None
     assert not animation_of(uncertified).exists()
