@@ -143,7 +143,8 @@ class Job:
             while group_alive(self.pid) and time.monotonic() < deadline:
                 time.sleep(0.01)
         stdout = self._stdout_path.read_text(encoding="utf-8", errors="replace")
-        last = _error_line(_tail(self._stderr_path) + "\n" + stdout)
+        # A --json result on stdout is no error line (its rows have "error" keys): stderr says what failed.
+        last = _error_line(_tail(self._stderr_path) + ("" if stdout.lstrip().startswith("{") else "\n" + stdout))
         self._result = JobResult(returncode, stdout, last, self._cancelled_at is not None)
         shutil.rmtree(self._folder, ignore_errors=True)
         if self in _live:
