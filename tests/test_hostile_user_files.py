@@ -174,6 +174,71 @@ def test_dataset_removes_only_its_own_temporaries(tmp_path, capsys):
         assert not os.path.lexists(path), path
 
 
+@pytest.fixture(scope="module")
+def mjcf_dataset(tmp_path_factory) -> tuple[list[str], Path]:
+    """A dataset of two puzzles with their MJCF (its command, its root), made once; tests use copies."""
+    root = tmp_path_factory.mktemp("mjcf_dataset") / "data"
+    argv = ["dataset", "--generator", "grid_world", "--seeds", "9200-9201", "--set", "n_objects=2", "--mjcf",
+            "--out", str(root), "--workers", "1", "--quiet"]
+    assert main(argv) == 0
+    return argv, root
+
+
+def _users_mjcf(folder: Path, outside: Path) -> tuple[Path, str]:
+    put(folder / "mjcf" / f"{folder.name}.xml", b"<mujoco>a user's scene</mujoco>")
+    return folder / "mjcf" / f"{folder.name}.xml", "was not written by phyrogen export"
+
+
+def _linked_mjcf(folder: Path, outside: Path) -> tuple[Path, str]:
+    for child in (folder / "mjcf").iterdir():
+        child.unlink()
+    (folder / "mjcf").rmdir()
+    (folder / "mjcf").symlink_to(outside, target_is_directory=True)
+    return folder / "mjcf", "symbolic link"
+
+
+def _linked_puzzle_folder(folder: Path, outside: Path) -> tuple[Path, str]:
+    folder.rename(outside / folder.name)
+    folder.symlink_to(outside / folder.name, target_is_directory=True)
+    return folder, "symbolic link"
+
+
+@pytest.mark.parametrize("damage", [_users_mjcf, _linked_mjcf, _linked_puzzle_folder],
+                         ids=lambda f: f.__name__.strip("_"))
+def test_dataset_mjcf_refuses_what_its_writers_would_meet_before_any_work(damage, mjcf_dataset, tmp_path, capsys,
+                                                                          monkeypatch):
+    """An unfinished shard (its part and the manifest gone, as when killed): its existing puzzle
+    folders are checked up front, as ``generate --mjcf`` checks its own; the refusal came from a
+    worker after the puzzle was made again, or (a user's MJCF) not at all, the file moved to stale/."""
+    import shutil
+
+    import solver.pipelines.dataset
+
+    argv, made = mjcf_dataset
+    root = tmp_path / "data"
+    shutil.copytree(made, root, symlinks=True)
+    shutil.rmtree(root / "parts")
+    (root / "manifest.parquet").unlink()
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    folder = root / "shard-00000" / "grid_world" / "grid_world_9200"
+    path, fragment = damage(folder, outside)
+    argv = [*argv[:argv.index("--out") + 1], str(root), *argv[argv.index("--out") + 2:]]
+    with monkeypatch.context() as patch:
+        def started(*args, **kwargs):
+            raise AssertionError("the dataset started before its folders were checked")
+
+        patch.setattr(solver.pipelines.dataset, "build_dataset", started)
+        refused(argv, capsys, tmp_path, str(path), fragment)
+    # The control: the shard undamaged resumes (the puzzles found done), with the MJCF in place.
+    shutil.rmtree(root)
+    shutil.copytree(made, root, symlinks=True)
+    shutil.rmtree(root / "parts")
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert (root / "shard-00000" / "grid_world" / "grid_world_9201" / "mjcf" / "grid_world_9201.xml").is_file()
+
+
 @pytest.mark.parametrize("name, entry", [(".manifest.parquet.k1ll3d00.tmp", "manifest.parquet"),
                                          (".grid_world_7.abcd_123.tmp.old3", "grid_world_7"),
                                          (".difficulty.png.x1y2z3w4.tmp.png", "difficulty.png"),

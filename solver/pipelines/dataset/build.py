@@ -48,6 +48,7 @@ from phyrogen_core.folder import (
     DATASET_FILE,
     PuzzleFormatError,
     read_folder_json,
+    require_stage_folder,
     require_writable_dir,
     shard_name,
     temporary_entry,
@@ -291,10 +292,34 @@ def check_dataset_root(request: DatasetRequest, root: str | Path) -> Path:
         if difference is not None:
             raise DatasetError(f"{root} holds a dataset of another request ({difference}); run the same "
                                "command as before to resume it, or choose another --out")
+        _check_puzzle_folders(request, root)
     elif root.is_dir() and any(not _root_temporary(name) for name in os.listdir(root)):
         raise DatasetError(f"{root} is not empty and holds no {DATASET_FILE}; choose an empty or new folder for "
                            "the dataset")
     return root
+
+
+def _check_puzzle_folders(request: DatasetRequest, root: Path) -> None:
+    """The puzzle folders already in the incomplete shards of the dataset ``root``, checked as
+    their writers will meet them, before any work: no link on the way (the puzzle would be
+    written elsewhere), and with ``--mjcf`` no file of a user's at ``mjcf/<name>.xml`` (refused, as
+    by ``generate --mjcf``). Only folders that exist are visited: a new dataset costs nothing."""
+    from phyrogen_core.export.mjcf import check_mjcf_target
+
+    for shard in range(request.shard_count):
+        shard_dir = root / shard_name(shard)
+        if not os.path.lexists(shard_dir) or part_is_complete(part_path(root, shard), request.shard_entries(shard)):
+            continue
+        for generator in request.generators:
+            parent = shard_dir / generator
+            if not os.path.lexists(parent):
+                continue
+            require_stage_folder(parent, "dataset shard folder", root=root)
+            entry = re.compile(rf"{re.escape(generator)}_\d+").fullmatch
+            for name in sorted(n for n in os.listdir(parent) if entry(n)):
+                folder = require_stage_folder(parent / name, "puzzle folder", root=root)
+                if request.mjcf and folder.is_dir():
+                    check_mjcf_target(folder, name)
 
 
 def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *,
