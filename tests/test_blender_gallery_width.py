@@ -25,7 +25,8 @@ WIDTH = 1400
 MEASURE = ("<script>window.addEventListener('load', () => { document.body.dataset.scrollWidth = "
            "String(document.documentElement.scrollWidth); });</script></body>")
 
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (apt-get install chromium)")
+pytestmark = [pytest.mark.slow,
+              pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (apt-get install chromium)")]
 
 
 def _scroll_width(page_text: str, path) -> int:
