@@ -27,6 +27,7 @@ from phyrogen_core.actions import count_actions
 from phyrogen_core.export import LoadedPuzzle
 from phyrogen_core.export.reader import MAX_MAGNITUDE
 from phyrogen_core.folder import BEST_SOLUTION, PuzzleFormatError, read_folder_json
+from phyrogen_core.sizes import CERTIFICATE_STATES
 
 CERTIFICATE = "certificate"
 
@@ -90,7 +91,8 @@ def load_solution(folder: Path, joint_order: Sequence[str], certificate: Sequenc
     The solution file is read by the puzzle folder's rule
     (:func:`phyrogen_core.folder.read_folder_json`: inside the folder, a
     regular file of bounded size, finite numbers); its path must hold at
-    least 2 states of finite joint values within ``MAX_MAGNITUDE``. Raises
+    least 2 and at most :data:`~phyrogen_core.sizes.MAX_CERTIFICATE_STATES`
+    states of finite joint values within ``MAX_MAGNITUDE``. Raises
     :class:`~phyrogen_core.folder.PuzzleFormatError` naming the file and the field.
     """
     folder = Path(folder)
@@ -142,6 +144,9 @@ def _reorder(data: object, joint_order: Sequence[str], file: Path) -> np.ndarray
     rows = data["path"]
     if not isinstance(rows, list) or len(rows) < 2:
         raise PuzzleFormatError(f"{file}: path must be a list of at least 2 states, got {_show(rows)}")
+    too_long = CERTIFICATE_STATES.problem(len(rows))  # the certificate's bound: the robot's work grows with it
+    if too_long is not None:
+        raise PuzzleFormatError(f"{file}: path {too_long}")
     for i, row in enumerate(rows):
         if not isinstance(row, list) or len(row) != len(order):
             raise PuzzleFormatError(f"{file}: path[{i}] must be a list of {len(order)} numbers, got {_show(row)}")
