@@ -261,6 +261,37 @@ def test_manipulate_and_render_refuse_a_certificate_past_the_bound(command, tmp_
     assert not (tmp_path / "runs").exists()
 
 
+def write_solution(folder: Path, states: int) -> Path:
+    """``solutions/la_rrt_best.json`` whose path idles at the start, ``states`` states in all."""
+    import json
+
+    data = json.loads((folder / "puzzle.json").read_text())
+    start, end = data["certificate"][0], data["certificate"][-1]
+    path = folder / "solutions" / "la_rrt_best.json"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(json.dumps({"format": "phyrogen-solution", "format_version": 1, "puzzle": data["name"],
+                                "planner": "la_rrt", "joint_order": data["joint_order"],
+                                "path": [start] * (states - 1) + [end]}))
+    return path
+
+
+def test_manipulate_refuses_a_solution_file_past_the_state_bound(tmp_path, no_simulation):
+    """The benchmark's solution is executed like the certificate, and bounded like it: one of
+    200,000 states ran ``manipulate`` past 120 s; at the bound it is read (the control)."""
+    from manipulation.solution import load_solution
+    from phyrogen_core.export import write_puzzle
+
+    folder = write_puzzle(hostile_puzzle(), tmp_path / "puzzles")
+    solution = write_solution(folder, MAX_CERTIFICATE_STATES + 1)
+    code, out, err = cli(["manipulate", str(folder), "--out", str(tmp_path / "runs"), "--quiet"])
+    assert (code, out) == (2, ""), (code, out, err)
+    assert err.count("\n") == 1 and str(solution) in err and f"{MAX_CERTIFICATE_STATES + 1} states" in err, err
+    assert not (tmp_path / "runs").exists()
+    write_solution(folder, MAX_CERTIFICATE_STATES)
+    loaded = read_puzzle_dir(folder)
+    assert len(load_solution(folder, loaded.joint_order, loaded.certificate).path) == MAX_CERTIFICATE_STATES
+
+
 # -- dataset sweeps -------------------------------------------------------------------------------
 def test_a_dataset_sweep_past_a_stated_bound_is_refused_whatever_the_seeds(tmp_path, monkeypatch):
     import solver.pipelines.dataset.build as build
