@@ -220,7 +220,13 @@ def cmd_table(args) -> int:
         records = list(read_journal(journal).values()) if journal.is_file() else []
         sets = ", ".join(f"{k}={v}" for k, v in entry.overrides.items())
         for planner in PLANNERS:
-            mine = [r for r in records if r.planner == titles[planner]]
+            # A crashed run (the worker died before it reported) is no verdict on the puzzle: left out and named;
+            # the benchmark runs it again when resumed.
+            crashed = [r for r in records if r.planner == titles[planner] and r.error]
+            if crashed:
+                print(f"WARNING: {entry.generator} {titles[planner]}: {len(crashed)} crashed runs left out (run the "
+                      "benchmark again to redo them)", file=sys.stderr)
+            mine = [r for r in records if r.planner == titles[planner] and not r.error]
             if not mine:
                 rows.append(f"| {entry.generator} | {sets} | {paper_budget_checks(entry.generator):,} | "
                             f"{titles[planner]} | not measured | | | |")
