@@ -74,6 +74,8 @@ GRIP_CONSTRAINT_FORCE = 5000.0
 APPROACH_HEIGHT = 0.05
 """Metres the tool rises straight up off a handle after a release, and comes straight down onto
 the next (the fingertips start 3 cm above the knob)."""
+APPROACH_LEAST = 0.025
+"""Metres the tool must rise straight up at least (the fingertips 5 mm above the knob's top)."""
 APPROACH_STEP = 0.001
 """Radians (or metres) per physics step, at most, of each joint while the tool rises or descends."""
 HOME_CLEARANCE = 0.8
@@ -390,7 +392,12 @@ class _Run:
                 raise ExecutionError(f"no collision-free IK solution at the grasp point of {grasp.link} "
                                      f"({np.round(point, 3).tolist()})")
             try:
-                descent = self.vertical(solution.q)[::-1]
+                try:
+                    descent = self.vertical(solution.q)[::-1]
+                except ReachingError:
+                    # No room to come straight down (an arm link meets the puzzle above the knob):
+                    # the planned motion ends at the grasp itself, as it did before the approach.
+                    descent = solution.q[None, :]
                 path = self.reach(lift[-1], descent[0], floor)
                 break
             except ReachingError as exc:
@@ -423,7 +430,9 @@ class _Run:
             above[2, 3] += APPROACH_HEIGHT * k / count
             nxt = solve_at(self.planner, above, states[-1], fixed_base=True)
             if nxt is None or self.planner.in_collision():
-                raise ReachingError(f"the tool cannot rise {APPROACH_HEIGHT * 100:.0f} cm straight up "
+                if APPROACH_HEIGHT * (k - 1) / count >= APPROACH_LEAST:
+                    break  # high enough: the fingertips are off the knob
+                raise ReachingError(f"the tool cannot rise {APPROACH_LEAST * 100:.1f} cm straight up "
                                     "from the grasp, clear of the puzzle")
             states.append(nxt)
         return np.array(states)
