@@ -38,6 +38,7 @@ GOAL_RENDER_SECONDS = 45.0
 STAGES = ("install", "generation", "render")
 MARKER = re.compile(r"^paper\.sh: stage (\w+) done at ([0-9.]+)$")
 RENDER_LINE = re.compile(r"^(\d+) puzzles, (\d+) images .* in ([0-9.]+) s: .* with (\d+) workers$")
+PIP_NOISE = re.compile(r"^WARNING: Location '.*' is ignored")
 ANIMATION_LINE = re.compile(r"^(\d+) solution animations, ([0-9.]+) s each")
 
 
@@ -115,7 +116,8 @@ def run_job(clone: Path, out: str) -> tuple[list[Stage], list[str], float, int]:
             lines.append(line)
             marker = MARKER.match(line)
             if marker is None:
-                if not line.startswith("\r") and "%|" not in line:  # progress bars stay quiet
+                # Progress bars and pip's notes on index folders it skips stay quiet.
+                if not line.startswith("\r") and "%|" not in line and not PIP_NOISE.match(line):
                     print(f"  | {line}", flush=True)
                 continue
             now = time.perf_counter()
