@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 from blender_support import blender_environment, tool
+from waiting import BACKSTOP
 
 from blender_addon.views import DEFAULT_VIEWS, image_name
 
@@ -35,7 +36,7 @@ def test_generate_script_renders_in_blender_background(tmp_path):
     result = subprocess.run(
         [BLENDER, "--background", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT), "--",
          "--generator", "simple_slider", "--seed", "2", "--out", str(tmp_path / "out"), "--render"],
-        capture_output=True, text=True, timeout=300, env=blender_environment(tmp_path))
+        capture_output=True, text=True, timeout=BACKSTOP, env=blender_environment(tmp_path))
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     folder = tmp_path / "out" / "simple_slider" / "simple_slider_2"
     assert "URDF from the scene equals the core's" in result.stdout and "rendered" in result.stdout
@@ -55,7 +56,7 @@ def test_generate_script_renders_under_plain_python_with_cycles(tmp_path):
     result = subprocess.run([sys.executable, str(SCRIPT), "--generator", "move_n_times", "--seed", "1",
                              "--out", str(tmp_path / "out"), "--render", "--engine", "cycles", "--views", "oblique",
                              "--size", "160x120"],
-                            capture_output=True, text=True, timeout=300, env=blender_environment(tmp_path))
+                            capture_output=True, text=True, timeout=BACKSTOP, env=blender_environment(tmp_path))
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     image = tmp_path / "out" / "move_n_times" / "move_n_times_1" / "images" / image_name("move_n_times_1", 0)
     from PIL import Image
