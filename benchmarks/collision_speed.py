@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pybullet as pb
-from machine_load import Measurement, combined, measure
+from machine_load import Measurement, measure, print_load_summary
 
 from phyrogen_core.export import read_puzzle_dir
 from solver.collision.model import CollisionModel
@@ -126,11 +126,7 @@ def main() -> int:
           f"{mean[2]:12.0f} ({wall_mean[2]:9.0f}) {mean[1] / mean[0]:9.1f} {mean[2] / mean[0]:11.1f}")
     print(f"per wall-clock second: ratio one {wall_mean[1] / wall_mean[0]:.1f}, "
           f"batch {wall_mean[2] / wall_mean[0]:.1f}")
-    whole = combined(parts)
-    print(f"{whole.wall:.1f} s measured ({whole.cpu:.1f} CPU s); {whole.describe()}")
-    busy = sum(p.busy for p in parts)
-    if busy:
-        print(f"{busy} of {len(parts)} measurements ran while other work used over a quarter of the cores")
+    print_load_summary(parts)
     ratio = mean[1] / mean[0]
     verdict = "meets" if ratio >= GOAL_SINGLE_RATIO else "MISSES"
     print(f"single-state checks: {ratio:.1f}x the prototype's method per CPU second, {verdict} the "

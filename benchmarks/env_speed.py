@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
-from machine_load import Measurement, combined, measure
+from machine_load import Measurement, measure, print_load_summary
 
 from phyrogen.env import PuzzleEnv, PuzzleVectorEnv
 
@@ -185,11 +185,7 @@ def main() -> None:
             print(f"{name:<17} {r['size']:>6} {v['single']:>9,.0f} {r['collided']:>8.0%} {v['discrete']:>9,.0f} "
                   f"{v['sync']:>10,.0f} {v['batched']:>11,.0f} {v['batched'] / v['single']:>11.1f}x "
                   f"{v['states']:>9,.0f}")
-    whole = combined(parts)
-    print(f"{whole.wall:.1f} s measured ({whole.cpu:.1f} CPU s); {whole.describe()}")
-    busy = sum(p.busy for p in parts)
-    if busy:
-        print(f"{busy} of {len(parts)} measurements ran while other work used over a quarter of the cores")
+    print_load_summary(parts)
     for (name, kind), goal in GOAL.items():
         rate = results[name][kind].cpu
         verdict = "meets" if rate >= goal else "MISSES"

@@ -120,3 +120,12 @@ def combined(parts: list[Measurement]) -> Measurement:
     machines = [p.machine for p in parts]
     total.machine = None if any(m is None for m in machines) else sum(machines)  # type: ignore[arg-type]
     return total
+
+
+def print_load_summary(parts: list[Measurement]) -> None:
+    """The measured time of all ``parts`` with the machine's load, and how many ran while it was busy."""
+    whole = combined(parts)
+    print(f"{whole.wall:.1f} s measured ({whole.cpu:.1f} CPU s); {whole.describe()}")
+    busy = sum(p.busy for p in parts)
+    if busy:
+        print(f"{busy} of {len(parts)} measurements ran while other work used over a quarter of the cores")
