@@ -168,9 +168,16 @@ class World:
             pb.disconnect(self.client)
 
     # -- state -------------------------------------------------------------
-    def robot_state(self) -> np.ndarray:
-        states = pb.getJointStates(self.robot, self.robot_joints, physicsClientId=self.client)
+    def _joint_values(self, body: int, joints: Sequence[int]) -> np.ndarray:
+        states = pb.getJointStates(body, joints, physicsClientId=self.client)
         return np.array([s[0] for s in states])
+
+    def _reset_joints(self, body: int, joints: Sequence[int], values: Sequence[float]) -> None:
+        for j, v in zip(joints, values, strict=True):
+            pb.resetJointState(body, j, float(v), physicsClientId=self.client)
+
+    def robot_state(self) -> np.ndarray:
+        return self._joint_values(self.robot, self.robot_joints)
 
     def set_robot(self, q: Sequence[float]) -> None:
         """Place the robot (planning world, or the simulation's initial state only)."""
@@ -179,13 +186,11 @@ class World:
 
     def finger_state(self) -> np.ndarray:
         """The two fingers' joint values (0 open, :attr:`finger_closed` closed)."""
-        states = pb.getJointStates(self.robot, self.finger_joints, physicsClientId=self.client)
-        return np.array([s[0] for s in states])
+        return self._joint_values(self.robot, self.finger_joints)
 
     def set_fingers(self, values: Sequence[float]) -> None:
         """Place the fingers (planning world, renderer, or the simulation's initial state only)."""
-        for j, v in zip(self.finger_joints, values, strict=True):
-            pb.resetJointState(self.robot, j, float(v), physicsClientId=self.client)
+        self._reset_joints(self.robot, self.finger_joints, values)
 
     def all_dof(self, q: Sequence[float]) -> list[float]:
         """Robot joints ``q`` with the fingers as they are, in PyBullet's order of movable joints."""
@@ -216,13 +221,11 @@ class World:
 
     def puzzle_state(self) -> np.ndarray:
         """Puzzle joint values in the scaled scene's units (joint order)."""
-        states = pb.getJointStates(self.puzzle, self.puzzle_joints, physicsClientId=self.client)
-        return np.array([s[0] for s in states])
+        return self._joint_values(self.puzzle, self.puzzle_joints)
 
     def set_puzzle(self, values: Sequence[float]) -> None:
         """Planning world only: the simulation moves puzzle joints by physics alone."""
-        for j, v in zip(self.puzzle_joints, values, strict=True):
-            pb.resetJointState(self.puzzle, j, float(v), physicsClientId=self.client)
+        self._reset_joints(self.puzzle, self.puzzle_joints, values)
 
     def tool_pose(self) -> tuple[np.ndarray, np.ndarray]:
         state = pb.getLinkState(self.robot, self.tool, computeForwardKinematics=True, physicsClientId=self.client)
