@@ -333,6 +333,26 @@ def test_a_users_file_or_link_at_an_output_name_is_refused_before_any_run(damage
     assert not any(puzzle_dir(puzzles, 1).glob("solutions"))
 
 
+def test_a_linked_output_folder_is_refused_before_any_run(puzzles, tmp_path, capsys):
+    """``--out`` itself a symbolic link (to a folder, or dangling) is refused up front, naming it;
+    nothing is written on either side of the link."""
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (outside / "mine.md").write_text("a user's file elsewhere")
+    linked, dangling = tmp_path / "bench", tmp_path / "dangling"
+    linked.symlink_to(outside, target_is_directory=True)
+    dangling.symlink_to(tmp_path / "nowhere", target_is_directory=True)
+    for out in (linked, dangling):
+        before = tree(outside)
+        assert_refused(*benchmark(capsys, puzzles, out), str(out), "symbolic link")
+        assert tree(outside) == before and not (tmp_path / "nowhere").exists()
+    assert not any(puzzle_dir(puzzles, 1).glob("solutions"))
+    # Negative control: the folder the link points to is accepted when named itself.
+    code, _, err = benchmark(capsys, puzzles, outside)
+    assert code == 0, err
+    assert (outside / "summary.md").is_file() and (outside / "mine.md").read_text() == "a user's file elsewhere"
+
+
 def test_a_benchmark_folder_without_its_journal_is_still_the_benchmarks(puzzles, tmp_path, capsys):
     """Negative control: deleting the journal (to run everything again) leaves a folder whose
     ``benchmark.db`` says whose the other entries are; they are replaced."""

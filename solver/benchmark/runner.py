@@ -72,7 +72,6 @@ from phyrogen_core.folder import (
     carry_others,
     read_folder_file,
     require_stage_folder,
-    require_writable_dir,
     write_file_atomic,
 )
 from phyrogen_core.registry import benchmark_time_limits
@@ -754,7 +753,8 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
     if not puzzles:
         raise ValueError("no puzzles to benchmark")
     out = Path(out)
-    require_writable_dir(out)
+    # A linked --out would take every entry a benchmark replaces (and the journal it appends to) elsewhere.
+    require_stage_folder(out, "benchmark output folder")
     check_output_folder(out)  # a user's summary.md or a link there is refused, not replaced
     seen: dict[str, PuzzleFolder] = {}
     digests: dict[str, str] = {}
