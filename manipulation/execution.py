@@ -33,7 +33,7 @@ from .grasp import GraspPoint, grasp_point, gripper_refusals
 from .ik import GRASP_CLEARANCE, IkSettings, best_grasp_configuration, solve_at
 from .physics import PuzzleMaterial, with_masses
 from .placement import Placement, centred_placement, joint_value_scale, link_pose, physical_scale, scale_chain
-from .reaching import REACH_BUDGET, ReachingError, plan_motion, seed_reaching
+from .reaching import REACH_BUDGET, ReachingError, continuous_motion, plan_motion, seed_reaching
 from .robot import ARM_REST, ARM_TUCKED, RobotSpec
 from .scene import (
     COLLISION_MARGIN,
@@ -428,8 +428,11 @@ class _Run:
         for k in range(1, count + 1):
             above = pose.copy()
             above[2, 3] += APPROACH_HEIGHT * k / count
-            nxt = solve_at(self.planner, above, states[-1], fixed_base=True)
-            if nxt is None or self.planner.in_collision():
+            # Damped Newton steps from the state below, not PyBullet's IK: its answer may lie on
+            # another branch (a joint 1 rad away), and the joint-space motion between two such
+            # states, which the robot drives, swept a finger 11 mm through the knob (Lockbox Random 1).
+            nxt = solve_at(self.planner, above, states[-1], iterations=0, fixed_base=True)
+            if nxt is None or not continuous_motion(self.planner, states[-1], nxt):
                 if APPROACH_HEIGHT * (k - 1) / count >= APPROACH_LEAST:
                     break  # high enough: the fingertips are off the knob
                 raise ReachingError(f"the tool cannot rise {APPROACH_LEAST * 100:.1f} cm straight up "
@@ -473,7 +476,8 @@ class _Run:
             above = tool.copy()
             above[2, 3] += height
             q = solve_at(self.planner, above, start)
-            if q is not None and not self.planner.in_collision():
+            # The way up may begin inside the margin (that is why it is taken), but never touches.
+            if q is not None and continuous_motion(self.planner, start, q, max_joint_step=None, margin=0.0):
                 return np.array([start, q])
         raise ReachingError("the released robot is closer to the puzzle than the planning margin "
                             "and cannot lift its tool clear")

@@ -24,13 +24,20 @@ from ompl import util as ou
 from phyrogen_core.seeding import stable_seed
 from solver.planning.ompl_setup import seed_ompl
 
-from .scene import World
+from .scene import COLLISION_MARGIN, World
 
 BASE_MARGIN = 0.8
 """Metres the base may drive beyond the box spanned by start, goal and the puzzle's floor area."""
 CHECK_STEP = 0.01
 """Radians (or metres) between collision-checked states along a motion (0.02 let a 1 cm finger pass
 through the corner of a knob between two checks)."""
+FINE_CHECK_STEP = 0.002
+"""Radians (or metres) of any joint between collision-checked states of a short motion near a
+handle (:func:`continuous_motion`): the tool moves at most a few millimetres between checks, less
+than the planning margin, so no finger passes through a knob unseen."""
+STRAIGHT_JOINT_STEP = 0.1
+"""Radians any joint may turn while the tool moves one step (5 mm) of a straight approach: more is
+a jump to another IK branch, not a straight motion."""
 REACH_BUDGET = 30_000
 """Validity checks BIT* may spend on one motion before giving up (about 5 s at BIT*'s 6k checks/s)."""
 
@@ -43,6 +50,26 @@ def seed_reaching(*parts: object) -> None:
 
 class ReachingError(RuntimeError):
     """BIT* found no collision-free robot motion within its budget."""
+
+
+def continuous_motion(world: World, start: np.ndarray, end: np.ndarray,
+                      max_joint_step: float | None = STRAIGHT_JOINT_STEP, margin: float = COLLISION_MARGIN) -> bool:
+    """Whether the joint-space motion from ``start`` to ``end`` (the one the robot drives) keeps
+    ``margin`` from the puzzle and does not touch itself, checked every :data:`FINE_CHECK_STEP`
+    after ``start``, ``end`` always keeping the planning margin; and, unless ``max_joint_step`` is
+    None, no joint turns more than that (a jump between IK branches is no short motion).
+    Leaves the planning world's robot at ``end``."""
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    delta = end - start
+    if max_joint_step is not None and float(np.max(np.abs(delta))) > max_joint_step:
+        return False
+    count = max(1, int(np.ceil(float(np.max(np.abs(delta))) / FINE_CHECK_STEP)))
+    for k in range(1, count):
+        world.set_robot(start + delta * (k / count))
+        if world.in_collision(margin):
+            return False
+    world.set_robot(end)
+    return not world.in_collision()
 
 
 def plan_motion(world: World, start: np.ndarray, goal: np.ndarray, budget: int = REACH_BUDGET,
