@@ -2,7 +2,16 @@
 
 from __future__ import annotations
 
+import signal
+
 import pytest
+
+# The Ctrl-C tests model a user at a terminal, where SIGINT has its default action. A suite started as a
+# background job of a shell without job control (``cmd &`` in a script, ``nohup``) inherits SIGINT
+# *ignored*, and so would every process a test starts (exec keeps an ignored signal ignored): a plain
+# script interrupted by a test would simply go on. With Python's handler installed here, in the
+# controller and in every worker, each child starts with the default action again.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")
