@@ -546,6 +546,10 @@ class PuzzleVectorEnv(VectorEnv):
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
+    _moves = "motion_ends"
+    """The collision model's batched move: ``motion_ends``, or ``motion_stops`` (the same states, found
+    by testing every sample), kept for comparisons (tests, ``benchmarks/env_speed.py --old-kernel``)."""
+
     def __init__(self, num_envs: int = 8, puzzle: Any = None, *, generator: str | None = None,
                  puzzle_seed: Any = None, params: Any = None, reward: str = "sparse", action_mode: str = "continuous",
                  on_collision: str = "stop", max_episode_steps: int | None = STEP_LIMIT, max_move: float = 0.25,
@@ -655,7 +659,8 @@ class PuzzleVectorEnv(VectorEnv):
                 target += start
                 np.minimum(target, task.upper, out=target)
                 np.maximum(target, task.lower, out=target)
-            reached, fraction = task.model.motion_stops(start, np.ascontiguousarray(target), task.steps, self._stop)
+            reached, fraction = getattr(task.model, self._moves)(start, np.ascontiguousarray(target), task.steps,
+                                                                 self._stop)
             hit = fraction >= 0.0
             self._states[rows, :d] = reached
             self._obs[rows, :d] = (reached - task.center) * task.inv_half

@@ -397,3 +397,242 @@ def nearest_l1(states: np.ndarray, size: int, query: np.ndarray, weights: np.nda
         if distance < best_distance:
             best, best_distance = i, distance
     return best
+
+
+SKIP_MARGIN = 1e-9
+"""Metres by which a pair must be proven apart at a sample :func:`_first_hit` skips. Far more than the
+rounding of the distances and motions it reasons with (about 1e-14 m at puzzle sizes), and far less
+than the tolerance (:data:`~solver.collision.model.DEFAULT_TOLERANCE`): shapes that are truly apart by
+it are found apart by every test of :func:`_state_valid`, whatever order it tries them in."""
+
+
+@njit(cache=True, nogil=True, inline='always')
+def _pair_gap(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+              shape_extent, tol, enough):
+    """:func:`_pair_collides`'s verdict (the same tests, the same numbers) and, when apart, a lower bound
+    of the distance between the two shapes (negative when none is known): the bounding circles' gap or,
+    for two polygons, the largest separation along an edge normal tried (each one is a lower bound of
+    the Euclidean distance). Polygon axes are tried until one separates by ``enough``."""
+    la, lb = shape_link[a], shape_link[b]
+    dx, dy = x[lb] - x[la], y[lb] - y[la]
+    ca, sa = c[la], s[la]
+    rx, ry = ca * dx + sa * dy, -sa * dx + ca * dy
+    rc = ca * c[lb] + sa * s[lb]
+    rs = ca * s[lb] - sa * c[lb]
+    cbx = rc * shape_center[b, 0] - rs * shape_center[b, 1] + rx
+    cby = rs * shape_center[b, 0] + rc * shape_center[b, 1] + ry
+    ex, ey = cbx - shape_center[a, 0], cby - shape_center[a, 1]
+    reach = shape_radius[a] + shape_radius[b] - tol
+    disc_gap = math.sqrt(ex * ex + ey * ey) - (shape_radius[a] + shape_radius[b])
+    if ex * ex + ey * ey >= reach * reach:
+        return False, disc_gap
+    na, nb = shape_nv[a], shape_nv[b]
+    if na == 0:
+        return True, -1.0
+    if nb == 0:
+        radius = shape_radius[b] - tol
+        inside = True
+        best = 1e300
+        for k in range(na):
+            px, py = shape_verts[a, k, 0], shape_verts[a, k, 1]
+            k2 = (k + 1) % na
+            qx, qy = shape_verts[a, k2, 0], shape_verts[a, k2, 1]
+            if (cbx - px) * shape_normals[a, k, 0] + (cby - py) * shape_normals[a, k, 1] >= 0.0:
+                inside = False
+            exx, eyy = qx - px, qy - py
+            t = ((cbx - px) * exx + (cby - py) * eyy) / (exx * exx + eyy * eyy)
+            t = min(1.0, max(0.0, t))
+            hx, hy = px + t * exx - cbx, py + t * eyy - cby
+            best = min(best, hx * hx + hy * hy)
+        return inside or best < radius * radius, disc_gap
+    gap = disc_gap
+    apart = False
+    for k in range(na):
+        nx, ny = shape_normals[a, k, 0], shape_normals[a, k, 1]
+        lowest = 1e300
+        for j in range(nb):
+            vx, vy = shape_verts[b, j, 0], shape_verts[b, j, 1]
+            d = nx * (rc * vx - rs * vy + rx) + ny * (rs * vx + rc * vy + ry)
+            if d < lowest:
+                lowest = d
+        if lowest >= shape_extent[a, k] - tol:
+            apart = True
+            gap = max(gap, lowest - shape_extent[a, k])
+            if gap >= enough:
+                return False, gap
+    for k in range(nb):
+        nx, ny = shape_normals[b, k, 0], shape_normals[b, k, 1]
+        lowest = 1e300
+        for j in range(na):
+            vx, vy = shape_verts[a, j, 0] - rx, shape_verts[a, j, 1] - ry
+            d = nx * (rc * vx + rs * vy) + ny * (-rs * vx + rc * vy)
+            if d < lowest:
+                lowest = d
+        if lowest >= shape_extent[b, k] - tol:
+            apart = True
+            gap = max(gap, lowest - shape_extent[b, k])
+            if gap >= enough:
+                return False, gap
+    return not apart, gap
+
+
+@njit(cache=True, nogil=True)
+def _first_hit(a, b, steps, kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+               shape_normals, shape_extent, all_pairs, tol, pair_columns, shape_rho, q, x, y, c, s, yaws, centres,
+               slide, turn, link_moves, moving, pair_index, due, pair_move):
+    """(index k of the first colliding sample k / count along a -> b, or 0 when none; count): the
+    samples and the pairs :func:`_motion_hit` checks, scanned from the start, skipping what is proven.
+
+    After a pair is found apart at sample i with a lower bound ``gap`` of its shapes' distance, it is not
+    tested again before sample i + n + 1, n = floor((gap - SKIP_MARGIN) / m), where m bounds how far a
+    point of either shape moves between consecutive samples. That bound is known for a link whose
+    ancestors the motion only slides (every moving link in Grid World, Continuous Space and Rooms):
+    the sum of the sliding joints' changes per sample times their axis lengths plus, for a revolute
+    joint of its own, the turn per sample times the shape's farthest point from the joint
+    (``shape_rho``); a pair with a link below a turning one is tested at every sample. A
+    skipped sample's pairs are all proven apart by more than SKIP_MARGIN, so every test of
+    :func:`_state_valid` would have found them apart there: the first colliding sample is the one a
+    test of every sample finds. ``q`` .. ``pair_move`` are scratch buffers; the poses and centres of the
+    last sample tested stay in them, and ``moving`` tells the pairs the motion moves."""
+    d = a.shape[0]
+    count = 1
+    for j in range(d):
+        need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
+        if need > count:
+            count = need
+    # Per link: how far its origin slides and how far it turns between consecutive samples (slide -1: unknown).
+    for r in range(kin_int.shape[0]):
+        link, parent, column = kin_int[r, 0], kin_int[r, 1], kin_int[r, 2]
+        link_moves[link] = kin_int[r, 3] != 0
+        slide[link], turn[link] = 0.0, 0.0
+        if link_moves[link]:
+            if link_moves[parent] and (slide[parent] < 0.0 or turn[parent] != 0.0):
+                slide[link] = -1.0  # carried by a turning link: no bound kept
+            else:
+                # A parent that only slides carries the link's frame along without turning it.
+                slide[link] = slide[parent] if link_moves[parent] else 0.0
+                if column >= 0:
+                    per = abs(b[column] - a[column]) / count
+                    slide[link] += math.sqrt(kin_float[r, 3] ** 2 + kin_float[r, 4] ** 2) * per
+                    turn[link] = abs(kin_float[r, 5]) * per
+    n_pairs = 0
+    for p in range(all_pairs.shape[0]):
+        moving[p] = False
+        for j in range(d):
+            if pair_columns[p, j] and a[j] != b[j]:
+                moving[p] = True
+                break
+        if not moving[p]:
+            continue
+        sa, sb = all_pairs[p, 0], all_pairs[p, 1]
+        la, lb = shape_link[sa], shape_link[sb]
+        m = math.inf
+        if tol >= SKIP_MARGIN and slide[la] >= 0.0 and slide[lb] >= 0.0:
+            m = slide[la] + turn[la] * shape_rho[sa] + slide[lb] + turn[lb] * shape_rho[sb]
+            m = m * (1.0 + 1e-9) + 1e-12  # room for the rounding of the samples' differences
+        due[n_pairs] = 1
+        pair_move[n_pairs] = m
+        pair_index[n_pairs] = p
+        n_pairs += 1
+    full = True
+    while True:
+        k = count + 1
+        for i in range(n_pairs):
+            if due[i] < k:
+                k = due[i]
+        if k > count:
+            return 0, count
+        t = k / count
+        for j in range(d):
+            q[j] = a[j] + (b[j] - a[j]) * t
+        _poses(q, kin_int, kin_float, x, y, c, s, yaws, full)
+        for i in range(shape_link.shape[0]):
+            link = shape_link[i]
+            if not full and not link_moves[link]:  # a fixed shape's centre stays where the first sample put it
+                continue
+            cx, cy = shape_center[i, 0], shape_center[i, 1]
+            centres[0, i] = x[link] + c[link] * cx - s[link] * cy
+            centres[1, i] = y[link] + s[link] * cx + c[link] * cy
+        full = False
+        for i in range(n_pairs):
+            if due[i] != k:
+                continue
+            p = pair_index[i]
+            pa, pb = all_pairs[p, 0], all_pairs[p, 1]
+            m = pair_move[i]
+            enough = m * (count - k) + SKIP_MARGIN if m < math.inf else math.inf
+            reach = shape_radius[pa] + shape_radius[pb] - tol
+            ex, ey = centres[0, pb] - centres[0, pa], centres[1, pb] - centres[1, pa]
+            far = reach + FAR_MARGIN
+            if reach > 0.0 and ex * ex + ey * ey >= far * far:
+                clear = shape_radius[pa] + shape_radius[pb] + enough
+                if ex * ex + ey * ey >= clear * clear * (1.0 + 1e-12):  # apart to the end, without a root
+                    due[i] = count + 1
+                    continue
+                gap = math.sqrt(ex * ex + ey * ey) - (shape_radius[pa] + shape_radius[pb])
+            else:
+                hit, gap = _pair_gap(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
+                                     shape_verts, shape_normals, shape_extent, tol, enough)
+                if hit:
+                    return k, count
+            if gap >= enough:
+                due[i] = count + 1
+            elif gap > SKIP_MARGIN:
+                due[i] = k + 1 + int(math.floor((gap - SKIP_MARGIN) / m))
+            else:
+                due[i] = k + 1
+
+
+@njit(cache=True, nogil=True)
+def motion_ends(a, b, steps, stop, out, hits, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns, shape_rho):
+    """Where each move from a row of ``a`` (N, d) towards the same row of ``b`` ends, into ``out``, as
+    :func:`motion_stops` ends it (the same states, bit for bit), found by :func:`_first_hit`;
+    ``hits[i]`` gets the fraction of row i's first colliding sample, or -1 when the move is free."""
+    d = a.shape[1]
+    n_shapes, n_all = shape_link.shape[0], all_pairs.shape[0]
+    q = np.empty(d)
+    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    centres = np.empty((2, n_shapes))
+    slide, turn = np.empty(n_links), np.empty(n_links)
+    link_moves = np.zeros(n_links, dtype=np.bool_)
+    moving = np.empty(n_all, dtype=np.bool_)
+    pair_index, due, pair_move = np.empty(n_all, dtype=np.int64), np.empty(n_all, dtype=np.int64), np.empty(n_all)
+    for i in range(a.shape[0]):
+        ai, bi, oi = a[i], b[i], out[i]
+        hit, count = _first_hit(ai, bi, steps, kin_int, kin_float, shape_link, shape_nv, shape_center,
+                                shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns,
+                                shape_rho, q, x, y, c, s, yaws, centres, slide, turn, link_moves, moving,
+                                pair_index, due, pair_move)
+        if hit <= 0:
+            for j in range(d):
+                oi[j] = bi[j]
+            hits[i] = -1.0
+            continue
+        hits[i] = hit / count
+        for j in range(d):
+            oi[j] = ai[j]
+        if not stop or hit == 1:
+            continue
+        # motion_stops rescans the samples before its hit with every pair: a pair the motion does not move
+        # is where it was at ``a`` (the poses in the buffers, of the colliding sample, are its poses at a),
+        # and if it collides there the move ends at a.
+        at_a_valid = True
+        for p in range(n_all):
+            if moving[p]:
+                continue
+            pa, pb = all_pairs[p, 0], all_pairs[p, 1]
+            reach = shape_radius[pa] + shape_radius[pb] - tol
+            if reach > 0.0:
+                ex, ey = centres[0, pb] - centres[0, pa], centres[1, pb] - centres[1, pa]
+                far = reach + FAR_MARGIN
+                if ex * ex + ey * ey >= far * far:
+                    continue
+            if _pair_collides(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+                              shape_normals, shape_extent, tol, tol):
+                at_a_valid = False
+                break
+        if at_a_valid:
+            t = (hit - 1) / count
+            for j in range(d):
+                oi[j] = ai[j] + (bi[j] - ai[j]) * t

@@ -172,6 +172,8 @@ class CollisionModel:
         self._shape_nv = np.array([0 if o.is_circle else len(o.vertices) for o in outlines], dtype=np.int64)
         self._shape_center = np.array([o.center for o in outlines], dtype=np.float64).reshape(count, 2)
         self._shape_radius = np.array([o.radius for o in outlines], dtype=np.float64)
+        # The farthest any point of a shape (and its bounding circle's centre) stands from its link's origin.
+        self._shape_rho = np.array([math.hypot(*o.center) + o.radius for o in outlines], dtype=np.float64)
         verts = np.zeros((count, k, 2))
         normals = np.zeros((count, k, 2))
         extent = np.zeros((count, k))
@@ -290,6 +292,18 @@ class CollisionModel:
         out = np.empty_like(starts)
         hits = np.empty(len(starts))
         _kernels.motion_stops(starts, ends, steps, stop, out, hits, *self._arguments, self._pair_columns)
+        return out, hits
+
+    def motion_ends(self, starts: np.ndarray, ends: np.ndarray, steps: np.ndarray, stop: bool) -> tuple[np.ndarray,
+                                                                                                       np.ndarray]:
+        """Where each move ends, exactly as :meth:`motion_stops` ends it, found faster: samples at which
+        every pair is proven apart are skipped (:func:`~solver.collision.kernels.motion_ends`). The
+        fractions are those of each move's first colliding sample (-1: free); only their signs agree
+        with :meth:`motion_stops`'."""
+        out = np.empty_like(starts)
+        hits = np.empty(len(starts))
+        _kernels.motion_ends(starts, ends, steps, stop, out, hits, *self._arguments, self._pair_columns,
+                             self._shape_rho)
         return out, hits
 
     @staticmethod
