@@ -15,7 +15,8 @@ a folder the stage writes, as it was (:func:`stage_directory`,
 regenerated differently move, into ``stale/<n>/`` beside it, with the puzzle
 they were made for. No stage writes through a symbolic link
 (:func:`require_stage_folder`) or copies a file that is not a regular file
-inside the folder (:func:`require_self_contained`). This
+inside the folder (:func:`require_self_contained`), and a reader refuses a folder
+with a link out of it or a FIFO or device anywhere in it (:func:`require_no_escapes`). This
 module is the one place that knows the layout: other layers ask a
 :class:`PuzzleFolder` for paths and :func:`find_puzzle_folders` for folders.
 """
@@ -173,6 +174,57 @@ def require_self_contained(root: str | Path, entries: Iterable[str], what: str =
             pending += sorted(path.iterdir())
         except OSError as exc:
             raise PuzzleFormatError(f"{path} cannot be read: {_reason(exc)}") from None
+
+
+MAX_FOLDER_ENTRIES = 100_000
+"""The most entries :func:`require_no_escapes` walks in one folder (a puzzle folder holds tens);
+a folder with more is refused, not walked."""
+
+
+def require_no_escapes(root: str | Path, what: str = "puzzle folder") -> None:
+    """No entry of the folder ``root``, at any depth and referenced or not, leads out of it or is
+    a special file: every symbolic link resolves inside ``root``, and nothing is a FIFO, a device
+    or a socket. A path that leaves a puzzle folder is bad input wherever it appears: a stage that
+    reads, copies or carries the folder over would read what lies elsewhere, block on a FIFO or
+    stream a device. Asked of the file system only (nothing is opened); links are not followed
+    (a linked folder inside ``root`` is walked where it really is). Raises
+    :class:`PuzzleFormatError`, one line naming the entry."""
+    root = Path(root)
+    try:
+        real_root = Path(os.path.realpath(root))
+    except (OSError, ValueError) as exc:
+        raise PuzzleFormatError(f"{root} cannot be resolved: {_reason(exc)}") from None
+    pending, walked = [root], 0
+    while pending:
+        folder = pending.pop()
+        try:
+            with os.scandir(folder) as scan:
+                entries = sorted(scan, key=lambda entry: entry.name)
+        except OSError as exc:
+            raise PuzzleFormatError(f"{folder} cannot be read: {_reason(exc)}") from None
+        walked += len(entries)
+        if walked > MAX_FOLDER_ENTRIES:
+            raise PuzzleFormatError(f"{root} holds more than {MAX_FOLDER_ENTRIES} entries; a {what} holds tens "
+                                    "(move the others out)")
+        for entry in entries:
+            path = Path(entry.path)
+            try:
+                if entry.is_symlink():
+                    real = Path(os.path.realpath(path))
+                    if not real.is_relative_to(real_root):
+                        raise PuzzleFormatError(f"{path} is a symbolic link to {real}, outside the {what} "
+                                                f"{real_root}; a {what} must be self-contained (move the link out)")
+                elif entry.is_dir(follow_symlinks=False):
+                    pending.append(path)
+                elif not entry.is_file(follow_symlinks=False):
+                    mode = entry.stat(follow_symlinks=False).st_mode
+                    kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+                    kind = next((name for test, name in kinds if test(mode)), "a special file")
+                    raise PuzzleFormatError(f"{path} is {kind}, not a regular file or folder; a {what} holds "
+                                            "only files and folders (move it out)")
+            except OSError as exc:
+                raise PuzzleFormatError(f"{path} cannot be read: {_reason(exc)}") from None
 
 
 def read_folder_json(path: str | Path, root: str | Path, label: str | None = None) -> object:
@@ -384,6 +436,7 @@ class PuzzleFolder:
         problem = name_problem(name)
         if problem is not None:
             raise PuzzleFormatError(f"{metadata_file}: name {name!r} {problem}")
+        require_no_escapes(path)
         return cls(path, name, str(generator), seed if isinstance(seed, int) and not isinstance(seed, bool) else 0)
 
     @property

@@ -23,7 +23,7 @@ from hostile_support import PARAMETERS, hostile_puzzle, refused, snapshot
 
 from phyrogen.cli import main
 from phyrogen_core.export import read_puzzle_dir, write_mjcf, write_puzzle
-from phyrogen_core.folder import OutputError, PuzzleFolder, Stage, atomic_directory
+from phyrogen_core.folder import OutputError, PuzzleFolder, PuzzleFormatError, Stage, atomic_directory
 
 USER = b"a user's own file"
 
@@ -359,6 +359,71 @@ def test_replan_refuses_links_out_and_special_files_before_any_work(place, tmp_p
     refused(["replan", str(place.path)], capsys, tmp_path, path, fragment)
 
 
+def _root_link_outside(place, tmp_path):
+    (place.path / "my_notes.txt").symlink_to(_outside_file(tmp_path))
+    return str(place.path / "my_notes.txt"), "outside the puzzle folder"
+
+
+def _root_link_to_folder_outside(place, tmp_path):
+    (tmp_path / "elsewhere").mkdir()
+    (place.path / "library").symlink_to(tmp_path / "elsewhere", target_is_directory=True)
+    return str(place.path / "library"), "outside the puzzle folder"
+
+
+def _root_fifo(place, tmp_path):
+    os.mkfifo(place.path / "pipe")
+    return str(place.path / "pipe"), "is a FIFO"
+
+
+def _root_link_to_dev_zero(place, tmp_path):
+    (place.path / "zero").symlink_to("/dev/zero")
+    return str(place.path / "zero"), "/dev/zero"
+
+
+def _nested_fifo(place, tmp_path):
+    (place.path / "notes" / "deep").mkdir(parents=True)
+    os.mkfifo(place.path / "notes" / "deep" / "pipe")
+    return str(place.path / "notes" / "deep" / "pipe"), "is a FIFO"
+
+
+def _reading_commands(place: PuzzleFolder, tmp_path: Path) -> list[list[str]]:
+    """Every command that reads a puzzle folder, pointed at ``place`` (or the folder of puzzles holding it)."""
+    out = str(place.path.parent.parent)
+    return [["check", str(place.path)], ["replan", str(place.path)], ["export", str(place.path), "--format", "mjcf"],
+            ["benchmark", "--puzzles", out, "--out", str(tmp_path / "bench"), "--planners", "la_rrt",
+             "--budget-checks", "100", "--time-limit", "5", "--dry-run"],
+            ["manipulate", str(place.path), "--out", str(tmp_path / "runs"), "--quiet"],
+            ["audit", out, "--out", str(tmp_path / "audit"), "--quiet"],
+            ["render", "--out", out, "--quiet"]]
+
+
+@pytest.mark.parametrize("damage", [_root_link_outside, _root_link_to_folder_outside, _root_fifo,
+                                    _root_link_to_dev_zero, _nested_fifo], ids=lambda f: f.__name__.strip("_"))
+def test_every_reader_refuses_an_unreferenced_link_out_or_special_file_up_front(place, tmp_path, capsys, no_work,
+                                                                                damage):
+    """A path that leaves the puzzle folder is bad input wherever it appears: an entry that
+    puzzle.json does not reference, at the root or deeper, is refused by every command that reads
+    the folder, before any work, naming it; nothing is written."""
+    path, fragment = damage(place, tmp_path)
+    for argv in _reading_commands(place, tmp_path):
+        refused(argv, capsys, tmp_path, path, fragment)
+
+
+def test_links_that_stay_inside_the_folder_pass_every_reader(place, tmp_path, capsys):
+    """Negative control: root-level links to a file and to a folder inside the puzzle folder (and a
+    dangling one that would stay inside) are no escape; the folder reads and checks as before."""
+    put(place.path / "library" / "notes.txt")
+    (place.path / "notes.txt").symlink_to(Path("library") / "notes.txt")
+    (place.path / "shelf").symlink_to("library", target_is_directory=True)
+    (place.path / "later.txt").symlink_to("not_written_yet.txt")
+    assert read_puzzle_dir(place.path).name == place.name
+    assert PuzzleFolder.open(place.path).name == place.name
+    from phyrogen.cli import main
+
+    assert main(["check", str(place.path)]) == 0
+    capsys.readouterr()
+
+
 def test_replan_follows_links_inside_the_folder(place, tmp_path):
     """Negative control: a link to a file inside the puzzle folder is no escape."""
     from solver.pipelines.replanning import check_replan_folder
@@ -431,14 +496,16 @@ def test_a_linked_puzzle_folder_is_refused_by_every_stage_that_writes_into_it(pl
 def test_linked_images_and_mjcf_folders_are_refused(place, tmp_path, capsys, no_work):
     outside = tmp_path / "elsewhere"
     outside.mkdir()
+    chain = read_puzzle_dir(place.path).chain
     place.images.symlink_to(outside, target_is_directory=True)
     refused(["render", "--out", str(tmp_path / "out"), "--quiet"], capsys, tmp_path, str(place.images),
             "symbolic link")
+    place.images.unlink()
     (place.path / "mjcf").symlink_to(outside, target_is_directory=True)
     refused(["export", str(place.path), "--format", "mjcf"], capsys, tmp_path, str(place.path / "mjcf"),
             "symbolic link")
-    with pytest.raises(OutputError, match="symbolic link"):
-        write_mjcf(place.path, read_puzzle_dir(place.path).chain, place.name)
+    with pytest.raises(OutputError, match="symbolic link"):  # the writer refuses too, should a caller not read
+        write_mjcf(place.path, chain, place.name)
 
 
 def test_a_linked_manipulation_output_folder_is_refused(place, tmp_path, capsys, no_work):
@@ -480,4 +547,7 @@ def test_a_users_fifo_is_kept_where_hard_links_fail(place, tmp_path, monkeypatch
     pipe = os.lstat(place.path / "urdf" / "pipe")
     assert stat.S_ISFIFO(pipe.st_mode) and stat.S_IMODE(pipe.st_mode) == 0o640
     assert (place.path / "urdf" / "notes.txt").read_bytes() == USER
-    assert read_puzzle_dir(place.path).record.parameters["size"] == 2.0  # control: the new puzzle is there
+    assert json.loads(place.metadata.read_text())["parameters"]["size"] == 2.0  # control: the new puzzle is there
+    # Kept, not deleted, by the writer; a reader refuses the folder while it holds the FIFO.
+    with pytest.raises(PuzzleFormatError, match="urdf/pipe is a FIFO"):
+        read_puzzle_dir(place.path)

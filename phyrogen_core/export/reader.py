@@ -19,7 +19,9 @@ benchmark, the robot) meets a puzzle it cannot trust:
   regular file and hold at most :data:`~phyrogen_core.folder.MAX_FILE_BYTES`
   (:func:`~phyrogen_core.folder.read_folder_file`). Mesh paths are relative
   to the URDF file; the puzzle's ``name`` keeps
-  :func:`~phyrogen_core.folder.name_problem`'s rule.
+  :func:`~phyrogen_core.folder.name_problem`'s rule. No other entry of the
+  folder, referenced or not, is a link that leads out of it or a FIFO, device
+  or socket (:func:`~phyrogen_core.folder.require_no_escapes`).
 - **Numbers**: every number in ``puzzle.json`` is finite; every number of
   the URDF and the meshes, and every joint value in ``puzzle.json`` (start,
   goal, certificate, joint limits), is finite and within
@@ -49,7 +51,15 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from ..chain import Geometry, Joint, JointType, KinematicChain, Link, Role
-from ..folder import METADATA_FILE, PuzzleFolder, PuzzleFormatError, name_problem, read_folder_file, read_folder_json
+from ..folder import (
+    METADATA_FILE,
+    PuzzleFolder,
+    PuzzleFormatError,
+    name_problem,
+    read_folder_file,
+    read_folder_json,
+    require_no_escapes,
+)
 from ..geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from ..objects import Motion
 from ..puzzle import Goal
@@ -127,6 +137,7 @@ def read_puzzle_dir(path: str | Path) -> LoadedPuzzle:
     problems = goal_problems(record.goal, chain, record.start)
     if problems:
         raise PuzzleFormatError(f"{json_path}: goal: {problems[0]}")
+    require_no_escapes(folder)  # the files it does not reference too: a stage may copy or carry them
     return LoadedPuzzle(chain, record)
 
 
