@@ -34,10 +34,12 @@ def two_puzzles(tmp_path_factory):
             write_puzzle(generate_puzzle("grid_world", 733), out)]
 
 
-@pytest.fixture
-def bit_star_calls(monkeypatch):
-    """Counts the BIT* planners made by the reaching module."""
+@pytest.fixture(scope="module")
+def forward(two_puzzles, tmp_path_factory):
+    """The two puzzles in one batch, first then second, and the BIT* planners the reaching module made
+    meanwhile: a run both tests compare against (each of the others is a run of its own)."""
     import manipulation.reaching as reaching
+    from manipulation.batch import manipulate_folders
 
     calls = []
     real = reaching.og
@@ -46,30 +48,33 @@ def bit_star_calls(monkeypatch):
         calls.append(si)
         return real.BITstar(si)
 
-    monkeypatch.setattr(reaching, "og", SimpleNamespace(BITstar=counting, PathSimplifier=real.PathSimplifier))
-    return calls
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(reaching, "og", SimpleNamespace(BITstar=counting, PathSimplifier=real.PathSimplifier))
+        reports = manipulate_folders(two_puzzles, tmp_path_factory.mktemp("ab"), video=False, quiet=True)
+    return reports, calls
 
 
 @pytest.mark.slow
-def test_a_batch_gives_each_puzzle_the_same_report_in_either_order(two_puzzles, bit_star_calls, tmp_path):
+def test_a_batch_gives_each_puzzle_the_same_report_in_either_order(two_puzzles, forward, tmp_path):
     from manipulation.batch import manipulate_folders
 
     first, second = two_puzzles
-    forward = manipulate_folders([first, second], tmp_path / "ab", video=False, quiet=True)
+    reports, bit_star_calls = forward
     # Random draws were made: with one OMPL seed per batch (before), these two reports differed.
     assert bit_star_calls
     backward = manipulate_folders([second, first], tmp_path / "ba", video=False, quiet=True)
     by_name = {r.puzzle: _without_timings(r) for r in backward}
-    assert sorted(by_name) == sorted(r.puzzle for r in forward)
-    for report in forward:
+    assert sorted(by_name) == sorted(r.puzzle for r in reports)
+    for report in reports:
         assert _without_timings(report) == by_name[report.puzzle], report.puzzle
 
 
 @pytest.mark.slow
-def test_a_puzzle_alone_reports_as_in_a_batch(two_puzzles, tmp_path):
+def test_a_puzzle_alone_reports_as_in_a_batch(two_puzzles, forward, tmp_path):
     from manipulation.batch import manipulate_folders
 
-    first, second = two_puzzles
+    _, second = two_puzzles
+    reports, _ = forward
     (alone,) = manipulate_folders([second], tmp_path / "alone", video=False, quiet=True)
-    batch = manipulate_folders([first, second], tmp_path / "batch", video=False, quiet=True)
-    assert _without_timings(alone) == _without_timings(batch[1])
+    assert reports[1].puzzle == alone.puzzle
+    assert _without_timings(alone) == _without_timings(reports[1])
