@@ -11,6 +11,9 @@ default parameters) it runs uniformly random actions for ``--seconds`` each:
 - ``SyncVectorEnv``: Gymnasium's own vectorization of ``--sync-envs`` PuzzleEnvs;
 - ``batched``: :class:`phyrogen.env.PuzzleVectorEnv` with ``--num-envs`` copies, one kernel call per step
   (the goal: 500,000 steps per CPU second on Grid World);
+- ``every sample``: the same with the collision model's earlier batched move, which tests every sample
+  of every move (``motion_stops``; the same states, bit for bit), for the ratio ``batch/every``
+  measured in the same run;
 
 and prints env steps per CPU second (a vector step of N copies counts N; the
 process's CPU time, so other work on the machine changes it little), the
@@ -157,7 +160,7 @@ def main() -> None:
     parts: list[Measurement] = []
     header = (f"{'generator':<17} {'joints':>6} {'single':>9} {'collided':>8} {'discrete':>9} "
               f"{'sync x' + str(args.sync_envs):>10} {'batch x' + str(args.num_envs):>11} {'batch/single':>12} "
-              f"{'states/s':>9}")
+              f"{'every sample':>12} {'batch/every':>11} {'states/s':>9}")
     for name, puzzle in puzzles.items():
         env = PuzzleEnv(puzzle)
         size = env.size
@@ -172,19 +175,23 @@ def main() -> None:
         batch = PuzzleVectorEnv(args.num_envs, puzzle)
         batch_rate, _ = best_of(args.repeat, lambda s=size, v=batch: vector_rate(
             v, rng.uniform(-1, 1, (16, args.num_envs, s)).astype(np.float32), args.seconds))
+        every = PuzzleVectorEnv(args.num_envs, puzzle)
+        every._moves = "motion_stops"
+        every_rate, _ = best_of(args.repeat, lambda s=size, v=every: vector_rate(
+            v, rng.uniform(-1, 1, (16, args.num_envs, s)).astype(np.float32), args.seconds))
         states, _ = best_of(args.repeat, lambda e=env: state_checks_rate(e, args.seconds / 2))
         results[name] = {"single": single, "discrete": discrete, "sync": sync_rate, "batched": batch_rate,
-                         "states": states, "collided": collided, "size": size}
-        for rate in (single, discrete, sync_rate, batch_rate, states):
+                         "every": every_rate, "states": states, "collided": collided, "size": size}
+        for rate in (single, discrete, sync_rate, batch_rate, every_rate, states):
             parts += rate.measurements
     for clock in ("cpu", "wall"):
         print(f"per {'CPU' if clock == 'cpu' else 'wall-clock'} second:")
         print(header)
         for name, r in results.items():
-            v = {k: getattr(r[k], clock) for k in ("single", "discrete", "sync", "batched", "states")}
+            v = {k: getattr(r[k], clock) for k in ("single", "discrete", "sync", "batched", "every", "states")}
             print(f"{name:<17} {r['size']:>6} {v['single']:>9,.0f} {r['collided']:>8.0%} {v['discrete']:>9,.0f} "
                   f"{v['sync']:>10,.0f} {v['batched']:>11,.0f} {v['batched'] / v['single']:>11.1f}x "
-                  f"{v['states']:>9,.0f}")
+                  f"{v['every']:>12,.0f} {v['batched'] / v['every']:>10.2f}x {v['states']:>9,.0f}")
     print_load_summary(parts)
     for (name, kind), goal in GOAL.items():
         rate = results[name][kind].cpu

@@ -584,20 +584,48 @@ def _first_hit(a, b, steps, kin_int, kin_float, shape_link, shape_nv, shape_cent
 
 
 @njit(cache=True, nogil=True)
+def _rest_apart(x, y, c, s, centres, moving, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+                shape_normals, shape_extent, all_pairs, tol):
+    """Whether every pair a move does not move (``moving`` False) stands apart at the poses and centres
+    in the buffers: those of any of its samples, where such a pair stands as at the move's start."""
+    for p in range(all_pairs.shape[0]):
+        if moving[p]:
+            continue
+        pa, pb = all_pairs[p, 0], all_pairs[p, 1]
+        reach = shape_radius[pa] + shape_radius[pb] - tol
+        if reach > 0.0:
+            ex, ey = centres[0, pb] - centres[0, pa], centres[1, pb] - centres[1, pa]
+            far = reach + FAR_MARGIN
+            if ex * ex + ey * ey >= far * far:
+                continue
+        if _pair_collides(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+                          shape_normals, shape_extent, tol, tol):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _end_scratch(d, n_links, n_shapes, n_pairs):
+    """Scratch buffers of :func:`_first_hit`, in its argument order."""
+    return (np.empty(d), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links),
+            np.empty(n_links), np.empty((2, n_shapes)), np.empty(n_links), np.empty(n_links),
+            np.zeros(n_links, dtype=np.bool_), np.empty(n_pairs, dtype=np.bool_), np.empty(n_pairs, dtype=np.int64),
+            np.empty(n_pairs, dtype=np.int64), np.empty(n_pairs))
+
+
+@njit(cache=True, nogil=True)
 def motion_ends(a, b, steps, stop, out, hits, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
                 shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns, shape_rho):
     """Where each move from a row of ``a`` (N, d) towards the same row of ``b`` ends, into ``out``, as
     :func:`motion_stops` ends it (the same states, bit for bit), found by :func:`_first_hit`;
-    ``hits[i]`` gets the fraction of row i's first colliding sample, or -1 when the move is free."""
+    ``hits[i]`` gets the fraction of row i's first colliding sample, or -1 when the move is free.
+
+    As in :func:`_move`, a colliding move ends at its start or, with ``stop``, at the sample before the
+    first colliding one; :func:`_move` finds that sample by rescanning with every pair, so a pair the
+    move does not move, colliding at the start already, ends it at the start."""
+    q, x, y, c, s, yaws, centres, slide, turn, link_moves, moving, pair_index, due, pair_move = _end_scratch(
+        a.shape[1], n_links, shape_link.shape[0], all_pairs.shape[0])
     d = a.shape[1]
-    n_shapes, n_all = shape_link.shape[0], all_pairs.shape[0]
-    q = np.empty(d)
-    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
-    centres = np.empty((2, n_shapes))
-    slide, turn = np.empty(n_links), np.empty(n_links)
-    link_moves = np.zeros(n_links, dtype=np.bool_)
-    moving = np.empty(n_all, dtype=np.bool_)
-    pair_index, due, pair_move = np.empty(n_all, dtype=np.int64), np.empty(n_all, dtype=np.int64), np.empty(n_all)
     for i in range(a.shape[0]):
         ai, bi, oi = a[i], b[i], out[i]
         hit, count = _first_hit(ai, bi, steps, kin_int, kin_float, shape_link, shape_nv, shape_center,
@@ -610,29 +638,11 @@ def motion_ends(a, b, steps, stop, out, hits, kin_int, kin_float, n_links, shape
             hits[i] = -1.0
             continue
         hits[i] = hit / count
-        for j in range(d):
-            oi[j] = ai[j]
-        if not stop or hit == 1:
-            continue
-        # motion_stops rescans the samples before its hit with every pair: a pair the motion does not move
-        # is where it was at ``a`` (the poses in the buffers, of the colliding sample, are its poses at a),
-        # and if it collides there the move ends at a.
-        at_a_valid = True
-        for p in range(n_all):
-            if moving[p]:
-                continue
-            pa, pb = all_pairs[p, 0], all_pairs[p, 1]
-            reach = shape_radius[pa] + shape_radius[pb] - tol
-            if reach > 0.0:
-                ex, ey = centres[0, pb] - centres[0, pa], centres[1, pb] - centres[1, pa]
-                far = reach + FAR_MARGIN
-                if ex * ex + ey * ey >= far * far:
-                    continue
-            if _pair_collides(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
-                              shape_normals, shape_extent, tol, tol):
-                at_a_valid = False
-                break
-        if at_a_valid:
+        if stop and hit > 1 and _rest_apart(x, y, c, s, centres, moving, shape_link, shape_nv, shape_center,
+                                            shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol):
             t = (hit - 1) / count
             for j in range(d):
                 oi[j] = ai[j] + (bi[j] - ai[j]) * t
+        else:
+            for j in range(d):
+                oi[j] = ai[j]
