@@ -27,6 +27,7 @@ that need PhyRoGen's virtual environment (``PHYROGEN_VENV``).
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 import shutil
 import subprocess
@@ -99,6 +100,13 @@ def _pip(arguments: list[str]) -> subprocess.CompletedProcess:
 def dependency_wheels(cache: Path, provided: bool = False) -> list[Path]:
     """Wheels of ``BUNDLED`` and what they need for Blender's Python on Linux x86-64, from ``cache``
     (downloaded into it when missing); those of ``PROVIDED_BY_BLENDER`` only with ``provided``."""
+    return [w for w in _resolved_wheels(cache) if provided or distribution_name(w) not in PROVIDED_BY_BLENDER]
+
+
+@functools.cache
+def _resolved_wheels(cache: Path) -> tuple[Path, ...]:
+    """Every wheel :func:`dependency_wheels` may return, resolved once per process (both zips need the
+    same resolution; each pip run takes seconds)."""
     requirements = project_requirements()
     missing = [name for name in (*BUNDLED, *PROVIDED_BY_BLENDER) if name not in requirements]
     if missing:
@@ -120,13 +128,12 @@ def dependency_wheels(cache: Path, provided: bool = False) -> list[Path]:
     # without --quiet; the resolution is asked again, offline, to learn which files it chose.
     listing = _pip(["download", "--no-index", "--find-links", str(cache), *target, *wanted])
     chosen = sorted({Path(match) for match in re.findall(r"(\S+\.whl)", listing.stdout)}, key=lambda p: p.name)
-    wheels = [cache / path.name for path in chosen
-              if (provided or distribution_name(path) not in PROVIDED_BY_BLENDER) and (cache / path.name).is_file()]
+    wheels = [cache / path.name for path in chosen if (cache / path.name).is_file()]
     found = {distribution_name(w) for w in wheels}
     if listing.returncode != 0 or not set(BUNDLED) <= found:
         raise RuntimeError(f"the wheels in {cache} do not cover {list(BUNDLED)} (found {sorted(found)}): "
                            f"{listing.stdout[-500:]}{listing.stderr[-500:]}")
-    return wheels
+    return tuple(wheels)
 
 
 PROJECT_FILES = ("pyproject.toml", "README.md", "LICENSE")
@@ -163,8 +170,10 @@ def manifest_with_wheels(manifest: str, wheels: list[str]) -> str:
     return "".join(lines[:first_table]) + keys + "".join(lines[first_table:])
 
 
-def build(out_dir: Path, builder: Path | None = None, wheels: bool = True, cache: Path = WHEEL_CACHE) -> Path:
-    """Build the zip into ``out_dir`` and return its path; ``wheels``: bundle the dependencies (see above)."""
+def build(out_dir: Path, builder: Path | None = None, wheels: bool = True, cache: Path = WHEEL_CACHE,
+          project: Path | None = None) -> Path:
+    """Build the zip into ``out_dir`` and return its path; ``wheels``: bundle the dependencies (see above);
+    ``project``: PhyRoGen's wheel, already built by :func:`project_wheel` (else built here)."""
     builder = builder or find_builder()
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as staging:
@@ -174,7 +183,7 @@ def build(out_dir: Path, builder: Path | None = None, wheels: bool = True, cache
         if wheels:
             folder = source / "wheels"
             folder.mkdir()
-            for wheel in [*dependency_wheels(cache), project_wheel(Path(staging) / "project")]:
+            for wheel in [*dependency_wheels(cache), project or project_wheel(Path(staging) / "project")]:
                 shutil.copy2(wheel, folder / wheel.name)
             manifest = source / "blender_manifest.toml"
             manifest.write_text(manifest_with_wheels(manifest.read_text(encoding="utf-8"),
@@ -213,8 +222,9 @@ def unpack_wheel(wheel: Path, site_packages: Path) -> None:
                 target.chmod(mode | 0o644)
 
 
-def build_legacy(out_dir: Path, wheels: bool = True, cache: Path = WHEEL_CACHE) -> Path:
-    """Build the legacy add-on zip for Blender 3.x into ``out_dir`` and return its path (see above)."""
+def build_legacy(out_dir: Path, wheels: bool = True, cache: Path = WHEEL_CACHE, project: Path | None = None) -> Path:
+    """Build the legacy add-on zip for Blender 3.x into ``out_dir`` and return its path (see above);
+    ``project`` as for :func:`build`."""
     manifest = tomllib.loads((SOURCE / "blender_manifest.toml").read_text(encoding="utf-8"))
     out_dir.mkdir(parents=True, exist_ok=True)
     target = out_dir / f"phyrogen-{manifest['version']}-legacy.zip"
@@ -223,7 +233,8 @@ def build_legacy(out_dir: Path, wheels: bool = True, cache: Path = WHEEL_CACHE) 
         shutil.copytree(SOURCE, root, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "blender_manifest.toml"))
         if wheels:
             site_packages = root / "site-packages"
-            for wheel in [*dependency_wheels(cache, provided=True), project_wheel(Path(staging) / "project")]:
+            for wheel in [*dependency_wheels(cache, provided=True),
+                          project or project_wheel(Path(staging) / "project")]:
                 unpack_wheel(wheel, site_packages)
         temporary = target.with_name(f".{target.name}.tmp")
         with zipfile.ZipFile(temporary, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as archive:
@@ -253,10 +264,14 @@ def main(argv: list[str] | None = None) -> int:
                         help="bundle nothing: thin zips, which need PhyRoGen's environment (PHYROGEN_VENV)")
     args = parser.parse_args(argv)
     try:
-        if args.kind in ("both", "extension"):
-            print(build(Path(args.out), args.builder, wheels=not args.no_wheels, cache=args.wheels))
-        if args.kind in ("both", "legacy"):
-            print(build_legacy(Path(args.out), wheels=not args.no_wheels, cache=args.wheels))
+        with tempfile.TemporaryDirectory() as staging:
+            # Both zips bundle the same wheel of PhyRoGen: built once (pip wheel takes seconds).
+            project = project_wheel(Path(staging)) if args.kind == "both" and not args.no_wheels else None
+            if args.kind in ("both", "extension"):
+                print(build(Path(args.out), args.builder, wheels=not args.no_wheels, cache=args.wheels,
+                            project=project))
+            if args.kind in ("both", "legacy"):
+                print(build_legacy(Path(args.out), wheels=not args.no_wheels, cache=args.wheels, project=project))
     except (FileNotFoundError, RuntimeError) as exc:
         print(f"build_addon: error: {exc}", file=sys.stderr)
         return 1
