@@ -432,7 +432,9 @@ class _Run:
             # another branch (a joint 1 rad away), and the joint-space motion between two such
             # states, which the robot drives, swept a finger 11 mm through the knob (Lockbox Random 1).
             nxt = solve_at(self.planner, above, states[-1], iterations=0, fixed_base=True)
-            if nxt is None or not continuous_motion(self.planner, states[-1], nxt):
+            # Each state keeps the planning margin (as before); the motion between two, 5 mm
+            # apart, must not touch (a released robot may start inside the margin).
+            if nxt is None or not continuous_motion(self.planner, states[-1], nxt, margin=0.0):
                 if APPROACH_HEIGHT * (k - 1) / count >= APPROACH_LEAST:
                     break  # high enough: the fingertips are off the knob
                 raise ReachingError(f"the tool cannot rise {APPROACH_LEAST * 100:.1f} cm straight up "
