@@ -477,113 +477,6 @@ def _pair_gap(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius
 
 
 @njit(cache=True, nogil=True)
-def _first_hit(a, b, steps, kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
-               shape_normals, shape_extent, all_pairs, tol, pair_columns, shape_rho, q, x, y, c, s, yaws, centres,
-               slide, turn, link_moves, moving, pair_index, due, pair_move):
-    """(index k of the first colliding sample k / count along a -> b, or 0 when none; count): the
-    samples and the pairs :func:`_motion_hit` checks, scanned from the start, skipping what is proven.
-
-    After a pair is found apart at sample i with a lower bound ``gap`` of its shapes' distance, it is not
-    tested again before sample i + n + 1, n = floor((gap - SKIP_MARGIN) / m), where m bounds how far a
-    point of either shape moves between consecutive samples. That bound is known for a link whose
-    ancestors the motion only slides (every moving link in Grid World, Continuous Space and Rooms):
-    the sum of the sliding joints' changes per sample times their axis lengths plus, for a revolute
-    joint of its own, the turn per sample times the shape's farthest point from the joint
-    (``shape_rho``); a pair with a link below a turning one is tested at every sample. A
-    skipped sample's pairs are all proven apart by more than SKIP_MARGIN, so every test of
-    :func:`_state_valid` would have found them apart there: the first colliding sample is the one a
-    test of every sample finds. ``q`` .. ``pair_move`` are scratch buffers; the poses and centres of the
-    last sample tested stay in them, and ``moving`` tells the pairs the motion moves."""
-    d = a.shape[0]
-    count = 1
-    for j in range(d):
-        need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
-        if need > count:
-            count = need
-    # Per link: how far its origin slides and how far it turns between consecutive samples (slide -1: unknown).
-    for r in range(kin_int.shape[0]):
-        link, parent, column = kin_int[r, 0], kin_int[r, 1], kin_int[r, 2]
-        link_moves[link] = kin_int[r, 3] != 0
-        slide[link], turn[link] = 0.0, 0.0
-        if link_moves[link]:
-            if link_moves[parent] and (slide[parent] < 0.0 or turn[parent] != 0.0):
-                slide[link] = -1.0  # carried by a turning link: no bound kept
-            else:
-                # A parent that only slides carries the link's frame along without turning it.
-                slide[link] = slide[parent] if link_moves[parent] else 0.0
-                if column >= 0:
-                    per = abs(b[column] - a[column]) / count
-                    slide[link] += math.sqrt(kin_float[r, 3] ** 2 + kin_float[r, 4] ** 2) * per
-                    turn[link] = abs(kin_float[r, 5]) * per
-    n_pairs = 0
-    for p in range(all_pairs.shape[0]):
-        moving[p] = False
-        for j in range(d):
-            if pair_columns[p, j] and a[j] != b[j]:
-                moving[p] = True
-                break
-        if not moving[p]:
-            continue
-        sa, sb = all_pairs[p, 0], all_pairs[p, 1]
-        la, lb = shape_link[sa], shape_link[sb]
-        m = math.inf
-        if tol >= SKIP_MARGIN and slide[la] >= 0.0 and slide[lb] >= 0.0:
-            m = slide[la] + turn[la] * shape_rho[sa] + slide[lb] + turn[lb] * shape_rho[sb]
-            m = m * (1.0 + 1e-9) + 1e-12  # room for the rounding of the samples' differences
-        due[n_pairs] = 1
-        pair_move[n_pairs] = m
-        pair_index[n_pairs] = p
-        n_pairs += 1
-    full = True
-    while True:
-        k = count + 1
-        for i in range(n_pairs):
-            if due[i] < k:
-                k = due[i]
-        if k > count:
-            return 0, count
-        t = k / count
-        for j in range(d):
-            q[j] = a[j] + (b[j] - a[j]) * t
-        _poses(q, kin_int, kin_float, x, y, c, s, yaws, full)
-        for i in range(shape_link.shape[0]):
-            link = shape_link[i]
-            if not full and not link_moves[link]:  # a fixed shape's centre stays where the first sample put it
-                continue
-            cx, cy = shape_center[i, 0], shape_center[i, 1]
-            centres[0, i] = x[link] + c[link] * cx - s[link] * cy
-            centres[1, i] = y[link] + s[link] * cx + c[link] * cy
-        full = False
-        for i in range(n_pairs):
-            if due[i] != k:
-                continue
-            p = pair_index[i]
-            pa, pb = all_pairs[p, 0], all_pairs[p, 1]
-            m = pair_move[i]
-            enough = m * (count - k) + SKIP_MARGIN if m < math.inf else math.inf
-            reach = shape_radius[pa] + shape_radius[pb] - tol
-            ex, ey = centres[0, pb] - centres[0, pa], centres[1, pb] - centres[1, pa]
-            far = reach + FAR_MARGIN
-            if reach > 0.0 and ex * ex + ey * ey >= far * far:
-                clear = shape_radius[pa] + shape_radius[pb] + enough
-                if ex * ex + ey * ey >= clear * clear * (1.0 + 1e-12):  # apart to the end, without a root
-                    due[i] = count + 1
-                    continue
-                gap = math.sqrt(ex * ex + ey * ey) - (shape_radius[pa] + shape_radius[pb])
-            else:
-                hit, gap = _pair_gap(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
-                                     shape_verts, shape_normals, shape_extent, tol, enough)
-                if hit:
-                    return k, count
-            if gap >= enough:
-                due[i] = count + 1
-            elif gap > SKIP_MARGIN:
-                due[i] = k + 1 + int(math.floor((gap - SKIP_MARGIN) / m))
-            else:
-                due[i] = k + 1
-
-
-@njit(cache=True, nogil=True)
 def _rest_apart(x, y, c, s, centres, moving, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
                 shape_normals, shape_extent, all_pairs, tol):
     """Whether every pair a move does not move (``moving`` False) stands apart at the poses and centres
@@ -614,35 +507,136 @@ def _end_scratch(d, n_links, n_shapes, n_pairs):
 
 
 @njit(cache=True, nogil=True)
-def motion_ends(a, b, steps, stop, out, hits, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+def motion_ends(starts, ends, steps, stop, out, hits, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
                 shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns, shape_rho):
-    """Where each move from a row of ``a`` (N, d) towards the same row of ``b`` ends, into ``out``, as
-    :func:`motion_stops` ends it (the same states, bit for bit), found by :func:`_first_hit`;
-    ``hits[i]`` gets the fraction of row i's first colliding sample, or -1 when the move is free.
+    """Where each move from a row of ``starts`` (N, d) towards the same row of ``ends`` ends, into ``out``,
+    as :func:`motion_stops` ends it (the same states, bit for bit); ``hits[i]`` gets the fraction of row
+    i's first colliding sample, or -1 when the move is free.
 
     As in :func:`_move`, a colliding move ends at its start or, with ``stop``, at the sample before the
     first colliding one; :func:`_move` finds that sample by rescanning with every pair, so a pair the
-    move does not move, colliding at the start already, ends it at the start."""
+    move does not move, colliding at the start already, ends it at the start.
+
+    The first colliding sample of a move: the samples and the pairs :func:`_motion_hit` checks,
+    scanned from the start, skipping what is proven.
+
+    After a pair is found apart at sample i with a lower bound ``gap`` of its shapes' distance, it is not
+    tested again before sample i + n + 1, n = floor((gap - SKIP_MARGIN) / m), where m bounds how far a
+    point of either shape moves between consecutive samples. That bound is known for a link whose
+    ancestors the motion only slides (every moving link in Grid World, Continuous Space and Rooms):
+    the sum of the sliding joints' changes per sample times their axis lengths plus, for a revolute
+    joint of its own, the turn per sample times the shape's farthest point from the joint
+    (``shape_rho``); a pair with a link below a turning one is tested at every sample. A
+    skipped sample's pairs are all proven apart by more than SKIP_MARGIN, so every test of
+    :func:`_state_valid` would have found them apart there: the first colliding sample is the one a
+    test of every sample finds. The scan is written out in the loop over moves: a call per move, with
+    this many array arguments, costs a quarter of a Grid World move in reference counting."""
+    d = starts.shape[1]
     q, x, y, c, s, yaws, centres, slide, turn, link_moves, moving, pair_index, due, pair_move = _end_scratch(
-        a.shape[1], n_links, shape_link.shape[0], all_pairs.shape[0])
-    d = a.shape[1]
-    for i in range(a.shape[0]):
-        ai, bi, oi = a[i], b[i], out[i]
-        hit, count = _first_hit(ai, bi, steps, kin_int, kin_float, shape_link, shape_nv, shape_center,
-                                shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns,
-                                shape_rho, q, x, y, c, s, yaws, centres, slide, turn, link_moves, moving,
-                                pair_index, due, pair_move)
+        d, n_links, shape_link.shape[0], all_pairs.shape[0])
+    full = True  # a fixed link's pose and shape centres, once: the same at every state
+    for row in range(starts.shape[0]):
+        a, b, o = starts[row], ends[row], out[row]
+        count = 1
+        for j in range(d):
+            need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
+            if need > count:
+                count = need
+        # Per link: how far its origin slides and how far it turns between consecutive samples (slide -1: unknown).
+        for r in range(kin_int.shape[0]):
+            link, parent, column = kin_int[r, 0], kin_int[r, 1], kin_int[r, 2]
+            link_moves[link] = kin_int[r, 3] != 0
+            slide[link], turn[link] = 0.0, 0.0
+            if link_moves[link]:
+                if link_moves[parent] and (slide[parent] < 0.0 or turn[parent] != 0.0):
+                    slide[link] = -1.0  # carried by a turning link: no bound kept
+                else:
+                    # A parent that only slides carries the link's frame along without turning it.
+                    slide[link] = slide[parent] if link_moves[parent] else 0.0
+                    if column >= 0:
+                        per = abs(b[column] - a[column]) / count
+                        slide[link] += math.sqrt(kin_float[r, 3] ** 2 + kin_float[r, 4] ** 2) * per
+                        turn[link] = abs(kin_float[r, 5]) * per
+        n_pairs = 0
+        for p in range(all_pairs.shape[0]):
+            moving[p] = False
+            for j in range(d):
+                if pair_columns[p, j] and a[j] != b[j]:
+                    moving[p] = True
+                    break
+            if not moving[p]:
+                continue
+            sa, sb = all_pairs[p, 0], all_pairs[p, 1]
+            la, lb = shape_link[sa], shape_link[sb]
+            m = math.inf
+            if tol >= SKIP_MARGIN and slide[la] >= 0.0 and slide[lb] >= 0.0:
+                m = slide[la] + turn[la] * shape_rho[sa] + slide[lb] + turn[lb] * shape_rho[sb]
+                m = m * (1.0 + 1e-9) + 1e-12  # room for the rounding of the samples' differences
+            due[n_pairs] = 1
+            pair_move[n_pairs] = m
+            pair_index[n_pairs] = p
+            n_pairs += 1
+        hit = 0
+        while True:
+            k = count + 1
+            for i in range(n_pairs):
+                if due[i] < k:
+                    k = due[i]
+            if k > count:
+                break
+            t = k / count
+            for j in range(d):
+                q[j] = a[j] + (b[j] - a[j]) * t
+            _poses(q, kin_int, kin_float, x, y, c, s, yaws, full)
+            for i in range(shape_link.shape[0]):
+                link = shape_link[i]
+                if not full and not link_moves[link]:  # a fixed shape's centre stays where the first sample put it
+                    continue
+                cx, cy = shape_center[i, 0], shape_center[i, 1]
+                centres[0, i] = x[link] + c[link] * cx - s[link] * cy
+                centres[1, i] = y[link] + s[link] * cx + c[link] * cy
+            full = False
+            for i in range(n_pairs):
+                if due[i] != k:
+                    continue
+                p = pair_index[i]
+                pa, pb = all_pairs[p, 0], all_pairs[p, 1]
+                m = pair_move[i]
+                enough = m * (count - k) + SKIP_MARGIN if m < math.inf else math.inf
+                reach = shape_radius[pa] + shape_radius[pb] - tol
+                ex, ey = centres[0, pb] - centres[0, pa], centres[1, pb] - centres[1, pa]
+                far = reach + FAR_MARGIN
+                if reach > 0.0 and ex * ex + ey * ey >= far * far:
+                    clear = shape_radius[pa] + shape_radius[pb] + enough
+                    if ex * ex + ey * ey >= clear * clear * (1.0 + 1e-12):  # apart to the end, without a root
+                        due[i] = count + 1
+                        continue
+                    gap = math.sqrt(ex * ex + ey * ey) - (shape_radius[pa] + shape_radius[pb])
+                else:
+                    collides, gap = _pair_gap(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
+                                         shape_verts, shape_normals, shape_extent, tol, enough)
+                    if collides:
+                        hit = k
+                        break
+                if gap >= enough:
+                    due[i] = count + 1
+                elif gap > SKIP_MARGIN:
+                    due[i] = k + 1 + int(math.floor((gap - SKIP_MARGIN) / m))
+                else:
+                    due[i] = k + 1
+            if hit:
+                break
         if hit <= 0:
             for j in range(d):
-                oi[j] = bi[j]
-            hits[i] = -1.0
+                o[j] = b[j]
+            hits[row] = -1.0
             continue
-        hits[i] = hit / count
+        hits[row] = hit / count
         if stop and hit > 1 and _rest_apart(x, y, c, s, centres, moving, shape_link, shape_nv, shape_center,
                                             shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol):
             t = (hit - 1) / count
             for j in range(d):
-                oi[j] = ai[j] + (bi[j] - ai[j]) * t
+                o[j] = a[j] + (b[j] - a[j]) * t
         else:
             for j in range(d):
-                oi[j] = ai[j]
+                o[j] = a[j]
