@@ -408,11 +408,14 @@ it are found apart by every test of :func:`_state_valid`, whatever order it trie
 
 @njit(cache=True, nogil=True, inline='always')
 def _pair_gap(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
-              shape_extent, tol, enough):
+              shape_extent, tol, enough, first, good):
     """:func:`_pair_collides`'s verdict (the same tests, the same numbers) and, when apart, a lower bound
     of the distance between the two shapes (negative when none is known): the bounding circles' gap or,
     for two polygons, the largest separation along an edge normal tried (each one is a lower bound of
-    the Euclidean distance). Polygon axes are tried until one separates by ``enough``."""
+    the Euclidean distance), and the index of that axis (A's edges, then B's). Polygon axes are tried
+    from ``first`` on (the one that separated best at the pair's last test: the pose changed little
+    since) until one separates by ``enough``, or the first by ``good``. The verdict does not depend on
+    the order: the shapes are apart when any axis separates them."""
     la, lb = shape_link[a], shape_link[b]
     dx, dy = x[lb] - x[la], y[lb] - y[la]
     ca, sa = c[la], s[la]
@@ -425,10 +428,10 @@ def _pair_gap(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius
     reach = shape_radius[a] + shape_radius[b] - tol
     disc_gap = math.sqrt(ex * ex + ey * ey) - (shape_radius[a] + shape_radius[b])
     if ex * ex + ey * ey >= reach * reach:
-        return False, disc_gap
+        return False, disc_gap, first
     na, nb = shape_nv[a], shape_nv[b]
     if na == 0:
-        return True, -1.0
+        return True, -1.0, first
     if nb == 0:
         radius = shape_radius[b] - tol
         inside = True
@@ -444,36 +447,41 @@ def _pair_gap(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius
             t = min(1.0, max(0.0, t))
             hx, hy = px + t * exx - cbx, py + t * eyy - cby
             best = min(best, hx * hx + hy * hy)
-        return inside or best < radius * radius, disc_gap
+        return inside or best < radius * radius, disc_gap, first
     gap = disc_gap
     apart = False
-    for k in range(na):
-        nx, ny = shape_normals[a, k, 0], shape_normals[a, k, 1]
+    best = first
+    axes = na + nb
+    for n in range(axes):
+        k = first + n
+        if k >= axes:
+            k -= axes
         lowest = 1e300
-        for j in range(nb):
-            vx, vy = shape_verts[b, j, 0], shape_verts[b, j, 1]
-            d = nx * (rc * vx - rs * vy + rx) + ny * (rs * vx + rc * vy + ry)
-            if d < lowest:
-                lowest = d
-        if lowest >= shape_extent[a, k] - tol:
+        if k < na:
+            nx, ny = shape_normals[a, k, 0], shape_normals[a, k, 1]
+            for j in range(nb):
+                vx, vy = shape_verts[b, j, 0], shape_verts[b, j, 1]
+                d = nx * (rc * vx - rs * vy + rx) + ny * (rs * vx + rc * vy + ry)
+                if d < lowest:
+                    lowest = d
+            extent = shape_extent[a, k]
+        else:
+            nx, ny = shape_normals[b, k - na, 0], shape_normals[b, k - na, 1]
+            for j in range(na):
+                vx, vy = shape_verts[a, j, 0] - rx, shape_verts[a, j, 1] - ry
+                d = nx * (rc * vx + rs * vy) + ny * (-rs * vx + rc * vy)
+                if d < lowest:
+                    lowest = d
+            extent = shape_extent[b, k - na]
+        if lowest >= extent - tol:
             apart = True
-            gap = max(gap, lowest - shape_extent[a, k])
-            if gap >= enough:
-                return False, gap
-    for k in range(nb):
-        nx, ny = shape_normals[b, k, 0], shape_normals[b, k, 1]
-        lowest = 1e300
-        for j in range(na):
-            vx, vy = shape_verts[a, j, 0] - rx, shape_verts[a, j, 1] - ry
-            d = nx * (rc * vx + rs * vy) + ny * (-rs * vx + rc * vy)
-            if d < lowest:
-                lowest = d
-        if lowest >= shape_extent[b, k] - tol:
-            apart = True
-            gap = max(gap, lowest - shape_extent[b, k])
-            if gap >= enough:
-                return False, gap
-    return not apart, gap
+            if lowest - extent > gap:
+                gap = lowest - extent
+                best = k
+            # Enough to skip to the end; or the axis that separated best last time still lets a sample go.
+            if gap >= enough or (n == 0 and gap >= good):
+                return False, gap, best
+    return not apart, gap, best
 
 
 @njit(cache=True, nogil=True)
@@ -535,6 +543,7 @@ def motion_ends(starts, ends, steps, stop, out, hits, kin_int, kin_float, n_link
     q, x, y, c, s, yaws, centres, slide, turn, link_moves, moving, pair_index, due, pair_move = _end_scratch(
         d, n_links, shape_link.shape[0], all_pairs.shape[0])
     full = True  # a fixed link's pose and shape centres, once: the same at every state
+    axis = np.zeros(all_pairs.shape[0], dtype=np.int64)  # per pair: its best separating axis when last tested
     for row in range(starts.shape[0]):
         a, b, o = starts[row], ends[row], out[row]
         count = 1
@@ -613,8 +622,9 @@ def motion_ends(starts, ends, steps, stop, out, hits, kin_int, kin_float, n_link
                         continue
                     gap = math.sqrt(ex * ex + ey * ey) - (shape_radius[pa] + shape_radius[pb])
                 else:
-                    collides, gap = _pair_gap(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
-                                         shape_verts, shape_normals, shape_extent, tol, enough)
+                    collides, gap, axis[p] = _pair_gap(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center,
+                                                       shape_radius, shape_verts, shape_normals, shape_extent, tol,
+                                                       enough, axis[p], m + SKIP_MARGIN)
                     if collides:
                         hit = k
                         break
