@@ -263,7 +263,7 @@ def _lost(job: RunJob, how: str) -> RunRecord:
 
 _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.export", "solver.collision.kernels",
             "solver.planning.anytime", "solver.planning.goal_sampling", "solver.planning.la_rrt",
-            "solver.planning.lbt_rrt", "solver.planning.ompl_planners"]
+            "solver.planning.lbt_rrt", "solver.planning.ompl_planners", "solver.benchmark._server_warmup"]
 
 
 Budget = int | Mapping[str, int] | None
