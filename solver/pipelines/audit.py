@@ -83,7 +83,9 @@ REPORT_FORMAT = "phyrogen-audit"
 MARKDOWN_MARKER = "<!-- phyrogen audit report: rewritten by every `phyrogen audit --out` into this folder -->"
 """The first line of ``audit.md``; likewise."""
 _PRELOAD = ["numpy", "phyrogen_core", "phyrogen_core.export", "solver.collision.kernels", "solver.planning.la_rrt",
-            "solver.validation.judge", "solver.pipelines.audit"]
+            "solver.validation.judge", "solver.pipelines.audit", "solver.pipelines._server_warmup"]
+"""What the server of the audit's worker processes imports before it forks them; the last one loads the compiled
+kernels there, once, instead of in every worker."""
 
 
 # -- the referee ---------------------------------------------------------------------------
