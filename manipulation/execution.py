@@ -78,6 +78,11 @@ APPROACH_LEAST = 0.025
 """Metres the tool must rise straight up at least (the fingertips 5 mm above the knob's top)."""
 APPROACH_STEP = 0.001
 """Radians (or metres) per physics step, at most, of each joint while the tool rises or descends."""
+REST_SPEED = 1e-3
+"""Radians (or metres) per second: a puzzle joint slower than this is at rest."""
+REST_STEPS = 2400
+"""Physics steps (10 s) the robot waits, at most, for a released object to come to rest before it
+plans its next grasp (a 80 kg Lockbox disc let go at 0.55 rad/s coasts about 7 s on its bearing)."""
 HOME_CLEARANCE = 0.8
 """Metres between the base's centre at the start and the puzzle's floor area (on its -x side)."""
 
@@ -295,6 +300,9 @@ class _Run:
         failed_base: np.ndarray | None = None
         while True:
             self.plan_state = trajectory.state_at(t)
+            # A grasp is planned on the object where it stands: one still moving (a heavy disc that
+            # slipped from the fingers coasts on) would meet the open fingers somewhere else.
+            self.wait_for_rest()
             self.grasp_here(grasp, trajectory, t, failed_base)
             started = time.perf_counter()
             if self.close_gripper(link_index):
@@ -325,7 +333,14 @@ class _Run:
             # A regrasp after the path's end still gets the follower's settling window to pull the
             # object back (from the end itself the follower had no time left, and a drifted object
             # was released where it lay, again and again).
-            t = min(stopped_at, trajectory.duration)
+            # The object may have moved on its own since the grip was lost (a heavy disc coasts on):
+            # the path resumes where the object is once it rests, not where the grip was lost (the
+            # follower pulled a disc that had coasted on back against it, again and again).
+            self.wait_for_rest()
+            now = self.sim.puzzle_state()[columns]
+            scale = self._check_steps()[columns]
+            gaps = np.max(np.abs(trajectory.states[:, columns] - now) / scale, axis=1)
+            t = min(float(trajectory.times[int(np.argmin(gaps))]), trajectory.duration)
             failed_base = self.sim.robot_state()[:2]
         error = np.abs(self.sim.puzzle_state()[columns] - end[columns]) / self.value_scale[columns]
         return ActionReport(action.object_name, regrasps, tuple(stops), float(np.max(error)))
@@ -338,6 +353,19 @@ class _Run:
         pushes it back."""
         hold(self.sim, self.sim.robot_state(), SETTLE_STEPS, self.on_step)
         return in_place()
+
+    def wait_for_rest(self) -> None:
+        """Hold the robot still until every puzzle joint is slower than :data:`REST_SPEED`, for at
+        most :data:`REST_STEPS` steps."""
+        q = self.sim.robot_state()
+        for _ in range(REST_STEPS):
+            speeds = [s[1] for s in pb.getJointStates(self.sim.puzzle, self.sim.puzzle_joints,
+                                                       physicsClientId=self.sim.client)]
+            if max(abs(v) for v in speeds) < REST_SPEED:
+                return
+            command(self.sim, q)
+            pb.stepSimulation(physicsClientId=self.sim.client)
+            self.on_step()
 
     def _check_steps(self) -> np.ndarray:
         # Fine enough that the grasp point moves a few millimetres between trajectory states.
