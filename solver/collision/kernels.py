@@ -586,13 +586,12 @@ def motion_ends(starts, ends, steps, stop, out, hits, kin_int, kin_float, n_link
             pair_index[n_pairs] = p
             n_pairs += 1
         hit = 0
+        nxt = 1 if n_pairs else count + 1  # the next sample any pair is due at
         while True:
-            k = count + 1
-            for i in range(n_pairs):
-                if due[i] < k:
-                    k = due[i]
+            k = nxt
             if k > count:
                 break
+            nxt = count + 1
             t = k / count
             for j in range(d):
                 q[j] = a[j] + (b[j] - a[j]) * t
@@ -607,6 +606,8 @@ def motion_ends(starts, ends, steps, stop, out, hits, kin_int, kin_float, n_link
             full = False
             for i in range(n_pairs):
                 if due[i] != k:
+                    if due[i] < nxt:
+                        nxt = due[i]
                     continue
                 p = pair_index[i]
                 pa, pb = all_pairs[p, 0], all_pairs[p, 1]
@@ -634,6 +635,8 @@ def motion_ends(starts, ends, steps, stop, out, hits, kin_int, kin_float, n_link
                     due[i] = k + 1 + int(math.floor((gap - SKIP_MARGIN) / m))
                 else:
                     due[i] = k + 1
+                if due[i] < nxt:
+                    nxt = due[i]
             if hit:
                 break
         if hit <= 0:
