@@ -203,7 +203,19 @@ def _linked_puzzle_folder(folder: Path, outside: Path) -> tuple[Path, str]:
     return folder, "symbolic link"
 
 
-@pytest.mark.parametrize("damage", [_users_mjcf, _linked_mjcf, _linked_puzzle_folder],
+def _fifo_in_puzzle_folder(folder: Path, outside: Path) -> tuple[Path, str]:
+    os.mkfifo(folder / "notes.fifo")
+    return folder / "notes.fifo", "FIFO"
+
+
+def _link_out_of_puzzle_folder(folder: Path, outside: Path) -> tuple[Path, str]:
+    put(outside / "notes.txt", b"a user's notes")
+    (folder / "notes.txt").symlink_to(outside / "notes.txt")
+    return folder / "notes.txt", "outside"
+
+
+@pytest.mark.parametrize("damage", [_users_mjcf, _linked_mjcf, _linked_puzzle_folder, _fifo_in_puzzle_folder,
+                                    _link_out_of_puzzle_folder],
                          ids=lambda f: f.__name__.strip("_"))
 def test_dataset_mjcf_refuses_what_its_writers_would_meet_before_any_work(damage, mjcf_dataset, tmp_path, capsys,
                                                                           monkeypatch):

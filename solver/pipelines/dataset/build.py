@@ -48,6 +48,7 @@ from phyrogen_core.folder import (
     DATASET_FILE,
     PuzzleFormatError,
     read_folder_json,
+    require_no_escapes,
     require_stage_folder,
     require_writable_dir,
     shard_name,
@@ -301,9 +302,11 @@ def check_dataset_root(request: DatasetRequest, root: str | Path) -> Path:
 
 def _check_puzzle_folders(request: DatasetRequest, root: Path) -> None:
     """The puzzle folders already in the incomplete shards of the dataset ``root``, checked as
-    their writers will meet them, before any work: no link on the way (the puzzle would be
-    written elsewhere), and with ``--mjcf`` no file of a user's at ``mjcf/<name>.xml`` (refused, as
-    by ``generate --mjcf``). Only folders that exist are visited: a new dataset costs nothing."""
+    their writers and readers will meet them, before any work: no link on the way (the puzzle would
+    be written elsewhere), no link out of a folder nor a FIFO or device in it (its reader would refuse
+    it only after the puzzle was made again), and with ``--mjcf`` no file of a user's at
+    ``mjcf/<name>.xml`` (refused, as by ``generate --mjcf``). Only folders that exist are visited: a
+    new dataset costs nothing."""
     from phyrogen_core.export.mjcf import check_mjcf_target
 
     for shard in range(request.shard_count):
@@ -318,8 +321,10 @@ def _check_puzzle_folders(request: DatasetRequest, root: Path) -> None:
             entry = re.compile(rf"{re.escape(generator)}_\d+").fullmatch
             for name in sorted(n for n in os.listdir(parent) if entry(n)):
                 folder = require_stage_folder(parent / name, "puzzle folder", root=root)
-                if request.mjcf and folder.is_dir():
-                    check_mjcf_target(folder, name)
+                if folder.is_dir():
+                    require_no_escapes(folder)
+                    if request.mjcf:
+                        check_mjcf_target(folder, name)
 
 
 def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *,
