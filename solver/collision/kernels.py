@@ -58,6 +58,26 @@ def _poses(q, kin_int, kin_float, x, y, c, s, yaws, full):
         yaws[link] = yaw
 
 
+@njit(cache=True, nogil=True, inline='always')
+def _circle_meets_polygon(a, cbx, cby, radius, na, shape_verts, shape_normals):
+    """Whether the circle of ``radius`` centred at (cbx, cby) in A's link frame meets A's polygon of
+    ``na`` vertices: its centre inside, or an edge nearer than ``radius``."""
+    inside = True
+    best = 1e300
+    for k in range(na):
+        px, py = shape_verts[a, k, 0], shape_verts[a, k, 1]
+        k2 = (k + 1) % na
+        qx, qy = shape_verts[a, k2, 0], shape_verts[a, k2, 1]
+        if (cbx - px) * shape_normals[a, k, 0] + (cby - py) * shape_normals[a, k, 1] >= 0.0:
+            inside = False
+        exx, eyy = qx - px, qy - py
+        t = ((cbx - px) * exx + (cby - py) * eyy) / (exx * exx + eyy * eyy)
+        t = min(1.0, max(0.0, t))
+        hx, hy = px + t * exx - cbx, py + t * eyy - cby
+        best = min(best, hx * hx + hy * hy)
+    return inside or best < radius * radius
+
+
 # Inlined into its callers: a call that passes numba arrays pays reference counting on
 # each of them, and with thirteen array arguments that cost 20x the test itself
 # (benchmarks/collision_speed.py; docs/performance.md).
@@ -81,22 +101,8 @@ def _pair_collides(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_r
     na, nb = shape_nv[a], shape_nv[b]
     if na == 0:  # circle-circle
         return True
-    if nb == 0:  # polygon-circle: distance from the circle centre to the polygon
-        radius = shape_radius[b] - tol
-        inside = True
-        best = 1e300
-        for k in range(na):
-            px, py = shape_verts[a, k, 0], shape_verts[a, k, 1]
-            k2 = (k + 1) % na
-            qx, qy = shape_verts[a, k2, 0], shape_verts[a, k2, 1]
-            if (cbx - px) * shape_normals[a, k, 0] + (cby - py) * shape_normals[a, k, 1] >= 0.0:
-                inside = False
-            exx, eyy = qx - px, qy - py
-            t = ((cbx - px) * exx + (cby - py) * eyy) / (exx * exx + eyy * eyy)
-            t = min(1.0, max(0.0, t))
-            hx, hy = px + t * exx - cbx, py + t * eyy - cby
-            best = min(best, hx * hx + hy * hy)
-        return inside or best < radius * radius
+    if nb == 0:
+        return _circle_meets_polygon(a, cbx, cby, shape_radius[b] - tol, na, shape_verts, shape_normals)
     # Polygon-polygon: two convex polygons are disjoint iff an edge line of one of them
     # separates them; an edge separates when the other polygon lies beyond it.
     for k in range(na):
@@ -433,21 +439,8 @@ def _pair_gap(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius
     if na == 0:
         return True, -1.0, first
     if nb == 0:
-        radius = shape_radius[b] - tol
-        inside = True
-        best = 1e300
-        for k in range(na):
-            px, py = shape_verts[a, k, 0], shape_verts[a, k, 1]
-            k2 = (k + 1) % na
-            qx, qy = shape_verts[a, k2, 0], shape_verts[a, k2, 1]
-            if (cbx - px) * shape_normals[a, k, 0] + (cby - py) * shape_normals[a, k, 1] >= 0.0:
-                inside = False
-            exx, eyy = qx - px, qy - py
-            t = ((cbx - px) * exx + (cby - py) * eyy) / (exx * exx + eyy * eyy)
-            t = min(1.0, max(0.0, t))
-            hx, hy = px + t * exx - cbx, py + t * eyy - cby
-            best = min(best, hx * hx + hy * hy)
-        return inside or best < radius * radius, disc_gap, first
+        return _circle_meets_polygon(a, cbx, cby, shape_radius[b] - tol, na, shape_verts, shape_normals), \
+            disc_gap, first
     gap = disc_gap
     apart = False
     best = first
