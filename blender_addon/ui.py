@@ -214,7 +214,8 @@ def begin(context, operation: str) -> Job:
     settings = context.scene.phyrogen
     job = OPERATIONS[operation].start(context)
     _running.append((operation, job))
-    settings.job_status = f"{job.label}: starting"
+    # The running form at once (it says how to cancel): a short job may end before the first poll.
+    settings.job_status = job.status_text()
     return job
 
 
