@@ -59,6 +59,21 @@ def _poses(q, kin_int, kin_float, x, y, c, s, yaws, full):
 
 
 @njit(cache=True, nogil=True, inline='always')
+def _relative_pose(a, b, x, y, c, s, shape_link, shape_center):
+    """B's link frame in A's link frame (translation ``rx, ry``, rotation's cosine and sine ``rc, rs``)
+    and the centre of B's bounding circle there (``cbx, cby``)."""
+    la, lb = shape_link[a], shape_link[b]
+    dx, dy = x[lb] - x[la], y[lb] - y[la]
+    ca, sa = c[la], s[la]
+    rx, ry = ca * dx + sa * dy, -sa * dx + ca * dy
+    rc = ca * c[lb] + sa * s[lb]
+    rs = ca * s[lb] - sa * c[lb]
+    cbx = rc * shape_center[b, 0] - rs * shape_center[b, 1] + rx
+    cby = rs * shape_center[b, 0] + rc * shape_center[b, 1] + ry
+    return rx, ry, rc, rs, cbx, cby
+
+
+@njit(cache=True, nogil=True, inline='always')
 def _circle_meets_polygon(a, cbx, cby, radius, na, shape_verts, shape_normals):
     """Whether the circle of ``radius`` centred at (cbx, cby) in A's link frame meets A's polygon of
     ``na`` vertices: its centre inside, or an edge nearer than ``radius``."""
@@ -84,16 +99,8 @@ def _circle_meets_polygon(a, cbx, cby, radius, na, shape_verts, shape_normals):
 @njit(cache=True, nogil=True, inline='always')
 def _pair_collides(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius,
                    shape_verts, shape_normals, shape_extent, reach_tol, tol):
-    la, lb = shape_link[a], shape_link[b]
-    # Relative pose of B's link frame in A's link frame.
-    dx, dy = x[lb] - x[la], y[lb] - y[la]
-    ca, sa = c[la], s[la]
-    rx, ry = ca * dx + sa * dy, -sa * dx + ca * dy
-    rc = ca * c[lb] + sa * s[lb]
-    rs = ca * s[lb] - sa * c[lb]
+    rx, ry, rc, rs, cbx, cby = _relative_pose(a, b, x, y, c, s, shape_link, shape_center)
     # Broad phase: bounding circles.
-    cbx = rc * shape_center[b, 0] - rs * shape_center[b, 1] + rx
-    cby = rs * shape_center[b, 0] + rc * shape_center[b, 1] + ry
     ex, ey = cbx - shape_center[a, 0], cby - shape_center[a, 1]
     reach = shape_radius[a] + shape_radius[b] - reach_tol
     if ex * ex + ey * ey >= reach * reach:
@@ -422,14 +429,7 @@ def _pair_gap(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius
     from ``first`` on (the one that separated best at the pair's last test: the pose changed little
     since) until one separates by ``enough``, or the first by ``good``. The verdict does not depend on
     the order: the shapes are apart when any axis separates them."""
-    la, lb = shape_link[a], shape_link[b]
-    dx, dy = x[lb] - x[la], y[lb] - y[la]
-    ca, sa = c[la], s[la]
-    rx, ry = ca * dx + sa * dy, -sa * dx + ca * dy
-    rc = ca * c[lb] + sa * s[lb]
-    rs = ca * s[lb] - sa * c[lb]
-    cbx = rc * shape_center[b, 0] - rs * shape_center[b, 1] + rx
-    cby = rs * shape_center[b, 0] + rc * shape_center[b, 1] + ry
+    rx, ry, rc, rs, cbx, cby = _relative_pose(a, b, x, y, c, s, shape_link, shape_center)
     ex, ey = cbx - shape_center[a, 0], cby - shape_center[a, 1]
     reach = shape_radius[a] + shape_radius[b] - tol
     disc_gap = math.sqrt(ex * ex + ey * ey) - (shape_radius[a] + shape_radius[b])
