@@ -65,8 +65,12 @@ CLOSE_STEPS = 240
 """Physics steps (1 s) the fingers may take to close on a handle (full stroke at full speed: 0.28 s)."""
 SQUEEZE_STEPS = 12
 """Steps both fingers must touch the handle, still, before the grasp holds."""
-OPEN_STEPS = 120
-"""Physics steps the fingers are given to open after a release."""
+OPEN_STEPS = 240
+"""Physics steps (1 s) the fingers are given to open after a release; still closed after them, the
+robot does not drive (ExecutionError)."""
+OPEN_STALL_STEPS = 24
+"""Physics steps (0.1 s) after which opening fingers that have not left the handle and stand still
+let it go (see :meth:`_Run.open_gripper`)."""
 FINGER_TOUCH = 1e-3
 """Metres: a finger whose contact with the handle is closer than this touches it."""
 GRIP_CONSTRAINT_FORCE = 5000.0
@@ -531,9 +535,7 @@ class _Run:
             command(self.sim, q)
             pb.stepSimulation(physicsClientId=c)
             self.on_step()
-            moving = max(abs(s[1]) for s in pb.getJointStates(self.sim.robot, self.sim.finger_joints,
-                                                                physicsClientId=c))
-            still = still + 1 if moving < 0.2 * g.closing_speed and self.fingers_hold(link_index) else 0
+            still = still + 1 if self.finger_speed() < 0.2 * g.closing_speed and self.fingers_hold(link_index) else 0
             if still >= SQUEEZE_STEPS:
                 self.phase = "following"
                 return True
@@ -555,15 +557,31 @@ class _Run:
         self.command_fingers(0.0)
         self.phase = "opening"
         q = self.sim.robot_state()
-        for _ in range(OPEN_STEPS):
+        g = self.settings.robot.gripper
+        for step in range(OPEN_STEPS):
             if np.max(self.sim.finger_state()) < 1e-3:
                 break
+            if step >= OPEN_STALL_STEPS and self.grip is not None and self.finger_speed() < 0.2 * g.closing_speed:
+                # A finger can stall on the handle it held: the handle, bound to the tool, cannot
+                # give way, and PyBullet's contact then pushed the finger back in with the finger's
+                # own force (86-90 N against 100 N, on Move N Times 83103 and 84204: the fingers
+                # stayed closed and the robot drove off with them). Let go; they open at once.
+                self.release_constraint()
             command(self.sim, q)
             pb.stepSimulation(physicsClientId=self.sim.client)
             self.on_step()
         self.release_constraint()
+        opening = self.sim.finger_state()
+        if np.max(opening) >= 1e-3:
+            # Every plan assumes open fingers: driving with them closed would sweep them into the puzzle.
+            raise ExecutionError(f"the fingers did not open ({np.max(opening) * 1000:.1f} mm of "
+                                 f"{g.stroke * 500:.1f} mm still closed after {OPEN_STEPS} steps)")
         self.planned = frozenset()
         self.phase = "holding"
+
+    def finger_speed(self) -> float:
+        return max(abs(s[1]) for s in pb.getJointStates(self.sim.robot, self.sim.finger_joints,
+                                                         physicsClientId=self.sim.client))
 
     def release_constraint(self) -> None:
         if self.grip is not None:

@@ -3,6 +3,8 @@ is bound to the tool only while both fingers touch its handle (opening them rele
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 import pytest
 
@@ -63,14 +65,12 @@ def test_every_generators_handles_fit_the_gripper_at_its_physical_scale():
         assert gripper_refusals(chain, GripperSpec(), GRASP_CLEARANCE) == [], generator
 
 
-def test_the_object_is_bound_only_while_both_fingers_touch_it(slider, tmp_path):
-    """Close on the handle: both fingers touch, the grasp binds the object. Hold: still bound.
-    Open the fingers: the binding goes as soon as a finger leaves, and the tool then moves away
-    without the object."""
-    import pybullet as pb
-
+@contextmanager
+def holding(slider, tmp_path):
+    """Worlds in which the robot has driven to the slider's target and closed its fingers on the
+    handle, the object bound to the tool: yields (run, handle's link index)."""
     from manipulation.execution import ExecutionSettings, _Run, scene_placement
-    from manipulation.following import TIME_STEP, Trajectory, command
+    from manipulation.following import Trajectory, command
     from manipulation.grasp import grasp_point
     from manipulation.physics import with_masses
     from manipulation.placement import joint_value_scale, scale_chain
@@ -101,6 +101,22 @@ def test_the_object_is_bound_only_while_both_fingers_touch_it(slider, tmp_path):
         assert run.close_gripper(link) and run.fingers_hold(link)
         tool_at_link = inverse(run.link_world(grasp.link, sim.puzzle_state())) @ matrix(*sim.tool_pose())
         run.attach(link, tool_at_link)
+        yield run, link
+    finally:
+        sim.close()
+        planner.close()
+
+
+def test_the_object_is_bound_only_while_both_fingers_touch_it(slider, tmp_path):
+    """Close on the handle: both fingers touch, the grasp binds the object. Hold: still bound.
+    Open the fingers: the binding goes as soon as a finger leaves, and the tool then moves away
+    without the object."""
+    import pybullet as pb
+
+    from manipulation.following import TIME_STEP, command
+
+    with holding(slider, tmp_path) as (run, link):
+        sim = run.sim
         q = sim.robot_state()
         for _ in range(60):  # held: the binding stays
             command(sim, q)
@@ -127,6 +143,28 @@ def test_the_object_is_bound_only_while_both_fingers_touch_it(slider, tmp_path):
             pb.stepSimulation(physicsClientId=sim.client)
         assert np.linalg.norm(np.asarray(sim.tool_pose()[0]) - tool_before) > 0.05
         assert np.allclose(sim.puzzle_state(), before, atol=1e-4), (before, sim.puzzle_state())
-    finally:
-        sim.close()
-        planner.close()
+
+
+@pytest.mark.parametrize("glued", [False, True])
+def test_fingers_that_cannot_open_stop_the_run_before_it_drives(slider, tmp_path, glued):
+    """Every plan assumes open fingers. A finger held on the handle (here jammed in place by a
+    constraint stronger than the finger's 100 N) makes the release fail with a named cause instead
+    of the robot driving off with the finger closed; the control, with nothing glued, opens."""
+    import pybullet as pb
+
+    from manipulation.execution import ExecutionError
+
+    with holding(slider, tmp_path) as (run, link):
+        sim = run.sim
+        if glued:
+            finger = sim.finger_joints[0]
+            # Jammed where it stands (the arm holds still while the fingers open).
+            f = pb.getLinkState(sim.robot, finger, physicsClientId=sim.client)
+            glue = pb.createConstraint(sim.robot, finger, -1, -1, pb.JOINT_FIXED, (0, 0, 0), (0, 0, 0), f[0],
+                                       (0, 0, 0, 1), f[1], physicsClientId=sim.client)
+            pb.changeConstraint(glue, maxForce=1000.0, physicsClientId=sim.client)
+            with pytest.raises(ExecutionError, match="the fingers did not open"):
+                run.open_gripper()
+        else:
+            run.open_gripper()
+            assert np.max(sim.finger_state()) < 1e-3 and run.grip is None
