@@ -185,8 +185,11 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
             stop = Stop.DONE
         q = q_new
         if stop is not None:
-            return FollowResult(stop, t, steps + hold(world, q, settings.hold_steps, on_step))
-    return FollowResult(Stop.DONE, t, steps + hold(world, q, settings.hold_steps, on_step))
+            # Held at the last command, not at the measured state: the loaded arm sags off its command
+            # (its servos are PD), and a command at the sagged state sags it once more (a Move N Times
+            # target held there turned 0.8 mrad out of its tolerance of 1, at every regrasp).
+            return FollowResult(stop, t, steps + hold(world, target, settings.hold_steps, on_step))
+    return FollowResult(Stop.DONE, t, steps + hold(world, target if steps else q, settings.hold_steps, on_step))
 
 
 def command(world: World, target: np.ndarray, velocity: np.ndarray | None = None) -> None:
