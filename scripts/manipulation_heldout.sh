@@ -8,7 +8,7 @@
 # certificate.
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 OUT="${1:-output/heldout}"
-FIRST="${2:-83101}"
+FIRST="${2:-86101}"
 LAST=$((FIRST + 9))
 for generator in continuous_space grid_world lockbox_random rooms; do
   "$VENV/bin/phyrogen" generate --generator "$generator" --seeds "$FIRST-$LAST" --out "$OUT/puzzles" --quiet
