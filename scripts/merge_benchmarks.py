@@ -1,0 +1,82 @@
+"""One summary from several benchmark journals: a run of a later journal replaces the run of an
+earlier one with the same puzzle, planner and run number.
+
+    python scripts/merge_benchmarks.py OUT JOURNAL [JOURNAL ...]
+
+For a table whose cells were run again: the clock-ended cells of docs/benchmark/paper-protocol.md
+were rerun on their check budgets, with the same seeds, into their own folders, and merged over the
+first journal this way. Each replaced run must have the same seed and puzzle digest (else the
+"same run" would be another one: the script stops with an error). Writes ``OUT/summary.md``,
+``summary.json``, ``benchmark.db``, ``logs/`` and ``results.html``, as a benchmark's ``--out``
+does, into a new folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from solver.benchmark.plots import summary_json, summary_markdown, summary_rows
+from solver.benchmark.results_page import write_results_page
+from solver.benchmark.runner import build_database, read_journal, write_log
+from solver.planning.registry import PLANNERS
+
+
+def merged_runs(journals: list[Path]) -> dict[tuple[str, str, int], tuple[dict, object]]:
+    """(puzzle, planner title, run) -> (key, record), later journals winning."""
+    runs: dict[tuple[str, str, int], tuple[dict, object]] = {}
+    for journal in journals:
+        for key_text, record in read_journal(journal).items():
+            key = json.loads(key_text)
+            cell = (record.puzzle, record.planner, record.run)
+            earlier = runs.get(cell)
+            if earlier is not None and (earlier[0]["seed"], earlier[0]["puzzle_sha256"]) != (
+                    key["seed"], key["puzzle_sha256"]):
+                raise SystemExit(f"error: {journal}: {cell} has another seed or puzzle than before")
+            runs[cell] = (key, record)
+    return runs
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path, help="a new folder for the merged summary")
+    parser.add_argument("journals", type=Path, nargs="+", help="runs.jsonl files, earliest first")
+    args = parser.parse_args(argv)
+    for journal in args.journals:
+        if not journal.is_file():
+            print(f"error: {journal}: no such journal", file=sys.stderr)
+            return 2
+    if args.out.exists():
+        print(f"error: {args.out} exists; choose a new folder", file=sys.stderr)
+        return 2
+    runs = merged_runs(args.journals)
+    order = {spec.title: i for i, spec in enumerate(PLANNERS.values())}
+    (args.out / "logs").mkdir(parents=True)
+    logs = []
+    for puzzle in dict.fromkeys(p for p, _, _ in runs):
+        mine = [(k, r) for (p, _, _), (k, r) in runs.items() if p == puzzle]
+        records = [r for _, r in mine]
+        titles = sorted({r.planner for r in records}, key=lambda t: order.get(t, len(order)))
+        versions = {r.planner: k["planner_version"] for k, r in mine}
+        budgets = {k.get("budget_checks") for k, _ in mine}
+        log = args.out / "logs" / f"{puzzle}.log"
+        write_log(log, puzzle, records, titles, max(r.time_limit for r in records),
+                  max(r.run for r in records) + 1, 0, sum(r.wall for r in records),
+                  "merged from " + ", ".join(str(j) for j in args.journals),
+                  all(k["until"] == "first" for k, _ in mine), versions,
+                  budgets.pop() if len(budgets) == 1 else None)
+        logs.append(log)
+    build_database(args.out / "benchmark.db", logs)
+    rows = summary_rows(args.out / "benchmark.db")
+    (args.out / "summary.json").write_text(summary_json(rows), encoding="utf-8")
+    until_first = all(k["until"] == "first" for k, _ in runs.values())
+    (args.out / "summary.md").write_text(summary_markdown(rows, until_first=until_first), encoding="utf-8")
+    write_results_page(args.out)
+    print(f"{len(runs)} runs of {len(logs)} puzzles: {args.out / 'summary.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

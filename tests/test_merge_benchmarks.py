@@ -1,0 +1,51 @@
+"""scripts/merge_benchmarks.py: a rerun replaces the run it repeats, and only that run."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import merge_benchmarks  # noqa: E402
+
+
+def _line(run: int, solved: bool, seed: int | None = None, checks: int = 1000) -> bytes:
+    from solver.benchmark.runner import RunRecord, journal_line
+
+    seed = 100 + run if seed is None else seed
+    key = {"planner": "la_rrt", "planner_version": "v", "puzzle": "toy_1", "puzzle_sha256": "d", "run": run,
+           "seed": seed, "until": "first", "budget_checks": 5000, "time_limit": 10.0}
+    record = RunRecord("LA-RRT", "toy_1", run, seed, 10.0, solved, "Exact solution" if solved else "Timeout",
+                       0.5, 0.5 if solved else None, 2 if solved else None, 1.0 if solved else None, 10, 0, (),
+                       checks=checks, cpu_time=0.5, first_solution_checks=checks if solved else None)
+    return journal_line(json.dumps(key, sort_keys=True), record)
+
+
+def _summary(out: Path) -> dict:
+    (cell,) = json.loads((out / "summary.json").read_text())["cells"]
+    return cell
+
+
+def test_a_rerun_replaces_the_run_it_repeats(tmp_path):
+    first, rerun = tmp_path / "first.jsonl", tmp_path / "rerun.jsonl"
+    first.write_bytes(_line(0, True) + _line(1, False) + _line(2, False))
+    rerun.write_bytes(_line(1, True, checks=4000))
+    assert merge_benchmarks.main([str(tmp_path / "alone"), str(first)]) == 0
+    assert merge_benchmarks.main([str(tmp_path / "merged"), str(first), str(rerun)]) == 0
+    alone, merged = _summary(tmp_path / "alone"), _summary(tmp_path / "merged")
+    assert (alone["successes"], alone["runs"]) == (1, 3)
+    assert (merged["successes"], merged["runs"]) == (2, 3)  # run 1 replaced; runs 0 and 2 kept
+    assert merged["checks_to_first"]["samples"] == 3
+    assert "| toy_1 |" in (tmp_path / "merged" / "summary.md").read_text()
+
+
+def test_a_run_with_another_seed_is_not_the_same_run(tmp_path):
+    first, other = tmp_path / "first.jsonl", tmp_path / "other.jsonl"
+    first.write_bytes(_line(0, False))
+    other.write_bytes(_line(0, True, seed=7))
+    with pytest.raises(SystemExit, match="another seed or puzzle"):
+        merge_benchmarks.main([str(tmp_path / "merged"), str(first), str(other)])
+    assert merge_benchmarks.main([str(tmp_path / "merged"), str(tmp_path / "missing.jsonl")]) == 2
