@@ -550,10 +550,10 @@ class _Run:
                                      physicsClientId=self.sim.client)
 
     def open_gripper(self) -> None:
-        """Release: the fingers open (fully, or for :data:`OPEN_STEPS`); the constraint goes the
-        step the first of them leaves the handle (:meth:`on_step`), or once they are open. (Removed
-        before the fingers moved, the squeezed handle sprang out of them: a 0.9 kg Move N Times
-        target left its goal tolerance at every release.)"""
+        """Release: the fingers open; the constraint goes the step the first of them leaves the
+        handle (:meth:`on_step`), or once they stall on it. (Removed before the fingers moved, the
+        squeezed handle sprang out of them: a 0.9 kg Move N Times target left its goal tolerance at
+        every release.) ExecutionError if they are not open after :data:`OPEN_STEPS`."""
         self.command_fingers(0.0)
         self.phase = "opening"
         q = self.sim.robot_state()

@@ -147,6 +147,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     bias = np.zeros(trajectory.states.shape[1])
     stop_distance = min(settings.clearance, 0.5 * clearance_now(settings.clearance))
     lower, upper = world.lower[arm], world.upper[arm]
+    target = q
     while t < end:
         t_next = t + TIME_STEP
         on_time(t_next)
@@ -189,7 +190,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
             # (its servos are PD), and a command at the sagged state sags it once more (a Move N Times
             # target held there turned 0.8 mrad out of its tolerance of 1, at every regrasp).
             return FollowResult(stop, t, steps + hold(world, target, settings.hold_steps, on_step))
-    return FollowResult(Stop.DONE, t, steps + hold(world, target if steps else q, settings.hold_steps, on_step))
+    return FollowResult(Stop.DONE, t, steps + hold(world, target, settings.hold_steps, on_step))
 
 
 def command(world: World, target: np.ndarray, velocity: np.ndarray | None = None) -> None:
