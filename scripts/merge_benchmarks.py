@@ -8,7 +8,8 @@ were rerun on their check budgets, with the same seeds, into their own folders, 
 first journal this way. Each replaced run must have the same seed and puzzle digest (else the
 "same run" would be another one: the script stops with an error). Writes ``OUT/summary.md``,
 ``summary.json``, ``benchmark.db``, ``logs/`` and ``results.html``, as a benchmark's ``--out``
-does, into a new folder.
+does, into a new folder. Puzzles come in name order; a puzzle's "limit" is the shortest time limit
+among its runs (a rerun's longer backstop does not replace the profile's limit).
 """
 
 from __future__ import annotations
@@ -55,14 +56,15 @@ def main(argv: list[str] | None = None) -> int:
     order = {spec.title: i for i, spec in enumerate(PLANNERS.values())}
     (args.out / "logs").mkdir(parents=True)
     logs = []
-    for puzzle in dict.fromkeys(p for p, _, _ in runs):
+    for puzzle in sorted({p for p, _, _ in runs}):
         mine = [(k, r) for (p, _, _), (k, r) in runs.items() if p == puzzle]
         records = [r for _, r in mine]
         titles = sorted({r.planner for r in records}, key=lambda t: order.get(t, len(order)))
         versions = {r.planner: k["planner_version"] for k, r in mine}
         budgets = {k.get("budget_checks") for k, _ in mine}
         log = args.out / "logs" / f"{puzzle}.log"
-        write_log(log, puzzle, records, titles, max(r.time_limit for r in records),
+        # The shortest backstop: the profile's own limit where the first journal has the puzzle.
+        write_log(log, puzzle, records, titles, min(r.time_limit for r in records),
                   max(r.run for r in records) + 1, 0, sum(r.wall for r in records),
                   "merged from " + ", ".join(str(j) for j in args.journals),
                   all(k["until"] == "first" for k, _ in mine), versions,
