@@ -287,6 +287,38 @@ def test_failed_seeds_are_rows_and_are_not_retried(tmp_path):
             assert row["status"] == "ok" and row["error"] is None
 
 
+@pytest.mark.parametrize("stop", [SystemExit(1), KeyboardInterrupt()])
+def test_a_worker_told_to_stop_inside_compiled_code_records_nothing(tmp_path, monkeypatch, stop):
+    """Ray ends the workers of a killed command with SIGTERM (SystemExit from its handler); inside
+    compiled code it surfaces as a SystemError caused by it. That is no failure of the puzzle: the
+    worker writes no record, so a resume makes the puzzle. A plain bug is still a recorded failure
+    (the control)."""
+    import solver.pipelines.dataset.build as build
+    from phyrogen_core.registry import all_generators
+
+    params = dataclasses.replace(all_generators()["grid_world"].default_params(), n_objects=2)
+    task = build.EntryTask(0, "grid_world", 9190, params, str(tmp_path))
+
+    def stopped(*args, **kwargs):
+        try:
+            raise stop
+        except BaseException as exc:
+            raise SystemError("CPUDispatcher(<function resume>) returned a result with an exception set") from exc
+
+    monkeypatch.setattr(build, "generate_here", stopped)
+    with pytest.raises(SystemError):
+        build.make_entry(task)
+    assert not list(tmp_path.rglob("*.json"))
+
+    def bug(*args, **kwargs):
+        raise SystemError("a bug in compiled code")
+
+    monkeypatch.setattr(build, "generate_here", bug)
+    outcome = build.make_entry(task)
+    assert not outcome.ok and "a bug in compiled code" in outcome.error
+    assert len(list(tmp_path.rglob("*.json"))) == 1
+
+
 def group_alive(group: int) -> bool:
     try:
         os.killpg(group, 0)

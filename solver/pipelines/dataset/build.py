@@ -130,6 +130,8 @@ def make_entry(task: EntryTask) -> EntryOutcome:
     except (ParameterError, GenerationError) as exc:
         error = str(exc)
     except Exception as exc:  # a bug: keep the traceback in the manifest
+        if asked_to_stop(exc):
+            raise  # not the puzzle's failure: no record, so that a resume makes it
         error = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}"
     outcome = EntryOutcome(task.index, error is None, error, time.perf_counter() - started,
                            stats.get("validation_checks"))
@@ -143,6 +145,20 @@ def make_entry(task: EntryTask) -> EntryOutcome:
             if task.mjcf:
                 write_mjcf(folder, puzzle.chain, puzzle.name)
     return outcome
+
+
+def asked_to_stop(exc: BaseException) -> bool:
+    """Whether ``exc`` is, or comes from, a request to stop the worker (SystemExit, KeyboardInterrupt).
+
+    Compiled code reports one that a signal handler raised inside it as a SystemError: Ray's SIGTERM
+    to a worker whose owner died (the killed command's) arrived in the compiled judge, and the
+    worker recorded its puzzle as failed, which the resumed dataset then counted as done."""
+    seen: BaseException | None = exc
+    while seen is not None:
+        if isinstance(seen, (SystemExit, KeyboardInterrupt)):
+            return True
+        seen = seen.__cause__ or seen.__context__
+    return False
 
 
 def write_record(shard_dir: Path, task: EntryTask, outcome: EntryOutcome) -> Path:
