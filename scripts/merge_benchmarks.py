@@ -16,9 +16,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
+from phyrogen_core.folder import OutputError
 from solver.benchmark.plots import summary_json, summary_markdown, summary_rows
 from solver.benchmark.results_page import write_results_page
 from solver.benchmark.runner import build_database, read_journal, write_log
@@ -33,11 +36,39 @@ def merged_runs(journals: list[Path]) -> dict[tuple[str, str, int], tuple[dict, 
             key = json.loads(key_text)
             cell = (record.puzzle, record.planner, record.run)
             earlier = runs.get(cell)
-            if earlier is not None and (earlier[0]["seed"], earlier[0]["puzzle_sha256"]) != (
-                    key["seed"], key["puzzle_sha256"]):
-                raise SystemExit(f"error: {journal}: {cell} has another seed or puzzle than before")
+            if earlier is not None and (earlier[0].get("seed"), earlier[0].get("puzzle_sha256")) != (
+                    key.get("seed"), key.get("puzzle_sha256")):
+                raise ValueError(f"{journal}: {cell} has another seed or puzzle than before")
             runs[cell] = (key, record)
     return runs
+
+
+def write_summary(out: Path, runs: dict, journals: list[Path]) -> list[Path]:
+    """The merged runs' logs, database, summaries and results page in ``out``; the logs written."""
+    order = {spec.title: i for i, spec in enumerate(PLANNERS.values())}
+    (out / "logs").mkdir(parents=True)
+    logs = []
+    for puzzle in sorted({p for p, _, _ in runs}):
+        mine = [(k, r) for (p, _, _), (k, r) in runs.items() if p == puzzle]
+        records = [r for _, r in mine]
+        titles = sorted({r.planner for r in records}, key=lambda t: order.get(t, len(order)))
+        versions = {r.planner: k.get("planner_version", "?") for k, r in mine}
+        budgets = {k.get("budget_checks") for k, _ in mine}
+        log = out / "logs" / f"{puzzle}.log"
+        # The shortest backstop: the profile's own limit where the first journal has the puzzle.
+        write_log(log, puzzle, records, titles, min(r.time_limit for r in records),
+                  max(r.run for r in records) + 1, 0, sum(r.wall for r in records),
+                  "merged from " + ", ".join(str(j) for j in journals),
+                  all(k.get("until") == "first" for k, _ in mine), versions,
+                  budgets.pop() if len(budgets) == 1 else None)
+        logs.append(log)
+    build_database(out / "benchmark.db", logs)
+    rows = summary_rows(out / "benchmark.db")
+    (out / "summary.json").write_text(summary_json(rows), encoding="utf-8")
+    until_first = all(k.get("until") == "first" for k, _ in runs.values())
+    (out / "summary.md").write_text(summary_markdown(rows, until_first=until_first), encoding="utf-8")
+    write_results_page(out)
+    return logs
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -52,30 +83,21 @@ def main(argv: list[str] | None = None) -> int:
     if args.out.exists():
         print(f"error: {args.out} exists; choose a new folder", file=sys.stderr)
         return 2
-    runs = merged_runs(args.journals)
-    order = {spec.title: i for i, spec in enumerate(PLANNERS.values())}
-    (args.out / "logs").mkdir(parents=True)
-    logs = []
-    for puzzle in sorted({p for p, _, _ in runs}):
-        mine = [(k, r) for (p, _, _), (k, r) in runs.items() if p == puzzle]
-        records = [r for _, r in mine]
-        titles = sorted({r.planner for r in records}, key=lambda t: order.get(t, len(order)))
-        versions = {r.planner: k["planner_version"] for k, r in mine}
-        budgets = {k.get("budget_checks") for k, _ in mine}
-        log = args.out / "logs" / f"{puzzle}.log"
-        # The shortest backstop: the profile's own limit where the first journal has the puzzle.
-        write_log(log, puzzle, records, titles, min(r.time_limit for r in records),
-                  max(r.run for r in records) + 1, 0, sum(r.wall for r in records),
-                  "merged from " + ", ".join(str(j) for j in args.journals),
-                  all(k["until"] == "first" for k, _ in mine), versions,
-                  budgets.pop() if len(budgets) == 1 else None)
-        logs.append(log)
-    build_database(args.out / "benchmark.db", logs)
-    rows = summary_rows(args.out / "benchmark.db")
-    (args.out / "summary.json").write_text(summary_json(rows), encoding="utf-8")
-    until_first = all(k["until"] == "first" for k, _ in runs.values())
-    (args.out / "summary.md").write_text(summary_markdown(rows, until_first=until_first), encoding="utf-8")
-    write_results_page(args.out)
+    try:
+        runs = merged_runs(args.journals)
+    except (ValueError, OutputError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if not runs:
+        print("error: the journals hold no runs", file=sys.stderr)
+        return 2
+    # Written beside, then renamed into place: an interrupted merge leaves no half-written folder.
+    staging = Path(tempfile.mkdtemp(prefix=".merge-", dir=args.out.resolve().parent))
+    try:
+        logs = write_summary(staging, runs, args.journals)
+        staging.rename(args.out)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     print(f"{len(runs)} runs of {len(logs)} puzzles: {args.out / 'summary.md'}")
     return 0
 
