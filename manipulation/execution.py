@@ -575,7 +575,7 @@ class _Run:
         if np.max(opening) >= 1e-3:
             # Every plan assumes open fingers: driving with them closed would sweep them into the puzzle.
             raise ExecutionError(f"the fingers did not open ({np.max(opening) * 1000:.1f} mm of "
-                                 f"{g.stroke * 500:.1f} mm still closed after {OPEN_STEPS} steps)")
+                                 f"{g.stroke / 2 * 1000:.1f} mm still closed after {OPEN_STEPS} steps)")
         self.planned = frozenset()
         self.phase = "holding"
 
