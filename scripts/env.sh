@@ -13,7 +13,7 @@ fi
 VENV="$ROOT/.venv"
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 # PHYROGEN_EXTRAS: the optional extras to install (unset: all of them; empty: the base packages only).
-EXTRAS="${PHYROGEN_EXTRAS-blender,manipulation,interop,datasets,dev}"
+EXTRAS="${PHYROGEN_EXTRAS-blender,manipulation,interop,datasets,learning,dev}"
 "$VENV/bin/python" -m pip install --quiet -e "$ROOT${EXTRAS:+[$EXTRAS]}"
 
 # System packages for headless rendering, the Blender binary and browser checks.
