@@ -274,17 +274,37 @@ def test_a_finished_benchmark_replaces_only_its_own_entries(puzzles, tmp_path, c
     (out / "errors.txt").write_text("from an earlier benchmark whose runs crashed")
     (out / "logs" / "notes").mkdir(parents=True)
     (out / "logs" / "notes" / "reading.md").write_text("a user's notes beside the logs")
-    (out / "logs" / "hostile_9.log").write_text("an earlier benchmark's log of a puzzle not run now")
+    # An earlier benchmark's log of a puzzle not run now (how write_log opens one), and a user's own .log.
+    (out / "logs" / "hostile_9.log").write_text("OMPL version 2.0.1\nExperiment hostile_9\nRunning on a\n")
+    (out / "logs" / "my_analysis.log").write_text("a user's analysis, named like a log")
     code, stdout, err = benchmark(capsys, puzzles, out)
     assert code == 0, err
     assert "| hostile_1 |" in stdout
     assert sorted(p.name for p in out.iterdir()) == ["benchmark.db", "fig4.png", "logs", "mine", "results.html",
                                                       JOURNAL, "summary.json", "summary.md"]
     assert (out / "mine" / "notes.txt").read_text() == "keep me"
-    assert sorted(p.name for p in (out / "logs").iterdir()) == ["hostile_1.log", "hostile_2.log", "notes"]
+    assert sorted(p.name for p in (out / "logs").iterdir()) == ["hostile_1.log", "hostile_2.log", "my_analysis.log",
+                                                                 "notes"]
     assert (out / "logs" / "notes" / "reading.md").read_text() == "a user's notes beside the logs"
+    assert (out / "logs" / "my_analysis.log").read_text() == "a user's analysis, named like a log"
     assert len((out / JOURNAL).read_text().splitlines()) == 2
     assert all((puzzle_dir(puzzles, s) / "solutions" / "la_rrt_best.json").is_file() for s in (1, 2))
+    # Run again into the same --out: the user's files stay, and the benchmark's own logs are replaced.
+    code, stdout, err = benchmark(capsys, puzzles, out)
+    assert code == 0, err
+    assert (out / "logs" / "my_analysis.log").read_text() == "a user's analysis, named like a log"
+    assert sorted(p.name for p in (out / "logs").iterdir()) == ["hostile_1.log", "hostile_2.log", "my_analysis.log",
+                                                                 "notes"]
+
+
+def test_a_users_file_where_a_puzzles_log_goes_is_refused(puzzles, tmp_path, capsys):
+    out = tmp_path / "bench"
+    (out / "logs").mkdir(parents=True)
+    (out / JOURNAL).touch()
+    (out / "logs" / "hostile_1.log").write_text("my own notes on hostile_1")
+    before = tree(out)
+    assert_refused(*benchmark(capsys, puzzles, out), str(out / "logs" / "hostile_1.log"), "not a benchmark log")
+    assert tree(out) == before
 
 
 def _users_summary(out: Path, outside: Path) -> tuple[Path, str]:

@@ -39,7 +39,8 @@ again. The other outputs (``logs/``, ``benchmark.db``, ``errors.txt``,
 ``summary.md``, ``summary.json``, ``fig4.png``, ``results.html``; :data:`OUTPUT_ENTRIES`) are built in a
 temporary folder inside ``out`` once all runs are done and each is swapped
 in with a rename; any other entry of ``out`` is left alone, and so is a user's
-file in ``logs/`` that is no ``.log``. A link at one of these names, or a file
+file in ``logs/`` that is not a benchmark log (:func:`is_benchmark_log`; a user's file where a
+puzzle's log goes is refused). A link at one of these names, or a file
 of theirs in a folder no benchmark wrote, is refused before any run
 (:func:`check_output_folder`).
 """
@@ -54,7 +55,6 @@ import json
 import math
 import os
 import platform
-import re
 import shutil
 import stat
 import tempfile
@@ -429,6 +429,22 @@ DATABASE_TABLES = ("experiments", "runs")
 """Tables every benchmark database has (OMPL's schema): what tells a benchmark's ``benchmark.db`` from another file."""
 
 
+def is_benchmark_log(path: Path) -> bool:
+    """Whether ``path`` is a log a benchmark wrote: a regular file ``<name>.log`` that opens as
+    :func:`write_log` opens it (``OMPL version ...``, then ``Experiment <name>``). A user's
+    ``my_analysis.log`` in ``logs/``, or a benchmark log they copied under another name, is not one."""
+    path = Path(path)
+    if path.suffix != ".log" or path.is_symlink() or not path.is_file():
+        return False
+    try:
+        with open(path, "rb") as file:
+            head = file.read(4096).split(b"\n")
+    except OSError:
+        return False
+    return len(head) > 2 and head[0].startswith(b"OMPL version ") and \
+        head[1] == f"Experiment {path.stem}".encode()
+
+
 def check_output_folder(out: Path) -> None:
     """What a benchmark would replace in its output folder ``out``, checked before any run.
 
@@ -775,6 +791,10 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
         except ValueError as exc:
             raise PuzzleFormatError(f"{where}: {exc}") from None
         digests[puzzle.name] = puzzle_digest(puzzle)
+        log = out / "logs" / f"{puzzle.name}.log"
+        if os.path.lexists(log) and not is_benchmark_log(log):
+            raise OutputError(f"{log} is not a benchmark log, and the benchmark writes puzzle {puzzle.name!r}'s "
+                              "log there: move it, or choose another --out")
         if save_solutions and any(name in planners for name in solution_planners()):
             try:
                 # A linked solutions/ (or puzzle folder) would take the solution outside the puzzle.
@@ -904,8 +924,10 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
             from solver.benchmark.results_page import write_results_page
 
             write_results_page(staging)
-        # Only the logs are the benchmark's in logs/: a user's notes there go into the new folder.
-        carry_others(plan.out / "logs", staging / "logs", lambda path: re.fullmatch(r"[^/]+\.log", path) is not None)
+        # Only the benchmark's own logs are replaced in logs/: a user's notes there, even a .log of
+        # theirs, go into the new folder.
+        carry_others(plan.out / "logs", staging / "logs",
+                     lambda path: "/" not in path and is_benchmark_log(plan.out / "logs" / path))
         for name in OUTPUT_ENTRIES:
             new, final = staging / name, plan.out / name
             # A folder cannot be renamed over an existing one: move the old entry out of the way first.
