@@ -121,11 +121,27 @@ def make_phobos_recognise_blender() -> bool:
 
 
 def recognise_phobos_when_loaded() -> None:
-    """Apply :func:`make_phobos_recognise_blender` now if Phobos is loaded, and, with a UI, once more
-    when Blender has started (Phobos may be enabled after this add-on at start-up)."""
+    """Apply :func:`make_phobos_recognise_blender` now if Phobos is loaded, and again after every file
+    load, the start-up file's included: Blender enables its add-ons in the order they were enabled, so
+    Phobos may load after this add-on, and at start-up Blender runs the load handlers once all are
+    enabled, in a background session too (where timers never run). With a UI, also once shortly after
+    start."""
     _recognise_quietly()
+    if _recognise_after_load not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(_recognise_after_load)
     if not bpy.app.background:
         bpy.app.timers.register(_recognise_quietly, first_interval=0.5)
+
+
+def forget_phobos_hooks() -> None:
+    """Undo :func:`recognise_phobos_when_loaded`'s load handler (when this add-on is disabled)."""
+    while _recognise_after_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_recognise_after_load)
+
+
+@bpy.app.handlers.persistent
+def _recognise_after_load(*_) -> None:
+    _recognise_quietly()
 
 
 def _recognise_quietly() -> None:

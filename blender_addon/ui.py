@@ -43,7 +43,14 @@ from .jobs import (
     phyrogen_command,
     replan_table,
 )
-from .phobos import PHOBOS_FOLDER, ensure_phobostype, phobos_enabled, recognise_phobos_when_loaded, remove_phobostype
+from .phobos import (
+    PHOBOS_FOLDER,
+    ensure_phobostype,
+    forget_phobos_hooks,
+    phobos_enabled,
+    recognise_phobos_when_loaded,
+    remove_phobostype,
+)
 
 _PROPERTY_OF_TYPE = {bool: bpy.props.BoolProperty, int: bpy.props.IntProperty, float: bpy.props.FloatProperty,
                      str: bpy.props.StringProperty}
@@ -611,11 +618,11 @@ class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
     @staticmethod
     def validate(context) -> str:
         from phyrogen_core.record import PuzzleRecord
-        from solver.planning.problem import verify_certificate
 
         from . import annotations as keys
         from .scene import read_chain
 
+        verify_certificate = checker()
         collection = current_collection(context)
         if keys.METADATA not in collection:
             raise ValueError(f"{collection.name!r} keeps no puzzle.json: nothing to validate against")
@@ -625,6 +632,22 @@ class PHYROGEN_OT_validate(bpy.types.Operator):  # noqa: N801
         if problems:
             raise ValueError(f"{collection.name}: INVALID: " + "; ".join(problems))
         return f"{collection.name}: certificate valid ({len(record.certificate)} states)"
+
+
+def checker() -> Callable:
+    """The solver's certificate check, imported in Blender's own process (Validate runs no job), or a
+    RuntimeError of one line when it cannot be: another add-on's packages may shadow ours there, as
+    Phobos's NumPy 2.x does when its requirements are installed without a pin (Numba refuses it)."""
+    try:
+        from solver.planning.problem import verify_certificate
+    except ImportError as exc:
+        import numpy
+
+        problem = " ".join(str(exc).split())
+        raise RuntimeError(f"Validate cannot load PhyRoGen's checker in this Blender: {problem} (NumPy "
+                           f"{numpy.__version__} from {Path(numpy.__file__).parent.parent}); install NumPy below 2 "
+                           "there, e.g. with scripts/install_phobos.py (docs/blender.md)") from None
+    return verify_certificate
 
 
 class PHYROGEN_OT_export_urdf(bpy.types.Operator):  # noqa: N801
@@ -843,4 +866,5 @@ def unregister() -> None:
         del bpy.types.Scene.phyrogen
     while _registered:
         bpy.utils.unregister_class(_registered.pop())
+    forget_phobos_hooks()
     remove_phobostype()

@@ -21,8 +21,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-USAGE = ("usage: blender --background --python scripts/generate.py -- --generator NAME --seed N --out DIR [--render]\n"
+USAGE = ("blender --background --python scripts/generate.py -- --generator NAME --seed N --out DIR [--render]\n"
          "   or: python scripts/generate.py --generator NAME --seed N --out DIR [--render]")
+"""Without its leading "usage: ", which argparse adds (the messages here add it themselves)."""
 
 
 def script_arguments(argv: list[str]) -> list[str]:
@@ -31,7 +32,8 @@ def script_arguments(argv: list[str]) -> list[str]:
         return argv[argv.index("--") + 1:]
     in_blender = any(a in argv for a in ("--python", "-P", "--background", "-b"))
     if in_blender:
-        raise SystemExit(f"generate.py: the script's arguments must follow '--' on Blender's command line\n{USAGE}")
+        raise SystemExit("generate.py: the script's arguments must follow '--' on Blender's command line\n"
+                         f"usage: {USAGE}")
     return argv[1:]
 
 
@@ -46,10 +48,15 @@ def main(argv: list[str]) -> int:
         import bpy
     except ImportError:
         print("generate.py: bpy is missing: run it with 'blender --background --python' or install the bpy "
-              f"wheel (pip install -e .[blender])\n{USAGE}", file=sys.stderr)
+              f"wheel (pip install -e .[blender])\nusage: {USAGE}", file=sys.stderr)
         return 2
-    parser = argparse.ArgumentParser(prog="generate.py", usage=USAGE)
-    parser.add_argument("--generator", required=True)
+    from phyrogen_core.registry import all_generators
+
+    parser = argparse.ArgumentParser(prog="generate.py", usage=USAGE,
+                                     description="Generate one puzzle and build it in Blender (a .blend beside "
+                                                 "its URDF, SRDF and puzzle.json).")
+    parser.add_argument("--generator", required=True, choices=sorted(all_generators()), metavar="NAME",
+                        help="one of: " + ", ".join(sorted(all_generators())))
     parser.add_argument("--seed", type=int, required=True)
     parser.add_argument("--out", required=True)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="generator parameter")

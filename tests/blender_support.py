@@ -105,3 +105,26 @@ class FakeLayout:
 
     def box(self):
         return self
+
+
+def pybullet_model(urdf: Path) -> dict:
+    """What PyBullet loads from ``urdf`` (fixed base): per joint its type, child, limits, axis, frame and
+    child's mass, and the base's mass."""
+    import pybullet
+
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        # Fixed base, as the project loads its puzzles: Phobos's base weighs 1e-10 kg, and without
+        # useFixedBase PyBullet would let it fall, where our massless base stays put.
+        body = pybullet.loadURDF(str(urdf), useFixedBase=True, physicsClientId=client)
+        joints = {}
+        for index in range(pybullet.getNumJoints(body, physicsClientId=client)):
+            info = pybullet.getJointInfo(body, index, physicsClientId=client)
+            joints[info[1].decode()] = {
+                "type": info[2], "child": info[12].decode(), "limits": (info[8], info[9]), "axis": info[13],
+                "frame": (*info[14], *info[15]),
+                "mass": pybullet.getDynamicsInfo(body, index, physicsClientId=client)[0]}
+        base_mass = pybullet.getDynamicsInfo(body, -1, physicsClientId=client)[0]
+    finally:
+        pybullet.disconnect(client)
+    return {"joints": joints, "base_mass": base_mass}

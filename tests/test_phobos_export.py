@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from blender_support import tool
+from blender_support import pybullet_model, tool
 
 from phyrogen_core.chain import pose_matrix
 from phyrogen_core.geometry import Pose
@@ -386,34 +386,13 @@ def test_a_chosen_folder_gets_the_same_export(exported):
     assert Path(entry["chosen_urdf"]).read_text() == Path(entry["urdf"]).read_text()
 
 
-def _pybullet_model(urdf: Path) -> dict:
-    import pybullet
-
-    client = pybullet.connect(pybullet.DIRECT)
-    try:
-        # Fixed base, as the project loads its puzzles: Phobos's base weighs 1e-10 kg (see below), and
-        # without useFixedBase PyBullet would let it fall, where our massless base stays put.
-        body = pybullet.loadURDF(str(urdf), useFixedBase=True, physicsClientId=client)
-        joints = {}
-        for index in range(pybullet.getNumJoints(body, physicsClientId=client)):
-            info = pybullet.getJointInfo(body, index, physicsClientId=client)
-            joints[info[1].decode()] = {
-                "type": info[2], "child": info[12].decode(), "limits": (info[8], info[9]), "axis": info[13],
-                "frame": (*info[14], *info[15]),
-                "mass": pybullet.getDynamicsInfo(body, index, physicsClientId=client)[0]}
-        base_mass = pybullet.getDynamicsInfo(body, -1, physicsClientId=client)[0]
-    finally:
-        pybullet.disconnect(client)
-    return {"joints": joints, "base_mass": base_mass}
-
-
 @needs_phobos
 @pytest.mark.parametrize("generator,seed", PUZZLES)
 def test_pybullet_loads_phobos_urdf_as_ours(exported, generator, seed):
     result, folders = exported
     name = f"{generator}_{seed}"
-    ours = _pybullet_model(folders[name] / "urdf" / f"{name}.urdf")
-    theirs = _pybullet_model(Path(result["puzzles"][name]["urdf"]))
+    ours = pybullet_model(folders[name] / "urdf" / f"{name}.urdf")
+    theirs = pybullet_model(Path(result["puzzles"][name]["urdf"]))
     assert sorted(theirs["joints"]) == sorted(ours["joints"])
     # Phobos has no massless links: our massless base comes out weighing 1e-10 kg.
     assert ours["base_mass"] == 0 and theirs["base_mass"] <= MASSLESS
