@@ -8,9 +8,9 @@ what to do, instead of failing in a traceback that only the console shows.
 
 from __future__ import annotations
 
-import textwrap
-
 import bpy
+
+from .text import wrap_lines
 
 WRAP_CHARACTERS = 48
 
@@ -20,8 +20,7 @@ _message = ""
 def panel_lines(message: str) -> list[str]:
     """The panel's text: a heading, then the message wrapped to fit the sidebar."""
     return ["PhyRoGen cannot generate here:",
-            *(line for part in message.split(". ") for line in textwrap.wrap(part.rstrip(".") + ".",
-                                                                              WRAP_CHARACTERS))]
+            *(line for part in message.split(". ") for line in wrap_lines(part.rstrip(".") + ".", WRAP_CHARACTERS))]
 
 
 class PHYROGEN_PT_missing_dependencies(bpy.types.Panel):  # noqa: N801 (Blender's naming)

@@ -19,7 +19,6 @@ import dataclasses
 import importlib.util
 import json
 import math
-import textwrap
 import typing
 from collections.abc import Callable
 from pathlib import Path
@@ -51,6 +50,7 @@ from .phobos import (
     recognise_phobos_when_loaded,
     remove_phobostype,
 )
+from .text import wrap_lines
 
 _PROPERTY_OF_TYPE = {bool: bpy.props.BoolProperty, int: bpy.props.IntProperty, float: bpy.props.FloatProperty,
                      str: bpy.props.StringProperty}
@@ -197,7 +197,12 @@ def missing_modules(operation: str) -> list[str]:
 
 def first_run_note() -> str:
     """The status line while a job's numba kernels are not compiled yet (the first job after installing)."""
-    return "" if collision_kernels_cached() else "compiling collision kernels (first run only, 1-2 min)..."
+    return "" if collision_kernels_cached() else FIRST_RUN_NOTE
+
+
+FIRST_RUN_NOTE = "compiling collision kernels (first run only: about 20 s of CPU time, minutes on a busy machine)..."
+"""Measured (docs/blender-panel.md): Generate with numba's cache empty took 16 s of CPU (44 s of wall time at a
+load of 8 on 2 cores) and 0.6 s with it; from a freshly installed zip 100 s and more at a load of 16."""
 
 
 OPERATIONS: dict[str, Operation] = {}
@@ -412,10 +417,39 @@ def _finish_generate(context, result: JobResult) -> tuple[str, ResultTable]:
     old = bpy.data.collections.get(folder.name)
     if old is not None:
         _remove_collection(old)
+    cube = remove_untouched_default_cube(context.scene)
     built = build_puzzle_folder(folder, context.scene)
     settings.puzzle = built.collection.name
     frame_in_views(context, built.collection)
-    return f"{folder.name}: written to {folder}", generate_table(made)
+    removed = "; Blender's untouched default cube removed (it hid the puzzle)" if cube else ""
+    return f"{folder.name}: written to {folder}{removed}", generate_table(made)
+
+
+FACTORY_OBJECTS = {"Cube": "MESH", "Camera": "CAMERA", "Light": "LIGHT"}
+"""The objects of Blender's factory start-up scene."""
+
+
+def remove_untouched_default_cube(scene) -> bool:
+    """Remove Blender's default cube when the scene is the untouched factory scene, where the 2 m cube at the
+    origin hides a puzzle built there; whether it was removed. Untouched: the file was never saved, the scene
+    holds exactly the factory's Cube, Camera and Light, and the cube is the factory's (eight corners at 1 m,
+    not moved, turned, scaled or modified). Any other object of a user's is never removed."""
+    objects = {obj.name: obj for obj in scene.objects}
+    if bpy.data.filepath or {name: obj.type for name, obj in objects.items()} != FACTORY_OBJECTS:
+        return False
+    cube = objects["Cube"]
+    corners = sorted(tuple(round(c, 6) for c in v.co) for v in cube.data.vertices)
+    factory = sorted((x, y, z) for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0))
+    untouched = (corners == factory and len(cube.data.polygons) == 6 and not cube.modifiers
+                 and tuple(cube.location) == (0, 0, 0) and tuple(cube.rotation_euler) == (0, 0, 0)
+                 and tuple(cube.scale) == (1, 1, 1) and cube.parent is None and not cube.children)
+    if not untouched:
+        return False
+    mesh = cube.data
+    bpy.data.objects.remove(cube)
+    if mesh.users == 0:
+        bpy.data.meshes.remove(mesh)
+    return True
 
 
 def override_text(value) -> str:
@@ -816,8 +850,7 @@ def draw_job(layout, settings, width: int = 60) -> None:
     (wrapped at ``width`` characters) and its result table as a UI list."""
     if running_job() is not None:
         box = layout.box()
-        for index, part in enumerate(textwrap.wrap(settings.job_status or "running", width,
-                                                   break_on_hyphens=False) or ["running"]):
+        for index, part in enumerate(wrap_lines(settings.job_status or "running", width, "  ") or ["running"]):
             box.label(text=part, icon="SORTTIME" if index == 0 else "NONE")
         box.operator("phyrogen.cancel_job", icon="CANCEL")
         return
@@ -827,11 +860,15 @@ def draw_job(layout, settings, width: int = 60) -> None:
     icon = {"DONE": "CHECKMARK", "FAILED": "ERROR", "CANCELLED": "CANCEL"}[settings.result_state]
     state = {"DONE": "done", "FAILED": "failed", "CANCELLED": "cancelled"}[settings.result_state]
     box.label(text=f"{settings.result_label.split(' ')[0]}: {state}", icon=icon)  # the message names the puzzle
-    for part in textwrap.wrap(settings.result_message, width, subsequent_indent="  ", break_on_hyphens=False):
+    for part in wrap_lines(settings.result_message, width, "  "):
         box.label(text=part)
     table = result_table(settings)
     if table is not None and table.rows:
-        draw_cells(box, table.columns)
+        if len(table.columns) == 2:  # a title and a name (Puzzle, simple_slider_1): the name gets the whole width
+            for part in wrap_lines(": ".join(table.columns), width, "  "):
+                box.label(text=part)
+        else:
+            draw_cells(box, table.columns)
         box.template_list("PHYROGEN_UL_results", "", settings, "result_rows", settings, "result_row_index",
                           rows=min(max(len(table.rows), 1), 5))
     if settings.result_label.startswith("Manipulate") and settings.manipulation_output:

@@ -7,8 +7,9 @@ Started by tests/test_blender_binary.py. The add-on must be installed as
 the legacy add-on ``phyrogen`` (BLENDER_USER_SCRIPTS) and PHYROGEN_VENV set.
 Writes RESULT.json with what it saw, takes Blender's own screenshots (the 3D view with the panel before
 the first click and after the last job; the whole window, status bar included, while Manipulate runs),
-quits. Nothing zooms or moves the view: what the screenshots show is what the panel did, at the
-sidebar's default width; the last one is taken without moving the mouse after the job ended.
+quits. Nothing zooms or moves the view and nothing is removed from Blender's factory scene (its default
+cube included): what the screenshots show is what the panel did, at the sidebar's default width; the
+last one is taken without moving the mouse after the job ended.
 """
 
 import json
@@ -93,6 +94,8 @@ def screenshot_and_quit(ok):
                              settings.result_columns, *(row.cells for row in settings.result_rows)],
                    "during": state.get("during"),
                    "view_after_generate": state.get("view_after_generate"),
+                   "objects_at_start": state.get("objects_at_start"),
+                   "scene_after_generate": state.get("scene_after_generate"),
                    "buttons_enabled_after": bpy.ops.phyrogen.generate.poll(),
                    "blender": bpy.app.version_string}, stream)
     bpy.ops.wm.quit_blender()
@@ -199,6 +202,8 @@ def poll():
             view = view3d()[1].spaces.active.region_3d
             corners = [list(o.matrix_world @ mathutils.Vector(c)) for o in bpy.data.collections[PUZZLE].all_objects
                        if o.type == "MESH" and o.phobostype == "visual" for c in o.bound_box]
+            state["scene_after_generate"] = sorted(o.name for o in bpy.context.scene.objects
+                                                   if o.name not in bpy.data.collections[PUZZLE].all_objects)
             state["view_after_generate"] = {
                 "location": list(view.view_location), "distance": view.view_distance,
                 "low": [min(c[i] for c in corners) for i in range(3)],
@@ -239,10 +244,8 @@ def start():
         settings.generator = "simple_slider"
         settings.seed = 1
         settings.output = os.path.join(os.path.dirname(os.path.abspath(RESULT)), "output")
-        for name in ("Cube", "Camera", "Light"):  # so that View All frames the puzzle
-            obj = bpy.data.objects.get(name)
-            if obj is not None:
-                bpy.data.objects.remove(obj)
+        # Blender's factory scene stays as it starts (Cube, Camera, Light): Generate must show the puzzle.
+        state["objects_at_start"] = sorted(o.name for o in bpy.context.scene.objects)
         window, area, region = view3d()
         area.spaces[0].show_region_ui = True
         area.tag_redraw()

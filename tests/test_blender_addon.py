@@ -110,3 +110,27 @@ def test_bad_parameters_are_reported_not_raised(installed):
     with pytest.raises(RuntimeError, match="gap must lie in"):
         bpy.ops.phyrogen.generate()
     settings.params_simple_slider.gap = 0.1
+
+
+def test_only_the_untouched_default_cube_is_removed(installed):
+    """Generate removes Blender's factory cube, which hides a puzzle at the origin, and nothing of a user's."""
+    remove = installed.ui.remove_untouched_default_cube
+
+    def factory_scene():
+        bpy.ops.wm.read_homefile(use_factory_startup=True)
+        return bpy.context.scene
+
+    scene = factory_scene()
+    assert sorted(o.name for o in scene.objects) == ["Camera", "Cube", "Light"]
+    assert remove(scene) and sorted(o.name for o in scene.objects) == ["Camera", "Light"]
+    # Controls: a moved cube, an edited one, and the factory scene with a user's object beside it stay.
+    scene = factory_scene()
+    scene.objects["Cube"].location.z = 0.5
+    assert not remove(scene) and "Cube" in scene.objects
+    scene = factory_scene()
+    scene.objects["Cube"].data.vertices[0].co.x = -1.5
+    assert not remove(scene) and "Cube" in scene.objects
+    scene = factory_scene()
+    bpy.ops.object.empty_add()
+    assert not remove(scene) and "Cube" in scene.objects
+    bpy.ops.wm.read_homefile(use_empty=True)

@@ -77,6 +77,12 @@ def test_panel_generate_replan_manipulate_clicks_in_the_real_ui(tmp_path):
     assert result["buttons_enabled_after"]
     # Generate framed the new puzzle: the view looks at the middle of its visual objects' bounds (the
     # default view looks at the origin from about 17 m, where the puzzle was small), from a few metres.
+    # Blender's factory scene as it starts: Generate removed the untouched default cube, which hid the
+    # puzzle at the origin, and said so; the camera and the light stay.
+    assert result["objects_at_start"] == ["Camera", "Cube", "Light"]
+    assert result["scene_after_generate"] == ["Camera", "Light"]
+    generate = next(step for step in result["steps"] if step["step"] == "Generate")
+    assert "default cube removed" in generate["message"]
     view = result["view_after_generate"]
     middle = [(lo + hi) / 2 for lo, hi in zip(view["low"], view["high"], strict=True)]
     assert max(abs(a - b) for a, b in zip(view["location"], middle, strict=True)) < 1e-3, view
