@@ -8,7 +8,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from phyrogen_core.export import read_puzzle_dir
-from phyrogen_core.folder import METADATA_FILE, OutputError, PuzzleFormatError, require_writable_dir
+from phyrogen_core.folder import (
+    METADATA_FILE,
+    OutputError,
+    PuzzleFormatError,
+    require_writable_dir,
+    write_file_atomic,
+)
 from solver.parallel.pool import deferred_signals
 from solver.planning.problem import verify_certificate
 
@@ -54,8 +60,8 @@ def manipulate_folders(folders: Sequence[Path], out_root: Path, video: bool = Tr
                   f"planning {report.planning_seconds:6.1f} s execution {report.execution_seconds:6.1f} s "
                   f"{report.solution} ({report.solutions_tried} tried) {status}  -> {bar_output}", flush=True)
     if table is not None:
-        table.parent.mkdir(parents=True, exist_ok=True)
-        table.write_text(summary_table(reports), encoding="utf-8")
+        # Whole or not at all, and into the file a link names (the user's link stays).
+        write_file_atomic(os.path.realpath(table), summary_table(reports).encode("utf-8"))
     return reports
 
 
@@ -81,6 +87,8 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
         table = Path(table)
         if table.is_dir():
             raise OutputError(f"summary table {table} is a folder; name a file")
+        if table.exists() and not table.is_file():  # a FIFO would block the write forever, a device take it
+            raise OutputError(f"summary table {table} is a FIFO, device or socket, not a regular file; name a file")
         if os.path.lexists(table) and not os.access(table, os.W_OK):
             raise OutputError(f"summary table {table}: no permission to write it")
         require_writable_dir(table.parent, f"folder of the summary table {table}:")

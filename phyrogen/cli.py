@@ -121,16 +121,17 @@ def cmd_generate(args) -> int:
     out = require_writable_dir(args.out)  # an unusable --out is found before any puzzle is made
     for name in names:
         require_writable_dir(out / name)
-        for r in seeds if count <= CHECK_EVERY_SEED_UP_TO else ():
-            for seed in r:  # a linked puzzle folder would take the puzzle elsewhere: refused, not swapped away
-                folder = out / name / f"{name}_{seed}"
-                if os.path.islink(folder):
-                    raise OutputError(f"puzzle folder {folder} is a symbolic link; a stage writes only into real "
-                                      "folders (put the folder itself there)")
-                if args.mjcf and folder.is_dir():  # a user's mjcf/<name>.xml there is refused, not overwritten
-                    from phyrogen_core.export.mjcf import check_mjcf_target
+        for folder in _puzzle_folders_present(out / name, name, seeds):
+            # A link would take the puzzle elsewhere, a user's file there would be found only once the
+            # puzzle is made: both refused, not swapped away.
+            if folder.is_symlink() or not folder.is_dir():
+                what = "a symbolic link" if folder.is_symlink() else "a file, not a folder"
+                raise OutputError(f"puzzle folder {folder} is {what}; a stage writes only into real folders "
+                                  "(move it away or choose another --out)")
+            if args.mjcf:  # a user's mjcf/<name>.xml there is refused, not overwritten
+                from phyrogen_core.export.mjcf import check_mjcf_target
 
-                    check_mjcf_target(folder, folder.name)
+                check_mjcf_target(folder, folder.name)
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
     jobs = (Job(name, seed, overrides_of[name], mjcf=args.mjcf, difficulty=difficulty)
@@ -174,6 +175,24 @@ def cmd_generate(args) -> int:
     args.json_result = {"command": "generate", "puzzles": rows, "ok": done - failed, "failed": failed,
                         "wall_seconds": round(wall, 3)}
     return 1 if failed else 0
+
+
+def _puzzle_folders_present(parent: Path, generator: str, seeds: tuple[range, ...]) -> list[Path]:
+    """The entries of ``parent`` (a generator's folder of an output root) at the paths of the
+    puzzle folders of ``seeds``, whatever they are: found by listing ``parent`` once, so that the
+    cost grows with what is there, not with the number of seeds."""
+    try:
+        with os.scandir(parent) as entries:
+            present = sorted(entry.name for entry in entries)
+    except (FileNotFoundError, NotADirectoryError):
+        return []
+    prefix = f"{generator}_"
+    found = []
+    for entry in present:
+        number = entry[len(prefix):] if entry.startswith(prefix) else ""
+        if number.isdigit() and f"{prefix}{int(number)}" == entry and any(int(number) in r for r in seeds):
+            found.append(parent / entry)
+    return found
 
 
 def cmd_dataset(args) -> int:
@@ -328,11 +347,11 @@ def cmd_export(args) -> int:
     puzzles = []
     for folder in folders:
         loaded = read_puzzle_dir(folder)
-        chain_to_mjcf(loaded.chain)
+        chain_to_mjcf(loaded.chain, loaded.certificate)
         check_mjcf_target(folder, loaded.name)  # a link, or a user's file of the name, is refused
         puzzles.append((folder, loaded))
     for folder, loaded in puzzles:
-        print(write_mjcf(folder, loaded.chain, loaded.name))
+        print(write_mjcf(folder, loaded.chain, loaded.name, loaded.certificate))
     return 0
 
 
@@ -734,6 +753,14 @@ def audit_budget_option(text: str) -> int:
     return _whole_number(text, 1, MAX_BUDGET, " collision queries")
 
 
+def path_option(text: str) -> str:
+    """A path given on the command line, as given, unless it is empty: ``Path("")`` is ``"."``, so an
+    empty ``--out`` would write into the working directory and an empty reader path read it."""
+    if not text:
+        raise argparse.ArgumentTypeError("must name a file or folder, got ''")
+    return text
+
+
 def image_size_option(text: str) -> str:
     """The text itself, once :func:`blender_addon.render_worker.parse_size` accepts it."""
     from blender_addon.render_worker import parse_size
@@ -782,7 +809,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "(phyrogen_core/suites.py)")
     gen.add_argument("--seed", "--seeds", dest="seeds", default="1-4", help="seed, range or list (default 1-4)")
     gen.add_argument("--set", action="append", metavar="KEY=VALUE", help="generator parameter override")
-    gen.add_argument("--out", default="output", help="output folder (default: output)")
+    gen.add_argument("--out", type=path_option, default="output", help="output folder (default: output)")
     gen.add_argument("--workers", type=workers_option, default=2,
                      help="worker processes (default 2; at most 4 per usable core)")
     gen.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
@@ -801,7 +828,8 @@ def build_parser() -> argparse.ArgumentParser:
     data.add_argument("--sweep", choices=("cross", "zip"), default="cross",
                       help="cross (default): seed s gets combination s mod K of all swept values' K combinations "
                            "(first --set slowest); zip: each swept parameter cycles on its own (value s mod n)")
-    data.add_argument("--out", help="the dataset's folder: new, empty, or this request's dataset (then resumed)")
+    data.add_argument("--out", type=path_option,
+                      help="the dataset's folder: new, empty, or this request's dataset (then resumed)")
     data.add_argument("--shard-size", type=shard_size_option, default=1000,
                       help="puzzle folders per shard (default 1000)")
     data.add_argument("--mjcf", action="store_true", help="also write each puzzle's MJCF: <folder>/mjcf/<name>.xml")
@@ -809,33 +837,34 @@ def build_parser() -> argparse.ArgumentParser:
     data.add_argument("--workers", type=workers_option, default=2,
                       help="worker processes (default 2; at most 4 per usable core)")
     add_ray_option(data, "puzzles")
-    data.add_argument("--stats", metavar="DIR",
+    data.add_argument("--stats", type=path_option, metavar="DIR",
                       help="print counts, distinct puzzles and difficulty histograms of the dataset DIR; "
                            "plots into DIR/plots/")
     data.add_argument("--quiet", action="store_true", help="no progress bar")
     data.set_defaults(func=cmd_dataset)
     check = sub.add_parser("check", help="re-validate an exported puzzle folder")
-    check.add_argument("puzzle_dir")
+    check.add_argument("puzzle_dir", type=path_option)
     check.set_defaults(func=cmd_check)
     replan = sub.add_parser("replan", help="find a new certificate for a puzzle folder as it is now (e.g. edited "
                                            "in Blender) with OMPL's RRT-Connect (else LA-RRT) and store it in "
                                            "puzzle.json")
-    replan.add_argument("puzzle_dir")
+    replan.add_argument("puzzle_dir", type=path_option)
     replan.add_argument("--budget", type=replan_budget_option,
                         help="collision queries each planner may spend (default 100000)")
     replan.add_argument("--seed", type=benchmark_seed_option, default=0, help="seed of the search (default 0)")
     add_json_option(replan, "solved, planner, queries, states, dependencies")
     replan.set_defaults(func=cmd_replan)
     export = sub.add_parser("export", help="write other formats into puzzle folders: mjcf -> <folder>/mjcf/<name>.xml")
-    export.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR",
+    export.add_argument("puzzle_dirs", type=path_option, nargs="+", metavar="PUZZLE_DIR",
                         help="puzzle folder(s), or a folder of generated puzzles (all of them)")
     export.add_argument("--format", required=True, choices=("mjcf",), help="mjcf: MuJoCo (docs/interop.md)")
     export.set_defaults(func=cmd_export)
     imp = sub.add_parser("import", help="import a planar puzzle from a URDF file as a certified puzzle folder "
                                         "(docs/import.md)")
-    imp.add_argument("urdf", metavar="URDF", help="the URDF file; meshes: STL (binary or ASCII) or OBJ")
-    imp.add_argument("--out", default="output", help="output folder; the puzzle goes to OUT/imported/NAME "
-                                                     "(default: output)")
+    imp.add_argument("urdf", type=path_option, metavar="URDF",
+                     help="the URDF file; meshes: STL (binary or ASCII) or OBJ")
+    imp.add_argument("--out", type=path_option, default="output",
+                     help="output folder; the puzzle goes to OUT/imported/NAME (default: output)")
     imp.add_argument("--name", help="the puzzle's name (default: the URDF's robot name)")
     imp.add_argument("--target", help="the target: a URDF joint or link (default: the object that fits the link "
                                       "named 'goal')")
@@ -847,7 +876,8 @@ def build_parser() -> argparse.ArgumentParser:
     imp.add_argument("--seed", type=benchmark_seed_option, default=0, help="seed of the certifying search (default 0)")
     imp.set_defaults(func=cmd_import)
     bench = sub.add_parser("benchmark", help="benchmark planners on puzzle folders (OMPL logs, database, plots)")
-    bench.add_argument("--puzzles", default="output", help="folder of puzzle folders (default: output)")
+    bench.add_argument("--puzzles", type=path_option, default="output",
+                       help="folder of puzzle folders (default: output)")
     bench.add_argument("--generator", default="all", help="generators to include (default: all found)")
     bench.add_argument("--planners", default="all", help=_planners_help())
     bench.add_argument("--profile", default="quick", help="paper (100 runs, the paper's limits) or quick")
@@ -858,7 +888,8 @@ def build_parser() -> argparse.ArgumentParser:
                             "(overrides the profile)")
     bench.add_argument("--seed", type=benchmark_seed_option, default=0,
                        help=f"base seed of every run's seed, 0..{MAX_BENCHMARK_SEED} (default 0)")
-    bench.add_argument("--out", default="output/benchmark", help="output folder (default: output/benchmark)")
+    bench.add_argument("--out", type=path_option, default="output/benchmark",
+                       help="output folder (default: output/benchmark)")
     bench.add_argument("--workers", type=workers_option, default=2,
                        help="worker processes (default 2; at most 4 per usable core)")
     add_ray_option(bench, "runs")
@@ -874,24 +905,26 @@ def build_parser() -> argparse.ArgumentParser:
                             "not with --budget-checks")
     bench.add_argument("--no-solutions", action="store_true", help="do not save LA-RRT's best path per puzzle")
     bench.add_argument("--dry-run", action="store_true", help="print the job count and time estimate only")
-    bench.add_argument("--report", metavar="DIR",
+    bench.add_argument("--report", type=path_option, metavar="DIR",
                        help="run nothing: write DIR/results.html again from the finished benchmark in DIR "
                             "(its benchmark.db)")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     add_json_option(bench, "summary.json's content under 'summary', and the output's paths")
     bench.set_defaults(func=cmd_benchmark)
     manipulate = sub.add_parser("manipulate", help="execute puzzles' solutions with a mobile KUKA iiwa in PyBullet")
-    manipulate.add_argument("puzzle_dirs", nargs="+", metavar="PUZZLE_DIR",
+    manipulate.add_argument("puzzle_dirs", type=path_option, nargs="+", metavar="PUZZLE_DIR",
                             help="puzzle folder(s), or a folder of generated puzzles (all of them)")
-    manipulate.add_argument("--out", default="output/manipulation", help="output folder (default: output/manipulation)")
+    manipulate.add_argument("--out", type=path_option, default="output/manipulation",
+                            help="output folder (default: output/manipulation)")
     manipulate.add_argument("--no-video", action="store_true", help="frames and report only")
-    manipulate.add_argument("--table", metavar="FILE", help="also write a Markdown summary table here")
+    manipulate.add_argument("--table", type=path_option, metavar="FILE",
+                            help="also write a Markdown summary table here")
     manipulate.add_argument("--scale", type=scene_scale_option,
                             help="scene metres per puzzle metre, 0.05..2, for every puzzle (default: each generator's "
                                  "physical scale, docs/manipulation/README.md#physical-scale)")
     manipulate.add_argument("--gui", action="store_true", help="show the simulation in a PyBullet window")
     manipulate.add_argument("--quiet", action="store_true", help="no progress bar")
-    manipulate.add_argument("--benchmark", metavar="DIR",
+    manipulate.add_argument("--benchmark", type=path_option, metavar="DIR",
                             help="a benchmark's output folder: every least-cost LA-RRT solution in its journal is "
                                  "tried, then the certificate (default: the puzzle's best solution, then the "
                                  "certificate)")
@@ -899,11 +932,12 @@ def build_parser() -> argparse.ArgumentParser:
     manipulate.set_defaults(func=cmd_manipulate)
     audit = sub.add_parser("audit", help="re-check exported puzzles: certificate replayed in PyBullet, every "
                                          "object tried as superfluous with a large budget")
-    audit.add_argument("dir", metavar="DIR", help="a puzzle folder, or a folder of generated puzzles (all of them)")
+    audit.add_argument("dir", type=path_option, metavar="DIR",
+                       help="a puzzle folder, or a folder of generated puzzles (all of them)")
     audit.add_argument("--budget", type=audit_budget_option,
                        help="collision queries per attempt with an object fixed (default 100000, 25 x the Maker's "
                             "judge budget; at most 10000000); the second judge gets as many collision checks")
-    audit.add_argument("--out", default="output/audit",
+    audit.add_argument("--out", type=path_option, default="output/audit",
                        help="folder for audit.json (found paths included) and audit.md; replaces only files an "
                             "earlier audit wrote (default: output/audit)")
     audit.add_argument("--workers", type=workers_option, default=2,
@@ -911,7 +945,8 @@ def build_parser() -> argparse.ArgumentParser:
     audit.add_argument("--quiet", action="store_true", help="no progress bar")
     audit.set_defaults(func=cmd_audit)
     render = sub.add_parser("render", help="render every puzzle folder under --out and write <out>/index.html")
-    render.add_argument("--out", default="output", help="output folder holding the puzzles (default: output)")
+    render.add_argument("--out", type=path_option, default="output",
+                        help="output folder holding the puzzles (default: output)")
     render.add_argument("--engine", default="auto", choices=("auto", "workbench", "cycles"),
                         help="auto: Workbench, Cycles (CPU) where Workbench cannot run (default)")
     render.add_argument("--size", type=image_size_option, default="480x360",
@@ -949,8 +984,30 @@ class Interrupted(KeyboardInterrupt):
 _interrupted: int | None = None  # the signal that stopped the command
 
 
+COMPILED_INIT = frozenset({"ExtensionFileLoader.create_module", "ExtensionFileLoader.exec_module"})
+"""importlib's calls that run a compiled module's initialisation (OMPL's, Numba's, PyBullet's)."""
+RETRY_SECONDS = 0.01
+"""How soon a signal held back during a compiled module's initialisation is sent again."""
+
+
+def _in_compiled_init(frame) -> bool:
+    """Whether ``frame`` runs inside the initialisation of a compiled module: Python code that the
+    module's C++ calls (OMPL's builds hundreds of enums), or that C++ itself."""
+    while frame is not None:
+        if frame.f_code.co_qualname in COMPILED_INIT:
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _interrupt(signum, frame) -> None:
     global _interrupted
+    if _in_compiled_init(frame):
+        # Raised here, the exception would cross the module's C++ on its way out: OMPL's aborts the
+        # process ("terminate called after throwing an instance of 'nanobind::python_error'") or
+        # swallows it. The signal comes again a moment later, until the import has returned.
+        threading.Timer(RETRY_SECONDS, os.kill, (os.getpid(), signum)).start()
+        return
     # Only the first signal counts: a second one would cut the clean-up short.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)

@@ -181,15 +181,19 @@ MAX_FOLDER_ENTRIES = 100_000
 a folder with more is refused, not walked."""
 
 
-def require_no_escapes(root: str | Path, what: str = "puzzle folder") -> None:
-    """No entry of the folder ``root``, at any depth and referenced or not, leads out of it or is
-    a special file: every symbolic link resolves inside ``root``, and nothing is a FIFO, a device
-    or a socket. A path that leaves a puzzle folder is bad input wherever it appears: a stage that
+def require_no_escapes(root: str | Path, what: str = "puzzle folder", name: str | None = None) -> None:
+    """No entry of the folder ``root``, at any depth and referenced or not, leads out of it, is
+    a special file or is too large: every symbolic link resolves inside ``root``, nothing is a
+    FIFO, a device or a socket, and no file holds more than :data:`MAX_FILE_BYTES` but the
+    renders of puzzle ``name`` (:func:`large_file_allowed`; ``name`` defaults to the folder's).
+    A path that leaves a puzzle folder is bad input wherever it appears: a stage that
     reads, copies or carries the folder over would read what lies elsewhere, block on a FIFO or
-    stream a device. Asked of the file system only (nothing is opened); links are not followed
-    (a linked folder inside ``root`` is walked where it really is). Raises
-    :class:`PuzzleFormatError`, one line naming the entry."""
+    stream a device; and a file beyond the bound would be copied (where a hard link cannot be
+    made) at a cost that no stated size bounds. Asked of the file system only (one ``stat`` per
+    file, nothing opened); links are not followed (a linked folder inside ``root`` is walked where
+    it really is). Raises :class:`PuzzleFormatError`, one line naming the entry."""
     root = Path(root)
+    name = root.name if name is None else name
     try:
         real_root = Path(os.path.realpath(root))
     except (OSError, ValueError) as exc:
@@ -216,7 +220,12 @@ def require_no_escapes(root: str | Path, what: str = "puzzle folder") -> None:
                                                 f"{real_root}; a {what} must be self-contained (move the link out)")
                 elif entry.is_dir(follow_symlinks=False):
                     pending.append(path)
-                elif not entry.is_file(follow_symlinks=False):
+                elif entry.is_file(follow_symlinks=False):
+                    size = entry.stat(follow_symlinks=False).st_size
+                    if size > MAX_FILE_BYTES and not large_file_allowed(path.relative_to(root).as_posix(), name):
+                        raise PuzzleFormatError(f"{path} is {size} bytes, more than the {_size(MAX_FILE_BYTES)} a "
+                                                f"file in a {what} may have (move it out)")
+                else:
                     mode = entry.stat(follow_symlinks=False).st_mode
                     kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
                              (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
@@ -225,6 +234,15 @@ def require_no_escapes(root: str | Path, what: str = "puzzle folder") -> None:
                                             "only files and folders (move it out)")
             except OSError as exc:
                 raise PuzzleFormatError(f"{path} cannot be read: {_reason(exc)}") from None
+
+
+def large_file_allowed(relative: str, name: str) -> bool:
+    """Whether ``relative`` (a POSIX path inside puzzle ``name``'s folder) may hold more than
+    :data:`MAX_FILE_BYTES`: the render stage's own images, animation and ``.blend``, in the folder
+    or in a ``stale/<n>/`` snapshot of it, which no reader reads and whose size the render's
+    ``--size`` bounds (an 8192 x 8192 image is tens of MiB)."""
+    inner = re.sub(rf"^{STALE_FOLDER}(?:/\d+|-\d+)/", "", relative, count=1)  # (:func:`_stale_slot`)
+    return stage_owns(Stage.RENDER, name, inner)
 
 
 def read_folder_json(path: str | Path, root: str | Path, label: str | None = None) -> object:
@@ -436,7 +454,7 @@ class PuzzleFolder:
         problem = name_problem(name)
         if problem is not None:
             raise PuzzleFormatError(f"{metadata_file}: name {name!r} {problem}")
-        require_no_escapes(path)
+        require_no_escapes(path, name=name)
         return cls(path, name, str(generator), seed if isinstance(seed, int) and not isinstance(seed, bool) else 0)
 
     @property

@@ -137,7 +137,7 @@ def read_puzzle_dir(path: str | Path) -> LoadedPuzzle:
     problems = goal_problems(record.goal, chain, record.start)
     if problems:
         raise PuzzleFormatError(f"{json_path}: goal: {problems[0]}")
-    require_no_escapes(folder)  # the files it does not reference too: a stage may copy or carry them
+    require_no_escapes(folder, name=record.name)  # the files it does not reference too: a stage may copy them
     return LoadedPuzzle(chain, record)
 
 

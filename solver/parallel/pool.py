@@ -171,6 +171,8 @@ class FreshProcessPool:
         # Once the server is up, starting takes milliseconds: an interrupt waits for it, so that
         # no worker is forked without being known here. The first start waits for the server's
         # imports and stays interruptible; a worker forked after that finds its parent gone and ends.
+        if not _server_ready:
+            _start_server()
         with deferred_signals() if _server_ready else nullcontext():
             try:
                 process.start()
@@ -239,6 +241,27 @@ def _unwrap(outcome: tuple[bool, Any]) -> Any:
 
 def _exit_status(code: int | None) -> str:
     return f"killed by signal {-code}" if code is not None and code < 0 else f"exit code {code}"
+
+
+def _start_server() -> None:
+    """Start multiprocessing's fork server (when it is not running yet) with SIGINT blocked, which
+    it and its workers inherit: until the server's first instruction ignores it, Python's own
+    handler would meet a Ctrl-C to the process group and print its KeyboardInterrupt traceback
+    beside the command's one line. The parent's Ctrl-C waits in the mask meanwhile (a moment: the
+    start does not wait for the server's imports) and is handled as the mask is restored."""
+    from multiprocessing import forkserver, resource_tracker
+
+    # The resource tracker first: it blocks SIGINT itself around its start, then unblocks it,
+    # which would undo the block below; started, it is left alone by the server's start.
+    resource_tracker.ensure_running()
+    if threading.current_thread() is not threading.main_thread():
+        forkserver.ensure_running()
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 @contextmanager

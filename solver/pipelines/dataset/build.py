@@ -375,7 +375,7 @@ def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *
         pending = []
         for shard in range(request.shard_count):
             if part_is_complete(part_path(root, shard), request.shard_entries(shard)):
-                shutil.rmtree(_clean_shard(request, root, shard) / RECORDS_FOLDER, ignore_errors=True)
+                _remove_records(request, _clean_shard(request, root, shard), shard)
                 if on_skip is not None:
                     on_skip(len(request.shard_entries(shard)))
             else:
@@ -395,7 +395,7 @@ def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *
                     continue
                 rows = [state.rows[i] for i in request.shard_entries(shard)]
                 write_part(part_path(root, shard), rows)
-                shutil.rmtree(root / shard_name(shard) / RECORDS_FOLDER, ignore_errors=True)
+                _remove_records(request, root / shard_name(shard), shard)
                 del shards[shard]
                 if on_shard is not None:
                     on_shard(shard, rows)
@@ -475,6 +475,26 @@ def _clean_shard(request: DatasetRequest, root: Path, shard: int) -> Path:
         _remove_temporary_files(shard_dir / generator, re.compile(rf"{re.escape(generator)}_\d+").fullmatch)
     _remove_temporary_files(shard_dir / RECORDS_FOLDER, lambda entry: entry.endswith(".json"))
     return shard_dir
+
+
+def _remove_records(request: DatasetRequest, shard_dir: Path, shard: int) -> None:
+    """Remove the generation records of a complete shard (its part file holds their rows now):
+    the records of its own entries, by their exact names, then the folder if that left it empty.
+    Anything else in it, a user's file, stays, and so does the folder holding it."""
+    folder = shard_dir / RECORDS_FOLDER
+    if folder.is_symlink() or not folder.is_dir():
+        return
+    own = {f"{entry.name}.json" for entry in request.entries(request.shard_entries(shard))}
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return
+    for name in names:
+        if name in own:
+            with contextlib.suppress(OSError):
+                (folder / name).unlink()
+    with contextlib.suppress(OSError):  # not empty: a user's file is in it
+        folder.rmdir()
 
 
 def _read_record(shard_dir: Path, entry: Entry) -> dict[str, Any] | None:

@@ -1,0 +1,131 @@
+"""Ctrl-C and SIGTERM while a command starts: one line, ``phyrogen: interrupted``, exit 130 / 143,
+nothing written and no process left, at moments a random Ctrl-C rarely hits but sometimes does.
+
+- **Inside OMPL's import.** OMPL's compiled module runs Python code while it initialises (it
+  builds hundreds of enums); a KeyboardInterrupt raised there crossed its C++ and aborted the
+  process (``terminate called after throwing an instance of 'nanobind::python_error'``, exit
+  -6), or was swallowed, and the command went on. Seen in 1 of 25 random Ctrl-Cs 1.3-1.7 s into
+  ``generate``. Here the signal is sent from inside that initialisation, at the k-th Python call
+  it makes (a trace function, set only for the import of ``ompl._ompl``, sees the calls), so the
+  moment is the same on any machine.
+- **While the pool's fork server starts.** Until its first instruction ignores SIGINT, a Ctrl-C
+  to the process group printed the server's KeyboardInterrupt traceback beside the command's
+  line. Here the server, started with a ``sitecustomize`` that waits at its very start, is held
+  there while the test sends SIGINT to the whole group, as a terminal does.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from test_hostile_signals import assert_nothing_left, finish
+from waiting import BACKSTOP, wait_until
+
+ROOT = Path(__file__).resolve().parents[1]
+INTERRUPTED = "phyrogen: interrupted\n"
+GENERATE = ["generate", "--generator", "simple_slider", "--set", "n_objects=2", "--seeds", "31", "--workers", "1",
+            "--quiet"]
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+
+INSIDE_OMPL_INIT = """
+import os
+import signal
+import sys
+from pathlib import Path
+
+marker, signum, at = Path(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+calls = 0
+
+
+def inside_ompl_init(frame) -> bool:
+    depth = 0
+    while frame is not None:
+        if frame.f_code.co_qualname == "ExtensionFileLoader.exec_module":
+            # exec_module -> _call_with_frames_removed -> OMPL's C++ -> this frame: called by the C++
+            return getattr(frame.f_locals.get("module"), "__name__", None) == "ompl._ompl" and depth >= 2
+        frame, depth = frame.f_back, depth + 1
+    return False
+
+
+def tracer(frame, event, arg):
+    global calls
+    if event == "call" and inside_ompl_init(frame):
+        calls += 1
+        if calls == at:
+            sys.settrace(None)
+            marker.write_text(frame.f_code.co_qualname)
+            os.kill(os.getpid(), signum)
+    return None
+
+
+class WatchOmplInit:
+    def find_spec(self, name, path=None, target=None):
+        if name == "ompl._ompl" and not marker.exists():
+            sys.settrace(tracer)
+        return None
+
+
+sys.meta_path.insert(0, WatchOmplInit())
+from phyrogen.cli import main  # noqa: E402
+
+sys.exit(main(sys.argv[4:]))
+"""
+
+
+@pytest.mark.parametrize("signum, at", [(signal.SIGINT, 20), (signal.SIGINT, 300), (signal.SIGTERM, 100)],
+                         ids=["ctrl-c early", "ctrl-c late", "sigterm"])
+def test_a_signal_inside_ompls_import_ends_the_command_cleanly(signum, at, tmp_path):
+    marker, out = tmp_path / "signalled", tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-c", INSIDE_OMPL_INIT, str(marker), str(int(signum)), str(at),
+                                *GENERATE, "--out", str(out)], cwd=ROOT, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, start_new_session=True)
+    stdout, stderr = finish(process)
+    assert marker.is_file(), "the signal was not sent inside OMPL's initialisation"
+    assert (process.returncode, stdout, stderr) == (128 + signum, "", INTERRUPTED), (process.returncode, stdout,
+                                                                                     stderr, marker.read_text())
+    assert not out.exists()  # stopped before any puzzle, not after it
+    assert_nothing_left(process)
+
+
+HELD_SERVER = """
+import os
+import sys
+import time
+from pathlib import Path
+
+if any("multiprocessing.forkserver import main" in arg for arg in sys.orig_argv):
+    # The fork server, before any of its own code: say so, and wait for the test's signal to be sent.
+    (Path(os.environ["HELD_DIR"]) / "starting").touch()
+    sent = Path(os.environ["HELD_DIR"]) / "sent"
+    deadline = time.monotonic() + float(os.environ["HELD_BACKSTOP"])
+    while not sent.exists() and time.monotonic() < deadline:
+        time.sleep(0.01)
+"""
+
+
+def test_ctrl_c_while_the_fork_server_starts_prints_one_line(tmp_path):
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "sitecustomize.py").write_text(HELD_SERVER)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]),
+           "HELD_DIR": str(tmp_path), "HELD_BACKSTOP": str(BACKSTOP)}
+    process = subprocess.Popen([sys.executable, "-m", "phyrogen", *GENERATE, "--out", str(tmp_path / "out")],
+                               cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True, env=env)
+    try:
+        wait_until(lambda: process.poll() is not None or (tmp_path / "starting").exists(), "the fork server's start")
+        assert process.poll() is None, process.communicate()
+        os.killpg(process.pid, signal.SIGINT)  # Ctrl-C: the terminal signals the whole process group
+    finally:
+        (tmp_path / "sent").touch()
+    stdout, stderr = finish(process)
+    assert (process.returncode, stderr) == (130, INTERRUPTED), (process.returncode, stdout, stderr)
+    assert len(stdout.splitlines()) <= 1 and "Traceback" not in stdout, stdout  # the table's header at most
+    assert not (tmp_path / "out" / "simple_slider" / "simple_slider_31").exists()
+    assert_nothing_left(process)
