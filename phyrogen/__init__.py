@@ -27,6 +27,10 @@ any process starts; a puzzle the Maker cannot build raises
 
 from __future__ import annotations
 
+# First: in the command's process, Ctrl-C during the imports below gives the command's one line.
+from . import startup  # noqa: F401
+
+# isort: split
 from pathlib import Path
 from typing import Any
 

@@ -8,6 +8,9 @@ nothing written and no process left, at moments a random Ctrl-C rarely hits but 
   ``generate``. Here the signal is sent from inside that initialisation, at the k-th Python call
   it makes (a trace function, set only for the import of ``ompl._ompl``, sees the calls), so the
   moment is the same on any machine.
+- **Before ``main`` installs its handlers.** The command's imports take a tenth of a second;
+  a Ctrl-C then printed Python's KeyboardInterrupt traceback. Here the signal is sent as the
+  command's process first looks for ``phyrogen_core`` (by a ``sitecustomize`` of the test's).
 - **While the pool's fork server starts.** Until its first instruction ignores SIGINT, a Ctrl-C
   to the process group printed the server's KeyboardInterrupt traceback beside the command's
   line. Here the server, started with a ``sitecustomize`` that waits at its very start, is held
@@ -129,3 +132,59 @@ def test_ctrl_c_while_the_fork_server_starts_prints_one_line(tmp_path):
     assert len(stdout.splitlines()) <= 1 and "Traceback" not in stdout, stdout  # the table's header at most
     assert not (tmp_path / "out" / "simple_slider" / "simple_slider_31").exists()
     assert_nothing_left(process)
+
+
+SIGNAL_ON_IMPORT = """
+import os
+import sys
+
+# The command's process (not the fork server's); nothing of phyrogen is imported here, before its time.
+if "phyrogen" in [os.path.basename(arg) for arg in sys.orig_argv[1:3]]:
+
+    class SignalOnImport:
+        def find_spec(self, name, path=None, target=None):
+            if name == os.environ["SIGNAL_ON_IMPORT"]:
+                sys.meta_path.remove(self)
+                os.kill(os.getpid(), int(os.environ["SIGNAL_NUMBER"]))
+            return None
+
+    sys.meta_path.insert(0, SignalOnImport())
+"""
+
+
+@pytest.mark.parametrize("entry", ["python -m phyrogen", "console script"])
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_a_signal_before_main_installs_its_handlers_gives_the_commands_line(entry, signum, tmp_path):
+    script = Path(sys.executable).with_name("phyrogen")
+    if entry == "console script" and not script.is_file():
+        pytest.skip("the package is not installed with its console script")
+    command = [sys.executable, "-m", "phyrogen"] if entry == "python -m phyrogen" else [str(script)]
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "sitecustomize.py").write_text(SIGNAL_ON_IMPORT)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]),
+           "SIGNAL_ON_IMPORT": "phyrogen_core", "SIGNAL_NUMBER": str(int(signum))}
+    process = subprocess.Popen([*command, *GENERATE, "--out", str(tmp_path / "out")], cwd=ROOT,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                               env=env)
+    stdout, stderr = finish(process)
+    assert (process.returncode, stdout, stderr) == (128 + signum, "", INTERRUPTED), (process.returncode, stdout,
+                                                                                     stderr)
+    assert not (tmp_path / "out").exists()
+    assert_nothing_left(process)
+
+
+@pytest.mark.parametrize("argv, command", [
+    (["/venv/bin/python", "/venv/bin/phyrogen", "generate"], True),
+    (["/venv/bin/python", "-X", "importtime", "-m", "phyrogen", "check", "x"], True),
+    (["python3", "-m", "phyrogen"], True),
+    (["python3", "-m", "pytest", "tests"], False),
+    (["python3", "-c", "import phyrogen"], False),
+    (["python3", "my_phyrogen_script.py"], False),
+    (["python3"], False),
+])
+def test_only_the_commands_own_process_gets_the_early_handlers(argv, command):
+    """Negative control: a program that imports the package keeps Python's own handlers."""
+    from phyrogen.startup import started_as_the_command
+
+    assert started_as_the_command(argv) is command
