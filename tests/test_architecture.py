@@ -21,7 +21,8 @@ THIRD_PARTY = {
     "blender_addon": {"numpy", "bpy", "mathutils", "addon_utils", "bpy_extras",
                       "PIL",  # Pillow writes the solution animation (animated WebP) from Blender's frames
                       "phobos"},  # the Phobos add-on, imported only by Export with Phobos while it is enabled
-    "manipulation": {"numpy", "numba", "pybullet", "pybullet_data", "imageio", "tqdm", "ompl"},
+    "manipulation": {"numpy", "numba", "pybullet", "pybullet_data", "imageio", "tqdm", "ompl",
+                     "mujoco"},  # mjcf_rollout: the exported MJCF rolled out through its servos
     "phyrogen": {"tqdm", "numpy", "gymnasium"},
 }
 """Outside the standard library, what each package may import."""

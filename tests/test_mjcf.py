@@ -159,6 +159,8 @@ def test_geometry_colours_and_goal_site(exported, name):
     chain = puzzle.chain
     visual_group, collision_group = 2, 3
     for geom_id in range(model.ngeom):
+        if model.geom_bodyid[geom_id] == 0:  # the floor, in the world body (test_dynamics_are_written)
+            continue
         link = chain.link(model.body(model.geom_bodyid[geom_id]).name)
         colliding = model.geom_contype[geom_id] or model.geom_conaffinity[geom_id]
         assert link.role is not Role.GOAL_MARKER or not colliding
@@ -188,11 +190,12 @@ def test_geometry_colours_and_goal_site(exported, name):
 @pytest.mark.parametrize("name", NAMES)
 def test_mjcf_is_byte_deterministic(exported, name):
     puzzle, folder = exported[name]
-    text = chain_to_mjcf(puzzle.chain)
-    assert text == chain_to_mjcf(puzzle.chain)
+    text = chain_to_mjcf(puzzle.chain, puzzle.certificate)
+    assert text == chain_to_mjcf(puzzle.chain, puzzle.certificate)
     assert mjcf_path(folder, name).read_bytes() == text.encode("utf-8")
     # The chain read back from the folder (URDF + puzzle.json) gives the same bytes.
-    assert chain_to_mjcf(read_puzzle_dir(folder).chain) == text
+    loaded = read_puzzle_dir(folder)
+    assert chain_to_mjcf(loaded.chain, loaded.certificate) == text
 
 
 def test_export_again_replaces_the_file_atomically(exported, tmp_path, capsys):
@@ -286,7 +289,128 @@ def test_generate_writes_the_mjcf_beside_the_urdf_on_request(tmp_path, capsys):
     folder = tmp_path / "with" / "simple_slider" / "simple_slider_8316"
     assert not mjcf_path(plain, "simple_slider_8316").exists()
     written = mjcf_path(folder, "simple_slider_8316").read_bytes()
-    assert written == chain_to_mjcf(read_puzzle_dir(folder).chain).encode("utf-8")
+    loaded = read_puzzle_dir(folder)
+    assert written == chain_to_mjcf(loaded.chain, loaded.certificate).encode("utf-8")
     assert PuzzleFolder(folder, "simple_slider_8316").urdf.read_bytes() == \
         PuzzleFolder(plain, "simple_slider_8316").urdf.read_bytes()
     mujoco.MjModel.from_xml_path(str(mjcf_path(folder, "simple_slider_8316")))
+
+
+# -- dynamics: friction, damping, servos, floor, keyframes, and rollouts through the servos ---------------------
+
+ROLLOUT_PUZZLES = [
+    ("lockbox_random", 8330, {}),
+    ("move_n_times", 8331, {"n": 3}),
+    ("rooms", 8332, {}),
+    ("simple_slider", 8333, {"n_objects": 4}),
+    ("grid_world", 8334, {}),
+    ("continuous_space", 8335, {}),
+]
+"""More fresh seeds (no other test uses 8330-8339), rolled out from their MJCF text beside the exported six."""
+
+
+@pytest.fixture(scope="module")
+def rollout_puzzles(exported):
+    """name -> (puzzle, MJCF text): the exported files and the second set of seeds."""
+    from phyrogen_core.registry import get_generator
+    from solver.pipelines.generation import generate_here
+
+    out = {name: (puzzle, mjcf_path(folder, name).read_text()) for name, (puzzle, folder) in exported.items()}
+    for generator, seed, overrides in ROLLOUT_PUZZLES:
+        puzzle = generate_here(generator, seed, get_generator(generator).parse_params(overrides))
+        out[puzzle.name] = (puzzle, chain_to_mjcf(puzzle.chain, puzzle.certificate))
+    return out
+
+
+ROLLOUT_NAMES = NAMES + [f"{generator}_{seed}" for generator, seed, _ in ROLLOUT_PUZZLES]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_dynamics_are_written(exported, name):
+    """Every movable joint has friction, damping and a force-limited position servo; the keyframes
+    are the certificate's ends; the floor lies under the puzzle and never touches it."""
+    from phyrogen_core.export.mjcf_dynamics import DYNAMICS, GRAVITY
+
+    puzzle, _, model, data = _model(exported, name)
+    chain = puzzle.chain
+    assert model.opt.timestep == DYNAMICS.timestep and model.nu == len(chain.joint_order)
+    for joint in chain.active_joints:
+        dof = model.jnt_dofadr[model.joint(joint.name).id]
+        actuator = model.actuator(joint.name)
+        moved = chain.link(joint.child).mass  # every generator's object is one link of 1 kg (helpers 0.01)
+        arm = DYNAMICS.bearing_radius if joint.type is JointType.REVOLUTE else 1.0
+        assert model.dof_damping[dof] > 0
+        assert model.dof_frictionloss[dof] >= DYNAMICS.joint_friction * moved * GRAVITY * arm * (1 - 1e-12)
+        assert model.actuator_trnid[actuator.id, 0] == model.joint(joint.name).id
+        assert model.actuator_gainprm[actuator.id, 0] > 0 and model.actuator_forcelimited[actuator.id]
+        limit = model.actuator_forcerange[actuator.id]
+        assert limit[0] == -limit[1] and (limit[1] == DYNAMICS.servo_force if joint.type is JointType.PRISMATIC
+                                          else limit[1] > 0)
+        assert tuple(model.actuator_ctrlrange[actuator.id]) == (joint.lower, joint.upper)
+    for key, state in (("start", puzzle.certificate[0]), ("goal", puzzle.certificate[-1])):
+        mujoco.mj_resetDataKeyframe(model, data, model.key(key).id)
+        for joint_name, value in zip(chain.joint_order, state, strict=True):
+            assert data.joint(joint_name).qpos[0] == value and data.actuator(joint_name).ctrl[0] == value
+    floor = model.geom("floor")
+    assert model.geom_type[floor.id] == mujoco.mjtGeom.mjGEOM_PLANE
+    mujoco.mj_resetDataKeyframe(model, data, model.key("start").id)
+    mujoco.mj_forward(model, data)
+    puzzle_geoms = [g for g in range(model.ngeom) if g != floor.id and model.geom_contype[g]]
+    assert all(not (model.geom_contype[floor.id] & model.geom_conaffinity[g])
+               and not (model.geom_contype[g] & model.geom_conaffinity[floor.id]) for g in puzzle_geoms)
+    lowest = min(data.geom_xpos[g][2] - model.geom_rbound[g] for g in puzzle_geoms)
+    assert model.geom_pos[floor.id][2] >= lowest - 1e-9  # under the puzzle's lowest shape, not below its bound
+
+
+def test_a_body_a_user_adds_rests_on_the_floor(exported):
+    """The floor is real for anything but the puzzle: a free box with MuJoCo's default collision bits,
+    dropped on it, comes to rest on it (not through it)."""
+    puzzle, folder = exported[NAMES[3]]
+    text = mjcf_path(folder, NAMES[3]).read_text()
+    model = mujoco.MjModel.from_xml_string(text)
+    floor_z = float(model.geom_pos[model.geom("floor").id][2])
+    away = 50.0  # far from the puzzle
+    box = (f'<body name="user_box" pos="{away} {away} {floor_z + 0.5}"><freejoint/>'
+           '<inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/><geom type="box" size="0.1 0.1 0.1"/></body>')
+    model = mujoco.MjModel.from_xml_string(text.replace("  </worldbody>", f"    {box}\n  </worldbody>"))
+    data = mujoco.MjData(model)
+    for _ in range(2000):
+        mujoco.mj_step(model, data)
+    assert data.body("user_box").xpos[2] == pytest.approx(floor_z + 0.1, abs=1e-3)
+
+
+@pytest.mark.parametrize("name", ROLLOUT_NAMES)
+def test_driving_the_servos_along_the_certificate_reaches_the_goal(rollout_puzzles, name, record_property):
+    from manipulation.mjcf_rollout import DRIVE_DEPTH, drive_certificate
+
+    puzzle, text = rollout_puzzles[name]
+    drive = drive_certificate(text, puzzle.chain, puzzle.certificate, puzzle.goal)
+    record_property("deepest_m", drive.deepest)
+    assert drive.reached, f"{name}: {drive.goal_error} from the goal after {drive.steps} steps"
+    assert drive.deepest < DRIVE_DEPTH, f"{name}: {drive.deepest * 1000:.3f} mm between {drive.between}"
+    # Negative control: the same drive straight from start to goal (through the blockers) does not get there.
+    straight = _straight_to_goal(puzzle)
+    bad = drive_certificate(text, puzzle.chain, [puzzle.certificate[0], straight], puzzle.goal)
+    assert not bad.reached or bad.deepest >= DRIVE_DEPTH, f"{name}: the straight line passed"
+
+
+@pytest.mark.parametrize("name", ROLLOUT_NAMES)
+def test_a_push_straight_to_the_goal_is_stopped(rollout_puzzles, name, record_property):
+    from manipulation.mjcf_rollout import BLOCKER_STILL, PUSH_DEPTH, push_target
+
+    puzzle, text = rollout_puzzles[name]
+    push = push_target(text, puzzle.chain, puzzle.certificate, puzzle.goal)
+    record_property("deepest_m", push.deepest)
+    assert push.touched and not push.reached
+    assert push.deepest < PUSH_DEPTH, f"{name}: {push.deepest * 1000:.3f} mm between {push.between}"
+    assert push.others_moved < BLOCKER_STILL, f"{name}: a held part moved {push.others_moved * 1000:.2f} mm"
+    # Control: with contacts off the same servo carries the target well past where it stopped.
+    free = push_target(text, puzzle.chain, puzzle.certificate, puzzle.goal, contacts=False)
+    assert free.target_moved > push.target_moved + 10 * PUSH_DEPTH
+
+
+def _straight_to_goal(puzzle) -> list[float]:
+    state = list(puzzle.certificate[0])
+    for joint_name, value in puzzle.goal.values.items():
+        state[puzzle.joint_order.index(joint_name)] = value
+    return state

@@ -42,6 +42,7 @@ byte-identical files. A puzzle folder holds the file as
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -51,12 +52,15 @@ from ..errors import PuzzleFormatError
 from ..folder import OutputError, name_problem, owned_directory, read_folder_file, require_stage_folder
 from ..geometry import Box, ConvexPrism, Cylinder, Pose
 from .formatting import attribute, number, numbers
+from .mjcf_dynamics import DYNAMICS, JointDynamics, floor_height, joint_dynamics
 from .urdf import color_name, link_inertia
 
 MJCF_FOLDER = "mjcf"
 """The puzzle folder's entry holding the MJCF file: ``mjcf/<name>.xml``."""
 
 _JOINT_TYPES = {JointType.PRISMATIC: "slide", JointType.REVOLUTE: "hinge"}
+_FLOOR_MATERIAL = "floor"
+_FLOOR_RGBA = (0.85, 0.85, 0.8, 1.0)
 
 
 _HEAD = ('<?xml version="1.0"?>', '  <compiler angle="radian" eulerseq="XYZ" inertiafromgeom="false"/>')
@@ -64,8 +68,12 @@ _HEAD = ('<?xml version="1.0"?>', '  <compiler angle="radian" eulerseq="XYZ" ine
 :func:`check_mjcf_target` knows a file as one of its own."""
 
 
-def chain_to_mjcf(chain: KinematicChain) -> str:
+def chain_to_mjcf(chain: KinematicChain, certificate: Sequence[Sequence[float]] | None = None) -> str:
     """The MJCF text of ``chain`` (see the module's docstring for what maps to what).
+
+    With a ``certificate``, its first and last states are the keyframes ``start`` and ``goal``
+    (joint values and servo targets) and the dynamics are taken at its start; without, there are
+    no keyframes and the dynamics are taken at zero (clipped into the limits).
 
     Self-contained: prism pieces are inline meshes, so the text loads with
     ``mujoco.MjModel.from_xml_string`` as well as from a file. Element names
@@ -75,10 +83,14 @@ def chain_to_mjcf(chain: KinematicChain) -> str:
     Raises TypeError on an unknown shape, ValueError on a number that is not
     finite.
     """
-    writer = _Writer(chain)
+    start = None if certificate is None else _state(chain, certificate[0], "start")
+    goal = None if certificate is None else _state(chain, certificate[-1], "goal")
+    writer = _Writer(chain, joint_dynamics(chain, start, DYNAMICS))
     body = writer.body_lines(chain.root, 2)
+    d = DYNAMICS
     lines = [_HEAD[0], f"<mujoco model={attribute(chain.name)}>", _HEAD[1],
-             "  <option>",
+             f'  <option timestep="{number(d.timestep)}" integrator="implicitfast" cone="elliptic" '
+             f'solver="{d.solver}" iterations="{d.solver_iterations}" tolerance="{number(d.solver_tolerance)}">',
              # Contacts between a body and its parent body are kept: see the module's docstring.
              '    <flag filterparent="disable"/>',
              "  </option>",
@@ -87,20 +99,38 @@ def chain_to_mjcf(chain: KinematicChain) -> str:
              '      <geom contype="0" conaffinity="0" group="2"/>',
              "    </default>",
              '    <default class="collision">',
-             '      <geom contype="1" conaffinity="1" group="3"/>',
+             # Bits: puzzle parts collide with each other (2 & 3) and with a user's default geoms
+             # (1 & 3), never with the floor (4 & 3, 2 & 1 are 0); see mjcf_dynamics.
+             f'      <geom contype="2" conaffinity="3" group="3" condim="3" friction="{numbers(d.contact_friction)}" '
+             f'solref="{numbers(d.contact_solref)}" solimp="{numbers(d.contact_solimp)}"/>',
              "    </default>",
              "  </default>"]
+    writer.materials[_FLOOR_MATERIAL] = _FLOOR_RGBA
     assets = [f"    <material name={attribute(name)} rgba={attribute(numbers(rgba))}/>"
               for name, rgba in sorted(writer.materials.items())]
     assets += writer.meshes
-    if assets:
-        lines += ["  <asset>", *assets, "  </asset>"]
-    lines += ["  <worldbody>", *body, "  </worldbody>"]
+    lines += ["  <asset>", *assets, "  </asset>"]
+    lines += ["  <worldbody>",
+              f'    <geom name="floor" type="plane" size="0 0 1" pos="0 0 {number(floor_height(chain, start))}" '
+              f'contype="4" conaffinity="1" group="1" material="{_FLOOR_MATERIAL}"/>',
+              *body, "  </worldbody>"]
     excludes = writer.exclude_lines()
     if excludes:
         lines += ["  <contact>", *excludes, "  </contact>"]
+    if writer.joints:
+        lines += ["  <actuator>", *writer.actuator_lines(), "  </actuator>"]
+    if start is not None and goal is not None and writer.joints:
+        lines += ["  <keyframe>", writer.key_line("start", start), writer.key_line("goal", goal), "  </keyframe>"]
     lines.append("</mujoco>")
     return "\n".join(lines) + "\n"
+
+
+def _state(chain: KinematicChain, state: Sequence[float], which: str) -> tuple[float, ...]:
+    values = tuple(float(v) for v in state)
+    if len(values) != len(chain.joint_order) or not all(np.isfinite(values)):
+        raise ValueError(f"the certificate's {which} state must be {len(chain.joint_order)} finite joint values, "
+                         f"got {state!r}")
+    return values
 
 
 def mjcf_path(folder: str | Path, name: str) -> Path:
@@ -108,8 +138,10 @@ def mjcf_path(folder: str | Path, name: str) -> Path:
     return Path(folder) / MJCF_FOLDER / f"{name}.xml"
 
 
-def write_mjcf(folder: str | Path, chain: KinematicChain, name: str) -> Path:
-    """Write ``chain``'s MJCF into the puzzle folder ``folder`` as ``mjcf/<name>.xml``; return its path.
+def write_mjcf(folder: str | Path, chain: KinematicChain, name: str,
+               certificate: Sequence[Sequence[float]] | None = None) -> Path:
+    """Write ``chain``'s MJCF (keyframes from ``certificate``: :func:`chain_to_mjcf`) into the puzzle
+    folder ``folder`` as ``mjcf/<name>.xml``; return its path.
 
     The ``mjcf/`` entry is swapped in atomically
     (:func:`~phyrogen_core.folder.owned_directory`): a reader finds the old
@@ -122,7 +154,7 @@ def write_mjcf(folder: str | Path, chain: KinematicChain, name: str) -> Path:
     problem = name_problem(name)
     if problem is not None:
         raise ValueError(f"{name!r} cannot name an MJCF file: it {problem}")
-    data = chain_to_mjcf(chain).encode("utf-8")
+    data = chain_to_mjcf(chain, certificate).encode("utf-8")
     check_mjcf_target(folder, name)
     with owned_directory(Path(folder) / MJCF_FOLDER, f"{name}.xml".__eq__) as temporary:
         (temporary / f"{name}.xml").write_bytes(data)
@@ -157,8 +189,10 @@ def object_of_link(link: Link) -> str:
 class _Writer:
     """Builds the body tree; collects the materials and meshes it uses on the way."""
 
-    def __init__(self, chain: KinematicChain):
+    def __init__(self, chain: KinematicChain, dynamics: dict[str, JointDynamics]):
         self.chain = chain
+        self.dynamics = dynamics
+        self.joints: list[str] = []  # active joints in the file's order: MuJoCo's qpos and ctrl order
         self.materials: dict[str, tuple[float, float, float, float]] = {}
         self.meshes: list[str] = []
         order = {link.name: i for i, link in enumerate(chain.links)}
@@ -178,9 +212,12 @@ class _Writer:
         inner = indent + "  "
         lines.append(_inertial_line(link, inner))
         if joint is not None and joint.is_active:
+            self.joints.append(joint.name)
+            dynamics = self.dynamics[joint.name]
             lines.append(f"{inner}<joint name={attribute(joint.name)} type={attribute(_JOINT_TYPES[joint.type])} "
                          f'axis="{numbers(joint.axis)}" range="{number(joint.lower)} {number(joint.upper)}" '
-                         'limited="true"/>')
+                         f'limited="true" damping="{number(dynamics.damping)}" '
+                         f'frictionloss="{number(dynamics.frictionloss)}"/>')
         if link.role is Role.GOAL_MARKER:
             # The marker shows the goal and collides with nothing (the collision model skips it too):
             # its visuals are sites, and collision shapes it might have are not written.
@@ -195,6 +232,23 @@ class _Writer:
             lines += self.body_lines(child, depth + 1)
         lines.append(f"{indent}</body>")
         return lines
+
+    def actuator_lines(self) -> list[str]:
+        """A position servo per active joint, named as its joint (see mjcf_dynamics)."""
+        lines = []
+        for name in self.joints:
+            joint, dynamics = self.chain.joint(name), self.dynamics[name]
+            lines.append(f"    <position name={attribute(name)} joint={attribute(name)} kp=\"{number(dynamics.kp)}\" "
+                         f'kv="{number(dynamics.kv)}" ctrlrange="{number(joint.lower)} {number(joint.upper)}" '
+                         f'ctrllimited="true" forcerange="{number(-dynamics.force_limit)} '
+                         f'{number(dynamics.force_limit)}" forcelimited="true"/>')
+        return lines
+
+    def key_line(self, name: str, state: Sequence[float]) -> str:
+        """A keyframe holding ``state`` (in the chain's joint order) and its servos aimed at it."""
+        values = self.chain.state_dict(state)
+        ordered = numbers(values[joint] for joint in self.joints)
+        return f'    <key name="{name}" qpos="{ordered}" ctrl="{ordered}"/>'
 
     def exclude_lines(self) -> list[str]:
         """``<exclude>`` for every pair of bodies of one object that both have collision geoms."""

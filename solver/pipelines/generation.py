@@ -125,7 +125,7 @@ def _run_job(job: Job, out_root: str | None) -> Report:
             with deferred_signals():  # stopped while writing, a worker finishes the folder first
                 folder = str(write_puzzle(puzzle, Path(out_root), versions(), notices))
                 if job.mjcf:
-                    write_mjcf(folder, puzzle.chain, puzzle.name)
+                    write_mjcf(folder, puzzle.chain, puzzle.name, puzzle.certificate)
         chain = puzzle.planning_chain
         return Report(job.generator, job.seed, sum(o.is_movable for o in puzzle.objects),
                       count_actions(puzzle.certificate, chain.factors), time.perf_counter() - started,

@@ -143,7 +143,7 @@ def make_entry(task: EntryTask) -> EntryOutcome:
         if puzzle is not None:
             folder = write_puzzle(puzzle, shard_dir, versions())
             if task.mjcf:
-                write_mjcf(folder, puzzle.chain, puzzle.name)
+                write_mjcf(folder, puzzle.chain, puzzle.name, puzzle.certificate)
     return outcome
 
 
