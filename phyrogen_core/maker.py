@@ -79,6 +79,27 @@ class InfiniteSequence:
 
 
 # -- validation interface ----------------------------------------------------
+BY_GEOMETRY = "geometry"
+"""A necessary verdict proven by geometry: with the objects fixed, no valid state with the target at
+its goal can be reached (solver.validation.blocking)."""
+BY_GOAL_SAMPLER = "goal sampler"
+"""A necessary verdict on which the search found no valid goal state at all: the goal sampler's
+search gave out (evidence that the goal itself is blocked, not a proof)."""
+BY_SEARCH = "search"
+"""A necessary verdict on which goal states were found but no search reached one within its budget."""
+NECESSITY_KINDS = (BY_GEOMETRY, BY_GOAL_SAMPLER, BY_SEARCH)
+"""How a necessary verdict can be reached, strongest first."""
+
+
+@dataclass(frozen=True)
+class Necessary:
+    """A validator's verdict that fixed objects are necessary: their measured margin and how it was reached
+    (one of :data:`NECESSITY_KINDS`)."""
+
+    margin: float
+    how: str
+
+
 @dataclass(frozen=True)
 class SolveResult:
     solved: bool
@@ -92,10 +113,11 @@ class Validator(Protocol):
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult: ...
 
     def necessity(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], margin: float, *,
-                  budget_scale: float = 1.0) -> float | None:
+                  budget_scale: float = 1.0) -> float | Necessary | None:
         """The objects ``fixed`` held at their creation pose: None when the puzzle is then solvable
         with every shape shrunk by ``margin`` (they are superfluous), else the largest shrink
-        measured at which it is not (at least ``margin``)."""
+        measured at which it is not (at least ``margin``), with how that was found when the
+        validator can tell (:class:`Necessary`)."""
         ...
 
 
@@ -141,6 +163,7 @@ class MakerResult:
     certificate: tuple[tuple[float, ...], ...]
     context: Any = None
     margins: dict[str, float] = field(default_factory=dict)  # object -> measured margin (metres)
+    necessity: dict[str, str] = field(default_factory=dict)  # object -> how its verdict was reached, when told
 
 
 def rng_for(generator: str, seed: int, stream: str = "maker") -> np.random.Generator:
@@ -172,6 +195,7 @@ def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator,
     draft = spec.initial
     path: tuple[tuple[float, ...], ...] = ()
     margins: dict[str, float] = {}
+    necessity: dict[str, str] = {}
     for n in range(1, spec.n_objects + 1):
         for _ in range(spec.max_tries):
             obj_item = spec.objects.get(n, rng)
@@ -183,20 +207,24 @@ def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator,
             new_objects = candidate.objects[len(draft.objects):]
             goal = spec.goal(candidate)
             movable = [o.name for o in new_objects if o.is_movable]
-            margin = None
+            verdict = None
             if movable:
-                margin = validator.necessity(candidate.objects, goal, movable, spec.interlock_margin,
-                                             budget_scale=spec.fixed_budget_scale)
-                if margin is None:
+                verdict = validator.necessity(candidate.objects, goal, movable, spec.interlock_margin,
+                                              budget_scale=spec.fixed_budget_scale)
+                if verdict is None:
                     continue  # superfluous: solvable without moving it
             result = validator.solve(candidate.objects, goal)
             if not result.solved:
                 continue
             draft, path = candidate, result.path
-            margins.update({name: margin for name in movable})
+            if isinstance(verdict, Necessary):
+                margins.update({name: verdict.margin for name in movable})
+                necessity.update({name: verdict.how for name in movable})
+            else:
+                margins.update({name: verdict for name in movable})
             break
         else:
             raise _IterationExhaustedError(f"iteration {n}: no valid candidate in {spec.max_tries} tries")
         if progress:
             progress(n, spec.n_objects)
-    return MakerResult(draft.objects, spec.goal(draft), path, draft.context, margins)
+    return MakerResult(draft.objects, spec.goal(draft), path, draft.context, margins, necessity)

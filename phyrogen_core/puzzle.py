@@ -68,7 +68,8 @@ class Puzzle:
     lists (blocker, blocked) object-name pairs found while building.
     ``certificate`` is a joint-space path (joint order) from start to goal.
     ``margins`` maps each movable object but the target to its measured
-    interlock margin (metres; see :mod:`phyrogen_core.maker`). ``provenance``
+    interlock margin (metres; see :mod:`phyrogen_core.maker`), ``necessity`` how each of those
+    was shown needed (:data:`phyrogen_core.maker.NECESSITY_KINDS`; empty when unknown). ``provenance``
     says where an imported puzzle came from and who certified it (empty for a
     generated one: generator, parameters and seed say it all). ``difficulty`` is measured only on
     request (``phyrogen generate --difficulty``; :mod:`solver.benchmark.difficulty`).
@@ -83,6 +84,7 @@ class Puzzle:
     certificate: tuple[tuple[float, ...], ...] = ()
     margins: Mapping[str, float] = field(default_factory=dict)
     provenance: Provenance = field(default_factory=Provenance)
+    necessity: Mapping[str, str] = field(default_factory=dict)
     difficulty: Difficulty | None = None
 
     @property

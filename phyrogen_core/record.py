@@ -26,6 +26,11 @@ Version 3 adds ``difficulty`` (:class:`~phyrogen_core.difficulty.Difficulty`), w
 was measured (``phyrogen generate --difficulty``): a record without it is written exactly as before,
 and a reader that knows only versions 1-2 refuses the file by its version rather than by an
 unknown key.
+
+Version 4 adds ``necessity`` to the objects that have an ``interlock_margin``: how the Maker's
+verdict that the object is needed was reached (:data:`~phyrogen_core.maker.NECESSITY_KINDS`:
+``geometry``, ``goal sampler`` or ``search``). Files of versions 1-3 are read with it unknown
+(None); a record without it is written exactly as before.
 """
 
 from __future__ import annotations
@@ -40,17 +45,20 @@ from typing import Any
 from .chain import JointType, Role
 from .difficulty import Difficulty
 from .errors import PuzzleFormatError
+from .maker import NECESSITY_KINDS
 from .objects import Motion
 from .provenance import Imported, ImportedJoint, PlannerRun, Provenance
 from .puzzle import Goal
 from .sizes import CERTIFICATE_STATES
 
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 """The newest ``puzzle.json`` format; bumped when a key changes meaning. Readers accept 1 to this."""
 PROVENANCE_VERSION = 2
 """The first version with the ``provenance`` key (and without ``replanned_by``, ``parameters.certified_by``)."""
 DIFFICULTY_VERSION = 3
 """The first version with the ``difficulty`` key."""
+NECESSITY_VERSION = 4
+"""The first version with the objects' ``necessity`` key."""
 MAX_MAGNITUDE = 1e6
 """The largest magnitude of a number in the URDF, a mesh or a joint value of ``puzzle.json``
 (metres, radians, kilograms, ...). Puzzles are table- to room-sized (the largest generated
@@ -81,13 +89,15 @@ class JointLimit:
 @dataclass(frozen=True)
 class ObjectRecord:
     """One object of the puzzle; ``interlock_margin`` is the measured margin (metres) of a movable
-    object other than the target, None for the others."""
+    object other than the target, None for the others; ``necessity`` how the verdict that it is
+    needed was reached (one of :data:`~phyrogen_core.maker.NECESSITY_KINDS`; None when unknown)."""
 
     name: str
     motion: Motion
     role: Role
     joints: tuple[str, ...]
     interlock_margin: float | None = None
+    necessity: str | None = None
 
 
 @dataclass(frozen=True)
@@ -134,6 +144,8 @@ class PuzzleRecord:
     @property
     def format_version(self) -> int:
         """The version the file is written as: the oldest that holds everything in the record."""
+        if any(o.necessity is not None for o in self.objects):
+            return NECESSITY_VERSION
         if self.difficulty is not None:
             return DIFFICULTY_VERSION
         return PROVENANCE_VERSION if self.provenance else 1
@@ -148,6 +160,11 @@ class PuzzleRecord:
     def margins(self) -> dict[str, float]:
         """Object name -> measured interlock margin, for the objects that have one."""
         return {o.name: o.interlock_margin for o in self.objects if o.interlock_margin is not None}
+
+    @property
+    def necessity(self) -> dict[str, str]:
+        """Object name -> how its necessity was shown, for the objects whose record says."""
+        return {o.name: o.necessity for o in self.objects if o.necessity is not None}
 
     def same_puzzle(self, other: PuzzleRecord) -> bool:
         """Whether ``other`` describes the same puzzle, made by any package versions and whether or not
@@ -231,6 +248,8 @@ def _object_dict(obj: ObjectRecord) -> dict[str, Any]:
                              "joints": list(obj.joints)}
     if obj.interlock_margin is not None:
         entry["interlock_margin"] = obj.interlock_margin
+    if obj.necessity is not None:
+        entry["necessity"] = obj.necessity
     return entry
 
 
@@ -338,6 +357,11 @@ class _Parser:
         if "difficulty" in data and version < DIFFICULTY_VERSION:
             raise self.error(f"difficulty is a key of format_version {DIFFICULTY_VERSION}; this file is version "
                              f"{version}")
+        if version < NECESSITY_VERSION:
+            entries = data.get("objects")
+            if isinstance(entries, list) and any(isinstance(e, dict) and "necessity" in e for e in entries):
+                raise self.error(f"objects[].necessity is a key of format_version {NECESSITY_VERSION}; this file is "
+                                 f"version {version}")
         if version >= PROVENANCE_VERSION:
             return data
         if "provenance" in data:
@@ -367,14 +391,21 @@ class _Parser:
             where = f"objects[{index}]"
             if not isinstance(entry, dict):
                 raise self.error(f"{where} must be an object with name, motion, role")
-            self.known(entry, {"name", "motion", "role", "joints", "interlock_margin"}, where)
+            self.known(entry, {"name", "motion", "role", "joints", "interlock_margin", "necessity"}, where)
             margin = entry.get("interlock_margin")
+            necessity = entry.get("necessity")
+            if necessity is not None and necessity not in NECESSITY_KINDS:
+                raise self.error(f"{where}.necessity {_show(necessity)} is not valid; valid: {list(NECESSITY_KINDS)}")
+            if necessity is not None and margin is None:
+                raise self.error(f"{where}.necessity without {where}.interlock_margin: only a needed object "
+                                 "has a verdict")
             out.append(ObjectRecord(
                 name=self.field(entry, "name", str, where),
                 motion=self.enum(Motion, self.field(entry, "motion", str, where), f"{where}.motion"),
                 role=self.enum(Role, self.field(entry, "role", str, where), f"{where}.role"),
                 joints=tuple(self.strings(entry, "joints", where)),
                 interlock_margin=None if margin is None else self.number(margin, f"{where}.interlock_margin"),
+                necessity=necessity,
             ))
         return tuple(out)
 

@@ -19,7 +19,7 @@ from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import read_puzzle_dir, write_puzzle
 from phyrogen_core.export.metadata import metadata_json, puzzle_record
 from phyrogen_core.provenance import PlannerRun
-from phyrogen_core.record import FORMAT_VERSION, PROVENANCE_VERSION, PuzzleRecord
+from phyrogen_core.record import FORMAT_VERSION, NECESSITY_VERSION, PROVENANCE_VERSION, PuzzleRecord
 from phyrogen_core.registry import all_generators, get_generator
 from solver.pipelines.generation import generate_here
 
@@ -115,15 +115,22 @@ def test_the_text_round_trips_exactly(puzzles, generator):
     again = PuzzleRecord.from_json(text)
     assert again == record and again.to_json() == text
     assert again.seed == SEEDS[generator] and again.generator == generator
-    assert json.loads(text)["format_version"] == 1 == again.format_version  # no provenance: the first format
+    # No provenance: the first format, unless the Maker said how its blockers were shown needed (format 4).
+    assert again.necessity and json.loads(text)["format_version"] == NECESSITY_VERSION == again.format_version
+    plain = dataclasses.replace(again, objects=tuple(dataclasses.replace(o, necessity=None) for o in again.objects))
+    assert json.loads(plain.to_json())["format_version"] == 1 == plain.format_version
     with pytest.raises(dataclasses.FrozenInstanceError):
         again.seed = 1  # type: ignore[misc]
     with pytest.raises(TypeError):
         again.parameters["x"] = 1  # type: ignore[index]
 
 
+def _without_necessity(record: PuzzleRecord) -> PuzzleRecord:
+    return dataclasses.replace(record, objects=tuple(dataclasses.replace(o, necessity=None) for o in record.objects))
+
+
 def test_a_record_with_provenance_is_written_as_the_new_format(puzzles):
-    record = puzzle_record(puzzles["grid_world"])
+    record = _without_necessity(puzzle_record(puzzles["grid_world"]))
     run = PlannerRun("rrt_connect", 1000, 7, 250)
     replanned = dataclasses.replace(record, provenance=dataclasses.replace(record.provenance, replanned=run))
     data = json.loads(replanned.to_json())
@@ -133,8 +140,12 @@ def test_a_record_with_provenance_is_written_as_the_new_format(puzzles):
 
 
 def _first_format(data: dict) -> dict:
-    """``data`` as the writer before the record wrote it: provenance in two places, or no version at all."""
-    return json.loads(json.dumps(data))
+    """``data`` as the writer before the record wrote it: provenance in two places, or no version at all,
+    and no object's necessity (format 4)."""
+    old = json.loads(json.dumps(data))
+    for entry in old["objects"]:
+        entry.pop("necessity", None)
+    return old
 
 
 def test_a_file_of_the_first_format_is_upgraded_when_read(puzzles, tmp_path):

@@ -52,7 +52,7 @@ def puzzle_record(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> 
         start=tuple(_float(v) for v in puzzle.start),
         goal=type(puzzle.goal)(puzzle.goal.target, {name: _float(v) for name, v in puzzle.goal.values.items()},
                                _float(puzzle.goal.tolerance)),
-        objects=tuple(_object_record(o, puzzle.margins) for o in puzzle.objects),
+        objects=tuple(_object_record(o, puzzle.margins, puzzle.necessity) for o in puzzle.objects),
         dependency_graph=DependencyGraph(
             nodes=tuple(o.name for o in puzzle.objects if o.is_movable),  # scenery blocks nothing
             edges=tuple((str(blocker), str(blocked)) for blocker, blocked in puzzle.dependencies),
@@ -77,9 +77,10 @@ def _joint_limits(chain: KinematicChain, joint_order: tuple[str, ...]) -> tuple[
                             _float(chain.joint(name).upper)) for name in joint_order)
 
 
-def _object_record(obj, margins: Mapping[str, float]) -> ObjectRecord:
+def _object_record(obj, margins: Mapping[str, float], necessity: Mapping[str, str]) -> ObjectRecord:
     margin = _float(margins[obj.name]) if obj.name in margins else None
-    return ObjectRecord(obj.name, obj.motion, obj.role, tuple(obj.joint_names), margin)
+    return ObjectRecord(obj.name, obj.motion, obj.role, tuple(obj.joint_names), margin,
+                        necessity.get(obj.name) if margin is not None else None)
 
 
 def metadata_json(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> str:

@@ -76,9 +76,11 @@ def generate_here(generator: str, seed: int, params: Any = None, *, stats: dict[
     certificate = defragment_certificate(build_chain(result.objects), result.goal, certificate)
     dependencies = dependency_graph(result.objects, certificate, shrink=maker_input.interlock_margin)
     margins = {name: m for name, m in result.margins.items() if name != result.goal.target}
+    necessity = {name: how for name, how in result.necessity.items() if name in margins}
     if stats is not None:
         stats["validation_checks"] = validator.checks
-    return Puzzle(result.objects, result.goal, generator, seed, params, dependencies, certificate, margins)
+    return Puzzle(result.objects, result.goal, generator, seed, params, dependencies, certificate, margins,
+                  necessity=necessity)
 
 
 @dataclass(frozen=True)

@@ -45,12 +45,13 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from phyrogen_core.chain import KinematicChain
+from phyrogen_core.maker import BY_GEOMETRY, BY_GOAL_SAMPLER, BY_SEARCH
 from phyrogen_core.puzzle import Goal
 from phyrogen_core.seeding import stable_seed
 from solver.planning.anytime import AnytimeRecorder, count_checks
@@ -83,6 +84,8 @@ SECOND_JUDGE_SETTINGS = PAPER_SETTINGS
 goal roots by the half-tree rule from its own goal sampler)."""
 FIRST_JUDGE = "la_rrt_push"
 SECOND_JUDGE = "la_rrt_paper"
+GEOMETRY = "geometry"
+"""The judge of an attempt settled by :class:`~solver.validation.blocking.BlockingProver`, not by a search."""
 NO_GOAL_STATE = "no valid goal state"
 """A necessary verdict whose second judge found no valid goal state with the objects fixed."""
 NO_PATH = "no path"
@@ -166,9 +169,22 @@ class Necessity:
         if not self.necessary:
             return f"solved by {self.witness.judge}" if self.witness is not None else "solved"
         last = self.attempts[-1] if self.attempts else None
+        if last is not None and last.judge == GEOMETRY:
+            return "the target's goal out of reach by geometry"
         if last is not None and last.goals is not None and last.goals.states == 0:
             return NO_GOAL_STATE
         return NO_PATH
+
+    @property
+    def how(self) -> str | None:
+        """How a necessary verdict was reached, for the puzzle's record: :data:`~phyrogen_core.maker.BY_GEOMETRY`
+        (a proof), :data:`~phyrogen_core.maker.BY_GOAL_SAMPLER` (the second judge's goal sampler found no
+        goal state) or :data:`~phyrogen_core.maker.BY_SEARCH` (goal states, or no second judge, and no
+        path within the budgets); None when not necessary."""
+        if not self.necessary:
+            return None
+        reason = self.reason
+        return BY_SEARCH if reason == NO_PATH else BY_GOAL_SAMPLER if reason == NO_GOAL_STATE else BY_GEOMETRY
 
     def describe(self) -> str:
         """One line: the verdict, its reason and the goal accounting behind it."""
@@ -178,7 +194,8 @@ class Necessity:
 
 
 def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float, budget: int,
-          rng: np.random.Generator, *, second_budget: int = 0, second_seed: int | None = None) -> Necessity:
+          rng: np.random.Generator, *, second_budget: int = 0, second_seed: int | None = None,
+          proof: Callable[[float], bool] | None = None) -> Necessity:
     """Whether the objects ``fixed`` are necessary at ``margin``, and their measured margin.
 
     Rungs are tried from the top (:data:`MARGIN_LEVELS`); the first rung that neither judge solves
@@ -186,6 +203,12 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     second judge runs only where the first failed, with ``second_budget`` checks (0: no second
     judge) and a seed from ``second_seed`` (default :func:`question_seed`); it never draws from
     ``rng``, so where it solves nothing the first judge's runs are what they were without it.
+
+    ``proof(shrink)``, when given, is asked before the second judge: True (a geometric proof that
+    the puzzle is unsolvable at that shrink, :class:`~solver.validation.blocking.BlockingProver`)
+    settles the rung without the second judge. The second judge could only have failed there, and
+    it draws from no generator the Maker uses, so the verdict, the margin and everything the Maker
+    does after it are what they were without the proof.
     """
     queries = second_checks = 0
     attempt = None
@@ -200,7 +223,10 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
         attempt = attempt_fixed(chain, goal, fixed, level * margin, budget * scale, rng)
         attempts.append(attempt)
         queries += attempt.queries
-        if not attempt.solved and second_budget:
+        if not attempt.solved and second_budget and proof is not None and proof(level * margin):
+            attempt = Attempt(tuple(fixed), level * margin, False, judge=GEOMETRY)
+            attempts.append(attempt)
+        elif not attempt.solved and second_budget:
             attempt = attempt_second(chain, goal, fixed, level * margin, second_budget * scale,
                                      stable_seed(second_seed, level))
             attempts.append(attempt)

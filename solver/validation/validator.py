@@ -21,7 +21,7 @@ import numpy as np
 
 from phyrogen_core.chain import pose_matrix
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
-from phyrogen_core.maker import SolveResult
+from phyrogen_core.maker import Necessary, SolveResult
 from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 from solver.collision.model import CollisionModel
@@ -36,6 +36,7 @@ from solver.planning.problem import (
     problem_for_objects,
     verify_certificate,
 )
+from solver.validation.blocking import BlockingProver
 from solver.validation.judge import JUDGE_BUDGET, SECOND_JUDGE_BUDGET, Necessity, judge
 
 DEFAULT_BUDGET = 4000
@@ -95,6 +96,7 @@ class OmplValidator:
         self._fine: set[tuple[PuzzleObject, ...]] = set()
         self.second_judge_budget = SECOND_JUDGE_BUDGET  # 0: the first judge alone (tests' controls)
         self.verdicts: list[Necessity] = []  # every necessity verdict, in the Maker's order
+        self.prover: BlockingProver | None = BlockingProver()  # None: the judges alone (tests' controls)
 
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult:
         objects = tuple(objects)
@@ -382,19 +384,24 @@ class OmplValidator:
         return clear
 
     def necessity(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], margin: float, *,
-                  budget_scale: float = 1.0) -> float | None:
+                  budget_scale: float = 1.0) -> Necessary | None:
         """The Maker's FixJoint: :func:`solver.validation.judge.judge`, both judges, with ``budget_scale``
         times :data:`~solver.validation.judge.JUDGE_BUDGET` and
         :data:`~solver.validation.judge.SECOND_JUDGE_BUDGET`; None when the objects ``fixed`` are
-        superfluous, else their measured margin. Each verdict, with the judges' goal accounting, is
-        kept in :attr:`verdicts`. (The budgets do not grow with :attr:`budget`: LA-RRT's pushes need
-        no larger search where RRT-Connect does, as in Move N Times.)"""
+        superfluous, else their measured margin and how it was reached. Each verdict, with the judges'
+        goal accounting, is kept in :attr:`verdicts`. (The budgets do not grow with :attr:`budget`:
+        LA-RRT's pushes need no larger search where RRT-Connect does, as in Move N Times.) Where the
+        first judge fails, :attr:`prover` is asked for a geometric proof before the second judge runs
+        (:func:`~solver.validation.judge.judge`: the same verdicts and puzzles, the second judge's search saved)."""
         second = max(1, int(self.second_judge_budget * budget_scale)) if self.second_judge_budget else 0
-        verdict = judge(build_chain(tuple(objects)), goal, fixed, margin, int(JUDGE_BUDGET * budget_scale), self.rng,
-                        second_budget=second)
+        objects = tuple(objects)
+        prover = self.prover
+        proof = None if prover is None else (lambda shrink: prover.proves(objects, goal, fixed, shrink))
+        verdict = judge(build_chain(objects), goal, fixed, margin, int(JUDGE_BUDGET * budget_scale), self.rng,
+                        second_budget=second, proof=proof)
         self.checks += verdict.queries + verdict.second_checks
         self.verdicts.append(verdict)
-        return verdict.margin if verdict.necessary else None
+        return Necessary(verdict.margin, verdict.how) if verdict.necessary else None
 
     def _extend_previous(self, objects: tuple[PuzzleObject, ...], goal: Goal):
         """A certificate for ``objects`` built from one for a prefix of them, or None."""

@@ -50,6 +50,10 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("shape", "string", "the dependency graph's shape: none, chain or tree (phyrogen_core.dependencies)"),
     ("interlock_margin", "float64", "the smallest measured interlock margin over the blocking objects [m] "
                                     "(null when the puzzle has no blocker)"),
+    ("necessity", "string", "how the weakest necessity verdict over the blocking objects was reached: geometry "
+                            "(every blocker proven by geometry), goal sampler (no goal state found with one fixed) "
+                            "or search (no path within the budgets); null when the puzzle has no blocker or its "
+                            "puzzle.json predates format 4"),
     ("validation_checks", "int64", "collision queries the Maker's validator spent on the puzzle (planning, "
                                    "necessity judging, certifying): a machine-independent generation cost"),
     ("generation_seconds", "float64", "wall time of generating the puzzle in its worker process [s] (a timing "
@@ -86,7 +90,7 @@ def base_row(entry: Entry, shard: int, record: Mapping[str, Any] | None) -> dict
         "index": entry.index, "generator": entry.generator, "name": entry.name, "seed": entry.seed,
         "parameters": entry.parameters_json, "shard": shard, "path": None, "status": "failed", "error": None,
         "content_hash": None, "canonical_hash": None, "movable_objects": None, "actions": None, "depth": None,
-        "branching": None, "shape": None, "interlock_margin": None,
+        "branching": None, "shape": None, "interlock_margin": None, "necessity": None,
         "validation_checks": record.get("validation_checks"), "generation_seconds": record.get("seconds"),
         "difficulty_runs": None, "difficulty_budget_checks": None, "difficulty_success_rate": None,
         "difficulty_success_low": None, "difficulty_success_high": None, "difficulty_median_checks": None,
@@ -133,6 +137,7 @@ def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
         "depth": graph.depth, "branching": graph.branching,
         "shape": DependencyShape(graph.depth, graph.branching).kind,
         "interlock_margin": float(min(margins)) if margins else None,
+        "necessity": weakest_necessity(stored.necessity.values()) if len(stored.necessity) == len(margins) else None,
     })
     if stored.difficulty is not None:
         measured = stored.difficulty
@@ -144,6 +149,13 @@ def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
 
 
 # -- hashes --------------------------------------------------------------------------
+def weakest_necessity(kinds) -> str | None:
+    """The weakest of necessity kinds (:data:`~phyrogen_core.maker.NECESSITY_KINDS`, strongest first); None for none."""
+    from phyrogen_core.maker import NECESSITY_KINDS
+
+    return max(kinds, key=NECESSITY_KINDS.index, default=None)
+
+
 def content_hash(folder: Path, name: str) -> str:
     """sha256 over the export stage's files of a puzzle folder: each file's path (relative, POSIX),
     its length and its bytes, files in path order. Renders, solutions and MJCF files do not count."""
