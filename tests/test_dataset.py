@@ -450,7 +450,8 @@ def test_mjcf_on_request_beside_every_urdf_and_made_again_when_missing(tmp_path,
     assert len(folders) == 3
     for folder in folders:
         written = mjcf_path(folder.path, folder.name).read_bytes()
-        assert written == chain_to_mjcf(read_puzzle_dir(folder.path).chain).encode()
+        loaded = read_puzzle_dir(folder.path)
+        assert written == chain_to_mjcf(loaded.chain, loaded.certificate).encode()
     assert json.loads((root / "dataset.json").read_text())["mjcf"] is True
     # A folder whose MJCF is missing (a worker killed between the two) is not done: resumed, it is
     # made again. The shard's part file is removed too, or the shard would count as complete.

@@ -24,6 +24,11 @@ format, so that a puzzle loads in MuJoCo without a URDF conversion:
 - **Inertia** is the URDF's (:func:`~phyrogen_core.export.urdf.link_inertia`),
   written per body; ``inertiafromgeom="false"`` keeps MuJoCo from replacing it.
 
+- **Dynamics** (:mod:`~phyrogen_core.export.mjcf_dynamics`, every number and its rule there): each
+  active joint's ``damping`` and ``frictionloss``, a ``<position>`` servo per active joint (named
+  as the joint), stiff contact parameters in the ``collision`` class, a floor plane, and, given the
+  certificate, the keyframes ``start`` and ``goal`` (``qpos`` and ``ctrl``).
+
 Which geoms may touch follows the collision model (:mod:`solver.collision.model`):
 geoms of *different* objects, at least one of them moving. MuJoCo by default
 drops contacts between a body and its parent body; objects mounted on other
@@ -189,9 +194,9 @@ def object_of_link(link: Link) -> str:
 class _Writer:
     """Builds the body tree; collects the materials and meshes it uses on the way."""
 
-    def __init__(self, chain: KinematicChain, dynamics: dict[str, JointDynamics]):
+    def __init__(self, chain: KinematicChain, dynamics: dict[str, JointDynamics] | None = None):
         self.chain = chain
-        self.dynamics = dynamics
+        self.dynamics = joint_dynamics(chain, None, DYNAMICS) if dynamics is None else dynamics
         self.joints: list[str] = []  # active joints in the file's order: MuJoCo's qpos and ctrl order
         self.materials: dict[str, tuple[float, float, float, float]] = {}
         self.meshes: list[str] = []

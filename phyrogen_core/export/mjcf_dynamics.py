@@ -12,9 +12,11 @@ the start state for a hinge, and ``m`` that mass in both cases:
 - **damping** (viscous): ``M / tau`` with ``tau = 1 s``: a released part coasting at ``v`` loses
   its speed with a 1 s time constant on top of its friction (our choice: no datasheet).
 - **actuator**: a ``<position>`` servo, ``kp = M w^2`` and ``kv = 2 zeta M w`` (natural frequency
-  ``w = 2 pi 25 Hz``, critically damped), its force limited to what a robot pushing by hand
-  applies: :attr:`MjcfDynamics.push_force` (20 N) on a slide, that force at the part's farthest
-  collision point from the axis on a hinge. Its control range is the joint's range.
+  ``w = 2 pi 25 Hz``, critically damped), its force limited to :attr:`MjcfDynamics.servo_force`
+  (200 N, what a Robotiq 2F-85's two pads hold at friction 1) on a slide, and to that force at the
+  part's farthest collision point from the axis on a hinge. Its control range is the joint's range.
+  The servo of a part nobody moves holds it where it is: that is what "left alone" means in this
+  model (without it, only joint friction holds a part; scripts/mjcf_rollouts.py measures both).
 
 Contacts (class ``collision``) are made stiff: ``solref`` of 2 ms (twice the 1 ms step, MuJoCo's
 lowest stable time constant; its default is 20 ms) with MuJoCo's default ``solimp`` (0.9-0.95 over
