@@ -47,6 +47,8 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--envs", type=int, default=8, help="environment copies per PPO rollout")
     p.add_argument("--raster-size", type=int, default=24)
+    p.add_argument("--policy", choices=("cnn", "mlp"), default="cnn",
+                   help="the geometry arms' raster encoder: a small CNN, or SB3's flatten + MLP")
     args = p.parse_args(argv)
     bad = [a for a in args.arms.split(",") if a not in ARMS]
     counts = {"--train-seeds": args.train_seeds, "--heldout-seeds": args.heldout_seeds, "--steps": args.steps,
@@ -147,8 +149,11 @@ def train_arm(arm, args, settings, train_list, curve_set, size, sizes):
 
     venv = DummyVecEnv([make] * args.envs)
     policy_name = "MultiInputPolicy" if settings.observation == "geometry" else "MlpPolicy"
+    kwargs = {}
+    if settings.observation == "geometry" and args.policy == "cnn":
+        kwargs["policy_kwargs"] = {"features_extractor_class": raster_cnn(), "features_extractor_kwargs": {}}
     model = PPO(policy_name, venv, n_steps=256, batch_size=512, n_epochs=4, learning_rate=3e-4, gamma=0.99,
-                ent_coef=0.01, seed=args.seed, device="cpu", verbose=0)
+                ent_coef=0.01, seed=args.seed, device="cpu", verbose=0, **kwargs)
 
     def act(obs, _env):
         # Sampled, as Procgen evaluates: a deterministic policy loops on the first move it cannot make.
@@ -185,6 +190,30 @@ def train_arm(arm, args, settings, train_list, curve_set, size, sizes):
     curve.append((model.num_timesteps, sum(o.success for o in got), len(got),
                   [e.level for e in venv.envs] if arm == "curriculum" else None))
     return act, curve
+
+
+def raster_cnn():
+    """A small convolutional encoder of the raster beside the vector (SB3 features extractor class)."""
+    import torch
+    from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+    class RasterCnn(BaseFeaturesExtractor):
+        def __init__(self, observation_space, features: int = 128):
+            raster, vector = observation_space["raster"], observation_space["vector"]
+            super().__init__(observation_space, features + vector.shape[0])
+            channels = raster.shape[0]
+            self.cnn = torch.nn.Sequential(
+                torch.nn.Conv2d(channels, 16, 3, padding=1), torch.nn.ReLU(),
+                torch.nn.Conv2d(16, 32, 3, stride=2, padding=1), torch.nn.ReLU(),
+                torch.nn.Conv2d(32, 32, 3, stride=2, padding=1), torch.nn.ReLU(), torch.nn.Flatten())
+            with torch.no_grad():
+                flat = self.cnn(torch.zeros(1, *raster.shape)).shape[1]
+            self.head = torch.nn.Sequential(torch.nn.Linear(flat, features), torch.nn.ReLU())
+
+        def forward(self, observations):
+            return torch.cat([self.head(self.cnn(observations["raster"])), observations["vector"]], dim=1)
+
+    return RasterCnn
 
 
 def report(name, outcomes, sizes, beyond, success_row) -> None:
