@@ -583,14 +583,17 @@ def cmd_benchmark(args) -> int:
         if args.budget_checks is not None:
             raise UsageError("--budget-from-paper sets each generator's check budget; give no --budget-checks with it")
         budget_checks = paper_budgets()
-    if budget_checks is not None and args.time_limit is None:
-        profile = backstop_profile(profile)  # the check budget ends a run; the clock only a hang
+    if args.budget_cpu is not None and budget_checks is not None:
+        raise UsageError("--budget-cpu gives every run a budget in CPU seconds; give no check budget with it")
+    if (budget_checks is not None or args.budget_cpu is not None) and args.time_limit is None:
+        # The budget ends a run; the clock, derived from the budget, only a hang (a tight one: --time-limit).
+        profile = backstop_profile(profile, budget_checks, args.budget_cpu)
     puzzles = find_puzzle_folders(Path(args.puzzles), generators)
     # Every puzzle is read and every output path checked here, before the first run.
     until_first = args.until == "first"
     plan = plan_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
                           save_solutions=not args.no_solutions, until_first=until_first,
-                          budget_checks=budget_checks)
+                          budget_checks=budget_checks, budget_cpu=args.budget_cpu)
     check_ray(args.ray)  # an unreachable cluster is bad input, refused before any line of progress
     estimate = plan.estimate_seconds(overhead=1.0)
     print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
@@ -727,6 +730,19 @@ def runs_option(text: str) -> int:
 
 def benchmark_seed_option(text: str) -> int:
     return _whole_number(text, 0, MAX_BENCHMARK_SEED, " (OMPL's seed range)")
+
+
+def budget_cpu_option(text: str) -> float:
+    """``benchmark --budget-cpu``: CPU seconds, above 0 and at most a day."""
+    from solver.planning.anytime import MAX_BUDGET_CPU
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of CPU seconds, got {text!r}") from None
+    if not 0 < value <= MAX_BUDGET_CPU:  # NaN fails both comparisons
+        raise argparse.ArgumentTypeError(f"must be above 0 and at most {MAX_BUDGET_CPU:g} CPU seconds, got {text!r}")
+    return value
 
 
 def time_limit_option(text: str) -> float:
@@ -885,7 +901,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"runs per planner and puzzle, 1..{MAX_RUNS} (overrides the profile)")
     bench.add_argument("--time-limit", type=time_limit_option,
                        help=f"seconds per run for every puzzle, above 0 and at most {MAX_TIME_LIMIT:g} "
-                            "(overrides the profile)")
+                            "(overrides the profile); with a budget, a wall-clock backstop of your choice (a run "
+                            "it ends is recorded as clock-ended and its cell marked incomplete)")
     bench.add_argument("--seed", type=benchmark_seed_option, default=0,
                        help=f"base seed of every run's seed, 0..{MAX_BENCHMARK_SEED} (default 0)")
     bench.add_argument("--out", type=path_option, default="output/benchmark",
@@ -897,8 +914,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="limit (default): every run lasts its time limit; first: a run stops at its first "
                             "solution (success within the limit and time to it, affordably)")
     bench.add_argument("--budget-checks", type=budget_checks_option, metavar="N",
-                       help="every run ends after N collision checks (1..10^9), the same result on any machine; "
-                            "the time limit becomes a backstop only")
+                       help="every run ends after N collision checks (1..10^9; a motion counts its length in "
+                            "resolution steps), the same result on any machine; the wall-clock backstop is derived "
+                            "from the budget (docs/benchmark/README.md#end-reasons) unless --time-limit is given")
+    bench.add_argument("--budget-cpu", type=budget_cpu_option, metavar="S",
+                       help="every run ends after S CPU seconds of its own process (machine-dependent: the summary "
+                            "says so); not with a check budget")
     bench.add_argument("--budget-from-paper", action="store_true",
                        help="every run ends after its generator's paper time limit in collision checks, at the "
                             "checks per second of the paper's harness (docs/benchmark/README.md#paper-budgets); "

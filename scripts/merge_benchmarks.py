@@ -9,7 +9,8 @@ first journal this way. Each replaced run must have the same seed and puzzle dig
 "same run" would be another one: the script stops with an error). Writes ``OUT/summary.md``,
 ``summary.json``, ``benchmark.db``, ``logs/`` and ``results.html``, as a benchmark's ``--out``
 does, into a new folder. Puzzles come in name order; a puzzle's "limit" is the shortest time limit
-among its runs (a rerun's longer backstop does not replace the profile's limit).
+among its runs (a rerun's longer backstop does not replace the profile's limit). Each run keeps its
+end reason: a clock-ended run that no rerun replaced still marks its cell incomplete.
 """
 
 from __future__ import annotations
@@ -54,13 +55,14 @@ def write_summary(out: Path, runs: dict, journals: list[Path]) -> list[Path]:
         titles = sorted({r.planner for r in records}, key=lambda t: order.get(t, len(order)))
         versions = {r.planner: k.get("planner_version", "?") for k, r in mine}
         budgets = {k.get("budget_checks") for k, _ in mine}
+        cpu_budgets = {k.get("budget_cpu") for k, _ in mine}
         log = out / "logs" / f"{puzzle}.log"
         # The shortest backstop: the profile's own limit where the first journal has the puzzle.
         write_log(log, puzzle, records, titles, min(r.time_limit for r in records),
                   max(r.run for r in records) + 1, 0, sum(r.wall for r in records),
                   "merged from " + ", ".join(str(j) for j in journals),
                   all(k.get("until") == "first" for k, _ in mine), versions,
-                  budgets.pop() if len(budgets) == 1 else None)
+                  budgets.pop() if len(budgets) == 1 else None, cpu_budgets.pop() if len(cpu_budgets) == 1 else None)
         logs.append(log)
     build_database(out / "benchmark.db", logs)
     rows = summary_rows(out / "benchmark.db")

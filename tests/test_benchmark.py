@@ -164,7 +164,7 @@ def test_a_changed_planner_version_changes_the_journal_key(monkeypatch):
 
     job = make_jobs([PuzzleFolder(Path("/nowhere"), "rooms_1", "rooms")], ["la_rrt"], get_profile("quick"))[0]
     before = run_key(job, "digest", "2.0.1")
-    monkeypatch.setitem(planners.PLANNERS, "la_rrt", replace(planners.PLANNERS["la_rrt"], code_version="paper-4"))
+    monkeypatch.setitem(planners.PLANNERS, "la_rrt", replace(planners.PLANNERS["la_rrt"], code_version="paper-99"))
     assert run_key(job, "digest", "2.0.1") != before
 
 

@@ -65,8 +65,8 @@ def test_planner_versions_name_their_settings_and_the_goal_sampler():
     versions = {spec.name: spec.version for spec in PLANNERS.values()}
     assert len(set(versions.values())) == len(versions) - 1  # RRT* and BIT* share the OMPL wrapper's
     assert all(DEFAULT_GOAL_SETTINGS.tag in v for v in versions.values())
-    assert _version("paper-3", PAPER_SETTINGS) == versions["la_rrt"]
-    assert _version("paper-3", replace(PAPER_SETTINGS, range_fraction=0.3)) != versions["la_rrt"]
+    assert _version("paper-4", PAPER_SETTINGS) == versions["la_rrt"]
+    assert _version("paper-4", replace(PAPER_SETTINGS, range_fraction=0.3)) != versions["la_rrt"]
     assert GoalSamplerSettings(capacity=8).tag != DEFAULT_GOAL_SETTINGS.tag
 
 
@@ -118,9 +118,9 @@ def test_every_planner_returns_a_valid_path_at_fine_resolution(move_once, name):
     # seeded once per process, so its draws here depend on the tests run before.
     puzzle, problem = move_once
     result = get_planner(name).plan(problem, time_limit=BACKSTOP, seed=3, progress_interval=0.1,
-                                    budget_checks=30_000)
-    assert result.solved, f"{name} found no path on move_n_times_1 in 30,000 collision checks"
-    assert 30_000 <= result.checks < 33_000  # anytime: it ran to its budget
+                                    budget_checks=300_000)  # motions charged by their length
+    assert result.solved, f"{name} found no path on move_n_times_1 in 300,000 collision checks"
+    assert 300_000 <= result.checks < 330_000  # anytime: it ran to its budget
     path = chain_path(problem, result.path)
     assert verify_certificate(puzzle.planning_chain, path, puzzle.goal) == []
     assert result.action_cost == count_actions(path, puzzle.planning_chain.factors)
@@ -133,7 +133,7 @@ def test_every_planner_returns_a_valid_path_at_fine_resolution(move_once, name):
 @pytest.mark.parametrize("name", default_planners())
 def test_until_first_stops_at_the_first_solution(move_once, name):
     puzzle, problem = move_once
-    budget = 100_000
+    budget = 1_000_000  # motions charged by their length
     result = get_planner(name).plan(problem, time_limit=BACKSTOP, seed=4, progress_interval=0.05, until_first=True,
                                     budget_checks=budget)
     if not result.solved:
@@ -141,7 +141,7 @@ def test_until_first_stops_at_the_first_solution(move_once, name):
         # that clips a corner at fine resolution; it then plans on until its budget.
         assert name not in ("la_rrt", "la_rrt_push") and result.checks >= budget
         return
-    assert result.checks < budget // 3  # it stopped there (all five need far fewer checks than this)
+    assert result.checks < budget // 3 and result.end == "solved"  # it stopped there (all five need far fewer)
     assert result.first_solution_time == result.best_solution_time  # the first solution is the result
     assert verify_certificate(puzzle.planning_chain, chain_path(problem, result.path), puzzle.goal) == []
 

@@ -21,7 +21,7 @@ from phyrogen_core.geometry import Box, Pose
 from phyrogen_core.objects import Motion, PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 from solver.pipelines.generation import generate_here
-from solver.planning.anytime import AnytimeRecorder, count_checks
+from solver.planning.anytime import AnytimeRecorder, count_checks, motion_length, planning_steps
 from solver.planning.goal_sampling import GoalSampler, GoalSamplerSettings
 from solver.planning.la_rrt import plan_la_rrt
 from solver.planning.problem import problem_for_chain
@@ -90,7 +90,9 @@ def test_a_budget_spent_in_goal_sampling_ends_the_run_at_the_budget(budget):
     # The time limit is a backstop only: the run ends on its checks.
     result = plan_la_rrt(problem, 600.0, 3, until_first=True, budget_checks=budget)
     assert not result.solved
-    assert budget <= result.checks <= budget + 8, result.checks
+    # The benchmark's LA-RRT charges a motion its length: the last one may overshoot by that much.
+    longest = motion_length(problem.lower, problem.upper, planning_steps(problem))
+    assert budget <= result.checks <= budget + max(8, longest), result.checks
     second = attempt_second(chain, goal, ["obj_01"], 0.0, budget, 3)
     assert budget <= second.queries <= budget + 8 and second.goals.cut_by_run and second.goals.states == 0
     # Control: the same sampler unbound (no run on its problem) spends its own budget in one call,

@@ -4,8 +4,8 @@ The database is the one OMPL's ``readBenchmarkLog`` built from our logs (Planner
 ``experiments`` (one per puzzle, with its time limit), ``plannerConfigs`` (a planner's name and
 its common properties as text: ``until_first``, ``budget_checks``, ``version``), ``runs`` (one
 column per run property of :data:`solver.benchmark.runner.RUN_PROPERTIES`) and ``progress``.
-Columns added to the run properties over time (``collision_checks``, ``checks_to_first_solution``)
-may be missing from an older database; they read as None.
+Columns added to the run properties over time (``collision_checks``, ``checks_to_first_solution``,
+``end_reason``) may be missing from an older database; they read as None.
 Anything else (a missing file, a file that is not SQLite, a database without those tables or
 without runs) is refused with :class:`BenchmarkDataError`, one line naming the file.
 """
@@ -43,6 +43,13 @@ class DatabaseRun:
     until_first: bool  # the run stopped at its first solution: its checks are those to the first solution
     budget_checks: int | None
     first_solution_checks: int | None = None  # run property "checks to first solution", where recorded
+    end: str | None = None  # run property "end reason" (solver.planning.anytime.END_REASONS), where recorded
+    budget_cpu: float | None = None  # the runs' CPU-seconds budget (machine-dependent), where they had one
+
+    @property
+    def clock_ended(self) -> bool:
+        """The wall-clock backstop, not the budget, ended this run: it is no result of its budget."""
+        return self.end == "clock"
 
     @property
     def checks_to_first_solution(self) -> int | None:
@@ -96,6 +103,21 @@ def _whole_or_none(text: str | None) -> int | None:
         return None
 
 
+def _number_or_none(text: str | None) -> float | None:
+    try:
+        return float(text) if text is not None else None
+    except ValueError:
+        return None
+
+
+def _end_reason(value: object) -> str | None:
+    from solver.planning.anytime import END_REASONS
+
+    if isinstance(value, int) and 0 <= value < len(END_REASONS):
+        return END_REASONS[value]
+    return None
+
+
 def read_benchmark(db_path: str | Path) -> BenchmarkData:
     """Read ``db_path`` (a ``benchmark.db``); raise :class:`BenchmarkDataError` when it is not one."""
     path = Path(db_path)
@@ -112,10 +134,11 @@ def read_benchmark(db_path: str | Path) -> BenchmarkData:
                 raise BenchmarkDataError(f"{path}: not a PhyRoGen benchmark database (its runs table lacks {missing})")
             checks = "runs.collision_checks" if "collision_checks" in columns else "NULL"
             first_checks = "runs.checks_to_first_solution" if "checks_to_first_solution" in columns else "NULL"
+            end = "runs.end_reason" if "end_reason" in columns else "NULL"
             experiments = db.execute("SELECT name, timelimit, setup FROM experiments ORDER BY id").fetchall()
             rows = db.execute(
                 f"""SELECT experiments.name, plannerConfigs.name, plannerConfigs.settings, runs.solved, runs.time,
-                           runs.time_to_first_solution, runs.action_cost, {checks}, {first_checks}
+                           runs.time_to_first_solution, runs.action_cost, {checks}, {first_checks}, {end}
                     FROM runs JOIN experiments ON runs.experimentid = experiments.id
                               JOIN plannerConfigs ON runs.plannerid = plannerConfigs.id
                     ORDER BY runs.id""").fetchall()
@@ -124,7 +147,7 @@ def read_benchmark(db_path: str | Path) -> BenchmarkData:
     if not rows:
         raise BenchmarkDataError(f"{path}: the benchmark database holds no runs")
     runs = []
-    for experiment, planner, settings, solved, seconds, first, cost, spent, spent_first in rows:
+    for experiment, planner, settings, solved, seconds, first, cost, spent, spent_first, end in rows:
         properties = parse_settings(settings)
         if seconds is None:
             raise BenchmarkDataError(f"{path}: a run of {planner} on {experiment} has no time")
@@ -132,7 +155,8 @@ def read_benchmark(db_path: str | Path) -> BenchmarkData:
                                 None if first is None else float(first), None if cost is None else int(cost),
                                 None if spent is None else int(spent), properties.get("until_first") == "1",
                                 _whole_or_none(properties.get("budget_checks")),
-                                None if spent_first is None else int(spent_first)))
+                                None if spent_first is None else int(spent_first), _end_reason(end),
+                                _number_or_none(properties.get("budget_cpu"))))
     names = tuple(dict.fromkeys(name for name, _, _ in experiments if any(r.experiment == name for r in runs)))
     limits = {name: float(limit) for name, limit, _ in experiments}
     planners = tuple(sorted({r.planner for r in runs}, key=planner_key))

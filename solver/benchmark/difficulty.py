@@ -64,10 +64,24 @@ class DifficultySettings:
         get_planner(self.planner)  # an unknown name is refused here, naming the valid ones
 
 
+BACKSTOP_CHECKS_PER_SECOND = 100.0
+"""The wall-clock backstop's rate: checks (motions by their length) a wall second. Planners spend
+0.7-6.3 million a CPU second (docs/benchmark/README.md, "Charging the work"): thousands of times
+this, so only a run that stops checking (a hang) meets its backstop, even on a crowded core."""
+BACKSTOP_CPU_FACTOR = 20.0
+"""The wall-clock backstop of a run budgeted in CPU seconds: this many times its budget (a process
+given a twentieth of a core still spends its budget first), and at least :data:`BACKSTOP_SECONDS`."""
+
+
 def backstop_seconds(budget_checks: int) -> float:
-    """The wall-clock backstop of a run of ``budget_checks`` checks: 100 checks a second, far below
-    any planner's rate on any puzzle measured, and at least :data:`BACKSTOP_SECONDS`."""
-    return max(BACKSTOP_SECONDS, budget_checks / 100.0)
+    """The wall-clock backstop of a run of ``budget_checks`` checks: :data:`BACKSTOP_CHECKS_PER_SECOND`,
+    far below any planner's rate on any puzzle measured, and at least :data:`BACKSTOP_SECONDS`."""
+    return max(BACKSTOP_SECONDS, budget_checks / BACKSTOP_CHECKS_PER_SECOND)
+
+
+def cpu_backstop_seconds(budget_cpu: float) -> float:
+    """The wall-clock backstop of a run of ``budget_cpu`` CPU seconds (:data:`BACKSTOP_CPU_FACTOR`)."""
+    return max(BACKSTOP_SECONDS, BACKSTOP_CPU_FACTOR * float(budget_cpu))
 
 
 def difficulty_run(chain: KinematicChain, goal: Goal, name: str, run: int, settings: DifficultySettings) -> PlanResult:

@@ -8,6 +8,10 @@ Planners appear in the registry's order (:data:`solver.planning.registry.PLANNER
 each in its own colour. For a benchmark whose runs stopped at their first
 solution (``until_first``) the cost is that of the first solution, and the
 table and figure say so.
+
+A run the wall-clock backstop ended before its budget (end reason ``clock``) is no result of that
+budget: every statistic here counts only the other runs, and the table, ``summary.json`` and the
+results page report the clock-ended ones apart and mark their cell incomplete.
 """
 
 from __future__ import annotations
@@ -60,7 +64,15 @@ class SummaryRow:
     success: float  # share of runs solved, 0..1
     median_first_solution: float | None  # seconds, over solved runs
     median_action_cost: float | None  # final best cost, over solved runs
-    statistics: CellStatistics | None = None  # intervals, solved all / any, medians over all runs
+    statistics: CellStatistics | None = None  # intervals, solved all / any, medians over the counted runs
+    clock_ended: int = 0  # runs the wall-clock backstop ended before their budget: not counted in ``runs``
+    ends: tuple[tuple[str, int], ...] = ()  # (end reason, runs) of every run of the cell; ("unknown", n) for old ones
+    machine_dependent: bool = False  # its runs had a budget in CPU seconds
+
+    @property
+    def complete(self) -> bool:
+        """Every run of the cell is a result of its budget (none ended on the clock)."""
+        return self.clock_ended == 0
 
 
 def _connect(db_path: Path) -> sqlite3.Connection:
@@ -81,13 +93,19 @@ def checks_to_first(runs: Sequence[DatabaseRun]) -> list[int | None] | None:
     return [r.checks_to_first_solution for r in runs]
 
 
+def counted_runs(data: BenchmarkData, experiment: str, planner: str) -> list[DatabaseRun]:
+    """The runs of a cell that are results of their budget: all but those the clock ended."""
+    return [r for r in data.cell(experiment, planner) if not r.clock_ended]
+
+
 def benchmark_statistics(data: BenchmarkData, method: str = "wilson") -> list[CellStatistics]:
-    """Per puzzle (in the database's order) and planner (the registry's), the statistics of its runs;
-    each bootstrap seeded from (puzzle, planner, quantity), so the numbers are the same on every machine."""
+    """Per puzzle (in the database's order) and planner (the registry's), the statistics of its counted
+    runs (:func:`counted_runs`; a cell with none has none); each bootstrap seeded from (puzzle, planner,
+    quantity), so the numbers are the same on every machine."""
     out = []
     for experiment in data.experiments:
         for planner in data.planners:
-            runs = data.cell(experiment, planner)
+            runs = counted_runs(data, experiment, planner)
             if not runs:
                 continue
             out.append(cell_statistics(
@@ -102,14 +120,25 @@ def summary_rows(db_path: Path, method: str = "wilson") -> list[SummaryRow]:
     """Per puzzle and planner: success rate, median time to first solution and median final action
     cost over the solved runs, and the full :class:`~solver.benchmark.statistics.CellStatistics`."""
     data = read_benchmark(db_path)
+    cells = {(c.experiment, c.planner): c for c in benchmark_statistics(data, method)}
     out = []
-    for cell in benchmark_statistics(data, method):
-        runs = data.cell(cell.experiment, cell.planner)
-        solved = [r for r in runs if r.solved]
-        out.append(SummaryRow(
-            cell.experiment, cell.planner, len(runs), data.time_limits[cell.experiment], len(solved) / len(runs),
-            statistics.median(r.first_solution_time for r in solved) if solved else None,
-            statistics.median(r.action_cost for r in solved) if solved else None, cell))
+    for experiment in data.experiments:
+        for planner in data.planners:
+            every = data.cell(experiment, planner)
+            if not every:
+                continue
+            runs = [r for r in every if not r.clock_ended]
+            solved = [r for r in runs if r.solved]
+            ends: dict[str, int] = {}
+            for r in every:
+                ends[r.end or "unknown"] = ends.get(r.end or "unknown", 0) + 1
+            out.append(SummaryRow(
+                experiment, planner, len(runs), data.time_limits[experiment],
+                len(solved) / len(runs) if runs else 0.0,
+                statistics.median(r.first_solution_time for r in solved) if solved else None,
+                statistics.median(r.action_cost for r in solved) if solved else None,
+                cells.get((experiment, planner)), len(every) - len(runs), tuple(sorted(ends.items())),
+                any(r.budget_cpu is not None for r in every)))
     return out
 
 
@@ -147,15 +176,26 @@ def summary_json(rows: Sequence[SummaryRow]) -> str:
     cells = []
     for row in rows:
         cell = row.statistics
-        cells.append({
-            "puzzle": row.experiment, "planner": row.planner, "runs": cell.runs,
+        common = {"puzzle": row.experiment, "planner": row.planner, "runs": row.runs,
+                  "clock_ended": row.clock_ended, "complete": row.complete, "ends": dict(row.ends),
+                  "machine_dependent": row.machine_dependent}
+        if cell is None:  # every run ended on the clock: nothing of the budget to report
+            cells.append(common | {"successes": None, "rate": None, "rate_low": None, "rate_high": None,
+                                   "interval": None, "solved_all": None, "solved_any": None, "time_to_first": None,
+                                   "checks_to_first": None, "final_cost": None})
+            continue
+        cells.append(common | {
             "successes": cell.success.successes, "rate": cell.success.rate,
             "rate_low": cell.success.low, "rate_high": cell.success.high, "interval": cell.success.method,
             "solved_all": cell.solved_all, "solved_any": cell.solved_any,
             "time_to_first": _estimate_json(cell.time_to_first),
             "checks_to_first": _estimate_json(cell.checks_to_first),
             "final_cost": _estimate_json(cell.final_cost)})
-    return json.dumps({"format": "phyrogen-benchmark-summary", "version": 1, "cells": cells}, indent=2) + "\n"
+    # Version 2: "runs" counts the budget's runs only; the clock-ended ones are "clock_ended" beside.
+    return json.dumps({"format": "phyrogen-benchmark-summary", "version": 2,
+                       "complete": all(row.complete for row in rows),
+                       "machine_dependent": any(row.machine_dependent for row in rows), "cells": cells},
+                      indent=2) + "\n"
 
 
 INTERVAL_NAMES = {"wilson": "Wilson score", "clopper-pearson": "Clopper-Pearson"}
@@ -208,12 +248,29 @@ def summary_markdown(rows: Sequence[SummaryRow], profile=None, wall_seconds: flo
             return "-"
         first = "-" if r.median_first_solution is None else f"{r.median_first_solution:.2f}"
         cost = "-" if r.median_action_cost is None else f"{r.median_action_cost:g}"
-        return f"{round(r.success * r.runs)}/{r.runs} / {first} / {cost}"
+        clock = f" (+{r.clock_ended} clock-ended: incomplete)" if r.clock_ended else ""
+        return f"{round(r.success * r.runs)}/{r.runs} / {first} / {cost}{clock}"
 
     for experiment in experiments:
         limit = next(r.time_limit for r in rows if r.experiment == experiment)
         lines.append(f"| {experiment} | {limit:g} | "
                      + " | ".join(cell(table.get((experiment, p))) for p in planners) + " |")
+    incomplete = [r for r in rows if not r.complete]
+    ends: dict[str, int] = {}
+    for r in rows:
+        for reason, count in r.ends:
+            ends[reason] = ends.get(reason, 0) + count
+    lines += ["", "Runs by end reason: " + ", ".join(f"{reason} {count}" for reason, count in sorted(ends.items()))
+              + " (budget: its budget spent; solved: stopped at its first solution; clock: the wall-clock "
+              "backstop ended it before its budget; stopped: the planner ended by itself)."]
+    if incomplete:
+        lines += ["", f"**Incomplete: {len(incomplete)} of {len(rows)} cells** had runs that the wall-clock backstop "
+                  "ended before their budget (" + ", ".join(f"{r.planner} on {r.experiment}: {r.clock_ended}"
+                                                              for r in incomplete)
+                  + "). They are no results of the budget: every number here counts the other runs only; rerun "
+                  "those cells with a longer backstop (or none: no --time-limit)."]
+    if any(r.machine_dependent for r in rows):
+        lines += ["", "Budgets in CPU seconds (`--budget-cpu`): these results depend on the machine."]
     if cells:
         cost_name = "first solution's action cost" if until_first else "final action cost"
         lines += ["", f"Per planner and puzzle, with {100 * CONFIDENCE:.0f} % intervals. {statistics_legend(method)}",

@@ -26,6 +26,7 @@ from solver.benchmark.plots import (
     INTERVAL_NAMES,
     benchmark_statistics,
     checks_to_first,
+    counted_runs,
     format_estimate,
     format_number,
     format_rate,
@@ -231,11 +232,21 @@ def _cost_figure(experiment: str, planners: Sequence[str], cells: dict[str, Cell
     return "".join(parts)
 
 
+def _clock_ended(data: BenchmarkData, experiment: str, planner: str) -> int:
+    return sum(1 for r in data.cell(experiment, planner) if r.clock_ended)
+
+
 def _puzzle_card(data: BenchmarkData, experiment: str, cells: dict[str, CellStatistics], cost_name: str) -> str:
     rows = []
     for planner in data.planners:
         c = cells.get(planner)
+        clock = _clock_ended(data, experiment, planner)
+        mark = f'<td class="n incomplete">{clock} (incomplete)</td>' if clock else '<td class="n">0</td>'
         if c is None:
+            if clock:
+                rows.append(f'<tr><td><span class="swatch" style="background:{_color(planner)}"></span>'
+                            f'{_e(planner)}</td><td class="n">0/0</td><td>-</td><td>-</td><td>-</td><td>-</td>'
+                            f'<td>-</td>{mark}</tr>')
             continue
         rows.append(
             f'<tr><td><span class="swatch" style="background:{_color(planner)}"></span>{_e(planner)}</td>'
@@ -243,13 +254,13 @@ def _puzzle_card(data: BenchmarkData, experiment: str, cells: dict[str, CellStat
             f'<td>{"yes" if c.solved_all else "no"} / {"yes" if c.solved_any else "no"}</td>'
             f'<td class="n">{_e(format_estimate(c.time_to_first))}</td>'
             f'<td class="n">{_e(format_estimate(c.checks_to_first, 7))}</td>'
-            f'<td class="n">{_e(format_estimate(c.final_cost))}</td></tr>')
+            f'<td class="n">{_e(format_estimate(c.final_cost))}</td>{mark}</tr>')
     return (f'<div class="card" id="puzzle-{_e(experiment)}"><h3>{_e(experiment)} '
             f'<small>(limit {data.time_limits[experiment]:g} s)</small></h3>'
             f'{_cost_figure(experiment, data.planners, cells)}'
             f'<table><tr><th>planner</th><th>solved</th><th>rate [{100 * CONFIDENCE:.0f} % CI]</th>'
             '<th>all / any</th><th>time to first [s]</th><th>checks to first</th>'
-            f'<th>{_e(cost_name)}</th></tr>{"".join(rows)}</table></div>')
+            f'<th>{_e(cost_name)}</th><th>clock-ended</th></tr>{"".join(rows)}</table></div>')
 
 
 def results_page_html(data: BenchmarkData, method: str = "wilson") -> str:
@@ -270,7 +281,7 @@ def results_page_html(data: BenchmarkData, method: str = "wilson") -> str:
     checks_missing = []
     for experiment in data.experiments:
         for planner in data.planners:
-            runs = data.cell(experiment, planner)
+            runs = counted_runs(data, experiment, planner)
             times[planner] += [r.first_solution_time if r.solved else math.inf for r in runs]
             counted = checks_to_first(runs)
             if counted is None and runs:
@@ -290,6 +301,17 @@ def results_page_html(data: BenchmarkData, method: str = "wilson") -> str:
     per_puzzle = {e: {c.planner: c for c in cells if c.experiment == e} for e in data.experiments}
     cards = "".join(_puzzle_card(data, e, per_puzzle[e], cost_name) for e in data.experiments)
     runs_per_cell = sorted({c.runs for c in cells})
+    ends: dict[str, int] = {}
+    for r in data.runs:
+        ends[r.end or "unknown"] = ends.get(r.end or "unknown", 0) + 1
+    incomplete = sorted({(r.experiment, r.planner) for r in data.runs if r.clock_ended})
+    end_note = ("Runs by end reason: " + ", ".join(f"{k} {v}" for k, v in sorted(ends.items())) + ". ")
+    if incomplete:
+        end_note += (f"<strong>Incomplete: {len(incomplete)} cells</strong> had runs that the wall-clock backstop "
+                     "ended before their budget; they are no results of the budget, and every number here counts "
+                     "the other runs only.")
+    if any(r.budget_cpu is not None for r in data.runs):
+        end_note += " Budgets in CPU seconds: these results depend on the machine."
     runs_text = " or ".join(str(n) for n in runs_per_cell)
     return f"""<!DOCTYPE html>
 <html lang="en">
@@ -304,6 +326,7 @@ def results_page_html(data: BenchmarkData, method: str = "wilson") -> str:
 puzzle ({len(data.runs)} runs), from <code>{_e(data.path.name)}</code>. {_e(data.setup.strip())}</p>
 <p class="legend">{legend}</p>
 <p class="note">{_code(statistics_legend(method))}</p>
+<p class="note" id="end-reasons">{end_note}</p>
 
 <h2>Per planner</h2>
 <table><tr><th>planner</th><th>puzzles solved in all runs</th><th>in at least one run</th><th>runs solved</th>

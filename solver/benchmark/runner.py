@@ -76,6 +76,7 @@ from phyrogen_core.folder import (
 )
 from phyrogen_core.registry import benchmark_time_limits
 from solver.parallel.tasks import task_pool
+from solver.planning.anytime import END_REASONS
 from solver.planning.goal_sampling import goal_seed
 from solver.planning.registry import PLANNERS, get_planner, load_planner_source, run_seed, solution_planners
 
@@ -99,8 +100,11 @@ RUN_PROPERTIES = (
     ("collision checks", "INTEGER"),
     ("cpu time", "REAL"),
     ("checks to first solution", "INTEGER"),
+    ("end reason", "ENUM"),
 )
 PROGRESS_PROPERTIES = (("time", "REAL"), ("best cost", "REAL"), ("iterations", "INTEGER"))
+ENUMS = (("status", STATUS_NAMES), ("end reason", END_REASONS))
+"""The logs' enum types: OMPL's status, and why a run ended (:data:`~solver.planning.anytime.END_REASONS`)."""
 
 
 @dataclass(frozen=True)
@@ -151,19 +155,27 @@ def get_profile(name: str, runs: int | None = None, time_limit: float | None = N
     return profile
 
 
-BACKSTOP_FACTOR = 10
-"""With a budget in checks, each run's wall-clock backstop is this many times its profile's time
-limit, unless a time limit is given. At the paper's limits themselves the clock, not the budget, ended
-31 of 34 unsolved runs on a loaded 2-core machine (Move N Times and Continuous Space 4, where our
-planners checked 1,200-16,000 states a second there): such cells are not machine-independent."""
+def backstop_profile(profile: Profile, budget_checks: Budget = None, budget_cpu: float | None = None) -> Profile:
+    """``profile`` with each generator's time limit replaced by the wall-clock backstop of its budget
+    (:func:`solver.benchmark.difficulty.backstop_seconds`, :func:`~solver.benchmark.difficulty.cpu_backstop_seconds`):
+    so wide that the budget, not the clock, ends a run on any machine under any load; a tighter one
+    is an explicit choice (``--time-limit``). Without a budget, ``profile`` itself. (At the paper's
+    limits themselves, the clock ended 31 of 34 unsolved runs on a loaded 2-core machine.)"""
+    from solver.benchmark.difficulty import backstop_seconds, cpu_backstop_seconds
 
-
-def backstop_profile(profile: Profile, factor: int = BACKSTOP_FACTOR) -> Profile:
-    """``profile`` with every time limit ``factor`` times longer: the backstop of runs budgeted in checks."""
-    return Profile(f"{profile.name}-backstop{factor}x", profile.runs,
-                   {g: factor * limit for g, limit in profile.time_limits.items()}, profile.progress_interval,
-                   default_time_limit=None if profile.default_time_limit is None
-                   else factor * profile.default_time_limit)
+    if budget_checks is None and budget_cpu is None:
+        return profile
+    if budget_cpu is not None:
+        limits = {g: cpu_backstop_seconds(budget_cpu) for g in profile.time_limits}
+        default = cpu_backstop_seconds(budget_cpu)
+    elif isinstance(budget_checks, int):
+        limits = {g: backstop_seconds(budget_checks) for g in profile.time_limits}
+        default = backstop_seconds(budget_checks)
+    else:
+        limits = {g: backstop_seconds(budget_checks[g]) for g in profile.time_limits if g in budget_checks}
+        default = None
+    return Profile(f"{profile.name}-backstop", profile.runs, limits, profile.progress_interval,
+                   default_time_limit=default)
 
 
 def check_time_limit(seconds: object) -> None:
@@ -189,6 +201,7 @@ class RunJob:
     goal_seed: int = 0  # the shared goal sampler's seed: the same for every planner of a run
     budget_checks: int | None = None  # collision checks per run; then time_limit is only a backstop
     planner_source: tuple[str, str | None] | None = None  # where a fresh worker finds a registered planner
+    budget_cpu: float | None = None  # CPU seconds per run (machine-dependent); time_limit only a backstop
 
 
 @dataclass(frozen=True)
@@ -218,6 +231,7 @@ class RunRecord:
     checks: int | None = None  # collision checks the run spent (solver.planning.anytime.CheckCounter)
     cpu_time: float | None = None  # process CPU seconds of the planning, beside its wall ``time``
     first_solution_checks: int | None = None  # collision checks spent when the first kept path was found
+    end: str | None = None  # why the run ended (END_REASONS); None in records journaled before it was
 
 
 def _run_job(job: RunJob) -> RunRecord:
@@ -235,7 +249,7 @@ def _run_job(job: RunJob) -> RunRecord:
         loaded = read_puzzle_dir(job.puzzle.path)
         problem = problem_for_chain(loaded.chain, loaded.goal)
         result = spec.plan(problem, job.time_limit, job.seed, job.progress_interval, job.until_first, job.goal_seed,
-                           job.budget_checks)
+                           job.budget_checks, job.budget_cpu)
         path = chain_path(problem, result.path) if result.solved else ()
         return RunRecord(
             spec.title, job.puzzle.name, job.run, job.seed, job.time_limit, result.solved, result.status,
@@ -243,7 +257,7 @@ def _run_job(job: RunJob) -> RunRecord:
             result.length if result.solved else None, result.iterations, result.rejected,
             tuple((p.time, p.best_cost, p.iterations) for p in result.progress), path, loaded.joint_order,
             time.perf_counter() - started, None, result.best_solution_time, result.checks, result.cpu_time,
-            result.first_solution_checks)
+            result.first_solution_checks, result.end)
     except Exception as exc:  # a crashed run is data, not the end of the benchmark
         return _crashed(job, time.perf_counter() - started,
                         f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}")
@@ -253,7 +267,7 @@ def _crashed(job: RunJob, seconds: float, error: str) -> RunRecord:
     spec = PLANNERS.get(job.planner)
     title = job.planner if spec is None else spec.title
     return RunRecord(title, job.puzzle.name, job.run, job.seed, job.time_limit, False, "Crash", seconds, None, None,
-                     None, 0, 0, (), (), (), seconds, error)
+                     None, 0, 0, (), (), (), seconds, error, end="stopped")
 
 
 def _lost(job: RunJob, how: str) -> RunRecord:
@@ -284,12 +298,13 @@ def budget_for(budget: Budget, generator: str) -> int | None:
 
 
 def make_jobs(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile,
-              base_seed: int = 0, until_first: bool = False, budget_checks: Budget = None) -> list[RunJob]:
+              base_seed: int = 0, until_first: bool = False, budget_checks: Budget = None,
+              budget_cpu: float | None = None) -> list[RunJob]:
     sources = {name: get_planner(name).source for name in planners}
     return [RunJob(planner, puzzle, run, run_seed(planner, puzzle.name, run, base_seed),
                    profile.time_limit(puzzle.generator), profile.progress_interval, bool(until_first),
                    goal_seed(puzzle.name, run, base_seed), budget_for(budget_checks, puzzle.generator),
-                   sources[planner])
+                   sources[planner], None if budget_cpu is None else float(budget_cpu))
             for puzzle in puzzles for run in range(profile.runs) for planner in planners]
 
 
@@ -319,11 +334,12 @@ def _value(v) -> str:
 def write_log(path: Path, experiment: str, records: Sequence[RunRecord], planner_titles: Sequence[str],
               time_limit: float, runs: int, base_seed: int, total_seconds: float, setup: str,
               until_first: bool = False, versions: Mapping[str, str] | None = None,
-              budget_checks: int | None = None) -> None:
+              budget_checks: int | None = None, budget_cpu: float | None = None) -> None:
     """Write OMPL's benchmark log for one experiment (one puzzle, several planners). Each planner's
     common properties hold the time limit, whether runs stopped at their first solution
     (``until_first``) and, when given, its version (``versions``: title -> version) and the runs'
-    check budget (``budget_checks``)."""
+    budget (``budget_checks``, or ``budget_cpu`` with ``machine_dependent``); each run's ``end reason``
+    says what ended it."""
     if any(c.isspace() for c in experiment):
         raise ValueError(f"experiment name {experiment!r} must not contain white space (OMPL logs split on it)")
     from importlib.metadata import version
@@ -340,8 +356,8 @@ def write_log(path: Path, experiment: str, records: Sequence[RunRecord], planner
         "0 MB per run",
         f"{runs} runs per planner",
         f"{total_seconds:.3f} seconds spent to collect the data",
-        "1 enum types",
-        "status|" + "|".join(STATUS_NAMES),
+        f"{len(ENUMS)} enum types",
+        *("|".join((name, *values)) for name, values in ENUMS),
         f"{len(planner_titles)} planners",
     ]
     for title in planner_titles:
@@ -351,13 +367,15 @@ def write_log(path: Path, experiment: str, records: Sequence[RunRecord], planner
             common.append(f"version STRING = {versions[title]}")
         if budget_checks is not None:
             common.append(f"budget_checks INTEGER = {budget_checks}")
+        if budget_cpu is not None:
+            common += [f"budget_cpu REAL = {budget_cpu!r}", "machine_dependent BOOLEAN = 1"]
         lines += [title, f"{len(common)} common properties", *common, f"{len(RUN_PROPERTIES)} properties for each run"]
         lines += [f"{name} {kind}" for name, kind in RUN_PROPERTIES]
         lines.append(f"{len(mine)} runs")
         for r in mine:
             values = [r.time, r.solved, STATUS_NAMES.index(r.status), r.length, r.action_cost,
                       r.first_solution_time, r.iterations, r.seed, r.rejected, r.checks, r.cpu_time,
-                      r.first_solution_checks]
+                      r.first_solution_checks, None if r.end is None else END_REASONS.index(r.end)]
             lines.append("".join(_value(v) + "; " for v in values))
         lines.append(f"{len(PROGRESS_PROPERTIES)} progress properties for each run")
         lines += [f"{name} {kind}" for name, kind in PROGRESS_PROPERTIES]
@@ -532,7 +550,8 @@ def run_key(job: RunJob, digest: str, ompl_version: str) -> str:
                        "progress_interval": job.progress_interval, "until": "first" if job.until_first else "limit",
                        "ompl": ompl_version, "format": JOURNAL_FORMAT,
                        # Only when set, so that the keys of runs without a budget are what they were.
-                       **({} if job.budget_checks is None else {"budget_checks": job.budget_checks})},
+                       **({} if job.budget_checks is None else {"budget_checks": job.budget_checks}),
+                       **({} if job.budget_cpu is None else {"budget_cpu": job.budget_cpu})},
                       sort_keys=True)
 
 
@@ -553,9 +572,9 @@ _RECORD_TYPES = {
     "planner": str, "puzzle": str, "run": int, "seed": int, "time_limit": float, "solved": bool, "status": str,
     "time": float, "first_solution_time": float | None, "action_cost": int | None, "length": float | None,
     "iterations": int, "rejected": int, "wall": float, "error": str | None, "best_solution_time": float | None,
-    "checks": int | None, "cpu_time": float | None, "first_solution_checks": int | None,
+    "checks": int | None, "cpu_time": float | None, "first_solution_checks": int | None, "end": str | None,
 }
-_ADDED_FIELDS = {"checks", "cpu_time", "first_solution_checks"}
+_ADDED_FIELDS = {"checks", "cpu_time", "first_solution_checks", "end"}
 """RunRecord fields added after journals were first written: a record without them reads as None."""
 
 
@@ -577,7 +596,8 @@ def parse_journal_line(line: bytes) -> tuple[str, RunRecord] | None:
         if not isinstance(key, dict) or not isinstance(raw, dict) or not fields - _ADDED_FIELDS <= set(raw) <= fields:
             return None
         raw = {name: None for name in _ADDED_FIELDS} | raw
-        if not all(_fits(raw[name], kind) for name, kind in _RECORD_TYPES.items()) or raw["status"] not in STATUS_NAMES:
+        if not all(_fits(raw[name], kind) for name, kind in _RECORD_TYPES.items()) \
+                or raw["status"] not in STATUS_NAMES or raw["end"] not in (None, *END_REASONS):
             return None
         progress = tuple((float(t), math.inf if c is None else float(c), int(i)) for t, c, i in raw["progress"])
         path = tuple(tuple(float(v) for v in state) for state in raw["path"])
@@ -708,6 +728,7 @@ class BenchmarkPlan:
     jobs: tuple[RunJob, ...]
     until_first: bool = field(default=False, kw_only=True)
     budget_checks: Budget = field(default=None, kw_only=True)  # collision checks per run (None: seconds)
+    budget_cpu: float | None = field(default=None, kw_only=True)  # CPU seconds per run (machine-dependent)
     keys: tuple[str, ...] = field(repr=False)  # the journal key of each job
     done: Mapping[str, RunRecord] = field(repr=False)  # journaled runs of this benchmark, by key
     digests: Mapping[str, str] = field(repr=False)  # puzzle name -> puzzle_digest
@@ -721,8 +742,23 @@ class BenchmarkPlan:
         return [job for job, key in zip(self.jobs, self.keys, strict=True) if key not in self.done]
 
     def estimate_seconds(self, overhead: float) -> float:
-        """Wall-clock seconds the runs still to do take (see :func:`estimate_seconds`)."""
-        return sum(job.time_limit + overhead for job in self.todo) / self.workers
+        """Wall-clock seconds the runs still to do take (see :func:`estimate_seconds`); a budgeted run
+        its budget's CPU seconds, or its checks at :data:`ESTIMATED_CHECKS_PER_SECOND` (a rough guide:
+        planners and puzzles differ several times), not its backstop."""
+        return sum(_job_seconds(job) + overhead for job in self.todo) / self.workers
+
+
+ESTIMATED_CHECKS_PER_SECOND = 500_000
+"""Checks (motions by their length) a planner spends per CPU second, for estimates only: on Move N
+Times 2, 0.7-6.3 million a CPU second over the five entries (docs/benchmark/README.md, "Charging the work")."""
+
+
+def _job_seconds(job: RunJob) -> float:
+    if job.budget_cpu is not None:
+        return min(job.budget_cpu, job.time_limit)
+    if job.budget_checks is not None:
+        return min(job.budget_checks / ESTIMATED_CHECKS_PER_SECOND, job.time_limit)
+    return job.time_limit
 
 
 def _ompl_version() -> str:
@@ -733,7 +769,8 @@ def _ompl_version() -> str:
 
 def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
                    workers: int = 2, base_seed: int = 0, save_solutions: bool = True,
-                   until_first: bool = False, budget_checks: Budget = None) -> BenchmarkPlan:
+                   until_first: bool = False, budget_checks: Budget = None,
+                   budget_cpu: float | None = None) -> BenchmarkPlan:
     """Check everything a benchmark needs, before any run and without writing anything.
 
     Raises ValueError (:class:`~phyrogen_core.folder.PuzzleFormatError`,
@@ -747,15 +784,19 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
     solution (see the module docstring). ``budget_checks``: every run ends after that many
     collision checks, its time limit only a backstop (the same result on any machine); a mapping
     gives each generator its own (:func:`solver.benchmark.paper_budgets.paper_budgets`), and a
-    puzzle of a generator it lacks is refused.
+    puzzle of a generator it lacks is refused. ``budget_cpu``: every run ends after that many CPU
+    seconds instead (machine-dependent; not with ``budget_checks``).
     """
     from phyrogen_core.export import read_puzzle_dir
-    from solver.planning.anytime import check_budget_checks
+    from solver.planning.anytime import check_budget_checks, check_budget_cpu
     from solver.planning.problem import problem_for_chain
 
     check_workers(workers)
     for budget in (budget_checks.values() if isinstance(budget_checks, Mapping) else (budget_checks,)):
         check_budget_checks(budget)
+    check_budget_cpu(budget_cpu)
+    if budget_checks is not None and budget_cpu is not None:
+        raise ValueError("a benchmark has one budget: in collision checks or in CPU seconds, not both")
     if isinstance(base_seed, bool) or not isinstance(base_seed, int):
         raise ValueError(f"base seed must be a whole number, got {base_seed!r}")
     planners = tuple(planners)
@@ -801,25 +842,27 @@ def plan_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], pro
                 require_stage_folder(puzzle.solutions, "solutions folder", root=puzzle.path)
             except OutputError as exc:
                 raise OutputError(f"{exc} (or do not save solutions: --no-solutions)") from None
-    jobs = tuple(make_jobs(puzzles, planners, profile, base_seed, until_first, budget_checks))
+    jobs = tuple(make_jobs(puzzles, planners, profile, base_seed, until_first, budget_checks, budget_cpu))
     ompl = _ompl_version()
     keys = tuple(run_key(job, digests[job.puzzle.name], ompl) for job in jobs)
     journaled = read_journal(out / JOURNAL) if out.is_dir() else {}
     # A crashed run is kept in the journal as a record, but run again: its cause may be fixed by now.
     done = {key: journaled[key] for key in keys if key in journaled and journaled[key].error is None}
     return BenchmarkPlan(puzzles, planners, profile, out, workers, base_seed, save_solutions, jobs, keys,
-                         done, digests, until_first=bool(until_first), budget_checks=budget_checks)
+                         done, digests, until_first=bool(until_first), budget_checks=budget_checks,
+                         budget_cpu=None if budget_cpu is None else float(budget_cpu))
 
 
 def run_benchmark(puzzles: Sequence[PuzzleFolder], planners: Sequence[str], profile: Profile, out: Path,
                   workers: int = 2, base_seed: int = 0, save_solutions: bool = True, plots: bool = True,
                   progress: bool = True, on_done: Callable[[RunRecord], None] | None = None,
-                  until_first: bool = False, budget_checks: Budget = None) -> BenchmarkOutput:
+                  until_first: bool = False, budget_checks: Budget = None,
+                  budget_cpu: float | None = None) -> BenchmarkOutput:
     """Check the input (:func:`plan_benchmark`), then run what the journal does not hold and write
     ``out``: ``logs/<puzzle>.log``, ``benchmark.db``, ``summary.md``, ``fig4.png``, ``errors.txt``
     (when runs crashed), next to the journal ``runs.jsonl``."""
     plan = plan_benchmark(puzzles, planners, profile, out, workers, base_seed, save_solutions, until_first,
-                          budget_checks)
+                          budget_checks, budget_cpu)
     return run_plan(plan, plots=plots, progress=progress, on_done=on_done)
 
 
@@ -892,7 +935,11 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
         budgets = plan.budget_checks if isinstance(plan.budget_checks, Mapping) else None
         mode += (f"; a budget of {plan.budget_checks} collision checks per run" if budgets is None else
                  "; a budget of collision checks per run for each generator (" +
-                 ", ".join(f"{g} {n}" for g, n in budgets.items()) + ")") + ", the time limit a backstop"
+                 ", ".join(f"{g} {n}" for g, n in budgets.items()) + ")") + \
+            " (a motion charged by its length), the time limit a wall-clock backstop"
+    if plan.budget_cpu is not None:
+        mode += (f"; a budget of {plan.budget_cpu:g} CPU seconds per run (machine-dependent), the time limit a "
+                 "wall-clock backstop")
     setup = (f"PhyRoGen benchmark, profile {profile.name}: {profile.runs} runs per planner and puzzle, {mode}; "
              f"planners {', '.join(titles)}")
     staging = Path(tempfile.mkdtemp(prefix=_STAGING_PREFIX, dir=plan.out))
@@ -904,7 +951,7 @@ def _publish(plan: BenchmarkPlan, records: Sequence[RunRecord], wall: float, plo
             log = staging / "logs" / f"{puzzle.name}.log"
             write_log(log, puzzle.name, mine, titles, profile.time_limit(puzzle.generator), profile.runs,
                       plan.base_seed, sum(r.wall for r in mine), setup, plan.until_first, versions,
-                      budget_for(plan.budget_checks, puzzle.generator))
+                      budget_for(plan.budget_checks, puzzle.generator), plan.budget_cpu)
             logs.append(log)
         build_database(staging / "benchmark.db", logs)
         crashed = [r for r in records if r.error]

@@ -60,6 +60,7 @@ class PlanResult:
     # whose sampler gave out, is weaker evidence than one that had goal states and found no path.
     goal_states: int | None = None  # valid goal states it found
     goal_exhausted: bool | None = None  # its own budget ran out: no new goal state could come
+    end: str = "stopped"  # why the run ended: one of END_REASONS
 
     @property
     def length(self) -> float:
@@ -69,6 +70,20 @@ class PlanResult:
             return 0.0
         return float(np.linalg.norm(np.diff(states, axis=0), axis=1).sum())
 
+
+END_REASONS = ("solved", "budget", "clock", "stopped")
+"""Why a run ended, one reason each: ``solved``, it stopped at its first solution (``until_first``);
+``budget``, its budget was spent (checks, CPU seconds, or, for a run with neither, its time limit);
+``clock``, the wall-clock backstop ended a run that had a budget in checks or CPU seconds before that
+budget was spent (its result is not the budget's: the benchmark reports it apart); ``stopped``, the
+planner ended by itself (an invalid start, a crash)."""
+
+PROGRESS_SAMPLES = 50
+"""Progress samples of a run under a check budget, one each this share of the budget (see
+:meth:`AnytimeRecorder.sample`); the wall-clock interval is for runs without one."""
+
+MAX_BUDGET_CPU = 24 * 3600.0
+"""The largest CPU-seconds budget a run may have: a day."""
 
 MAX_BUDGET_CHECKS = 10**9
 """The largest check budget a run may have: about three hours of checks at 100,000 a second."""
@@ -83,15 +98,35 @@ def check_budget_checks(budget: object) -> None:
                          f"{MAX_BUDGET_CHECKS}, got {budget!r}")
 
 
+def check_budget_cpu(budget: object) -> None:
+    """Raise ValueError unless ``budget`` is None or a finite number of CPU seconds in (0, :data:`MAX_BUDGET_CPU`]."""
+    if budget is None:
+        return
+    if isinstance(budget, bool) or not isinstance(budget, int | float) or not 0 < budget <= MAX_BUDGET_CPU:
+        raise ValueError(f"CPU budget must be a number of CPU seconds above 0 and at most {MAX_BUDGET_CPU:g}, "
+                         f"got {budget!r}")
+
+
+def motion_length(start, end, steps) -> int:
+    """The states a motion check tests when the motion is free: the resolution steps of its longest
+    joint move, at least 1 (how :func:`solver.collision.kernels.motion_collision` samples it)."""
+    moves = np.abs(np.asarray(end, dtype=float) - np.asarray(start, dtype=float)) / steps
+    return max(1, int(np.ceil(moves.max()))) if moves.size else 1
+
+
 class CheckCounter:
     """A collision model that counts the checks made through it, the same way for every planner:
     one per state whose validity is asked (singly or in a batch, OMPL's state validity checker
-    included) and one per motion (OMPL's motion validator included). A check budget is spent in
-    these units, so a budgeted run does the same work on any machine under any load."""
+    included), and per motion (OMPL's motion validator included) either one (``by_length`` False,
+    the Maker's judges' unit, which generated puzzles depend on) or its length in resolution steps
+    (:func:`motion_length`: the states it tests, as the paper's harness checked a motion state by
+    state; the benchmark's unit, so that a long motion is not charged as one state). A check budget
+    is spent in these units, so a budgeted run does the same work on any machine under any load."""
 
-    def __init__(self, model):
+    def __init__(self, model, by_length: bool = False):
         self._model = model
         self.checks = 0
+        self.by_length = bool(by_length)
 
     def __getattr__(self, name):
         return getattr(self._model, name)
@@ -114,20 +149,22 @@ class CheckCounter:
         return self._model.colliding_objects(states)
 
     def check_motion(self, start, end, steps) -> bool:
-        self.checks += 1
+        self.checks += motion_length(start, end, steps) if self.by_length else 1
         return self._model.check_motion(start, end, steps)
 
     def motion_collision(self, start, end, steps) -> float:
-        self.checks += 1
+        self.checks += motion_length(start, end, steps) if self.by_length else 1
         return self._model.motion_collision(start, end, steps)
 
 
-def count_checks(problem: Problem) -> Problem:
-    """``problem`` with its model behind a :class:`CheckCounter` (itself if it has one already).
+def count_checks(problem: Problem, by_length: bool = False) -> Problem:
+    """``problem`` with its model behind a :class:`CheckCounter` (itself if it has one already, whatever
+    its unit: the first to count decides). ``by_length``: motions are charged by their length (the
+    benchmark's unit; :func:`solver.planning.registry.PlannerSpec.plan` counts so for every planner).
     Build the planner, its goal sampler and its recorder all on the returned problem."""
     if isinstance(problem.model, CheckCounter):
         return problem
-    return replace(problem, model=CheckCounter(problem.model))
+    return replace(problem, model=CheckCounter(problem.model, by_length))
 
 
 class Offer(enum.Enum):
@@ -154,14 +191,22 @@ class AnytimeRecorder:
     with :func:`count_checks`); ``time_limit`` is then only a backstop against
     a run that stops checking. Nothing a budgeted planner decides may read the
     clock: it asks :meth:`usage` (checks then, seconds otherwise), so the same
-    seed and budget give the same path, cost and checks under any load.
+    seed and budget give the same path, cost and checks under any load. With
+    ``budget_cpu`` the run ends after that many CPU seconds of its process
+    (machine-dependent, but blind to other processes' load), the time limit
+    again a backstop. :attr:`end` says which ended it (:data:`END_REASONS`).
     """
 
     def __init__(self, planner: str, problem: Problem, time_limit: float, progress_interval: float,
-                 budget_checks: int | None = None):
+                 budget_checks: int | None = None, budget_cpu: float | None = None):
         if not time_limit > 0:
             raise ValueError(f"time limit must be a positive number of seconds, got {time_limit!r}")
         check_budget_checks(budget_checks)
+        check_budget_cpu(budget_cpu)
+        if budget_checks is not None and budget_cpu is not None:
+            raise ValueError("a run has one budget: in checks or in CPU seconds, not both")
+        self.budget_cpu = None if budget_cpu is None else float(budget_cpu)
+        self.end: str | None = None  # set by the first expired() that says True
         self.counter = problem.model if isinstance(problem.model, CheckCounter) else None
         if budget_checks is not None and self.counter is None:
             raise ValueError("a check budget needs a problem that counts its checks (count_checks(problem))")
@@ -204,14 +249,29 @@ class AnytimeRecorder:
         """Collision checks spent since the recorder was made (0 when the problem does not count them)."""
         return self.counter.checks - self._checks_before if self.counter is not None else 0
 
+    def cpu(self) -> float:
+        """CPU seconds of this process since the recorder was made."""
+        return time.process_time() - self.cpu_started
+
     def usage(self) -> float:
-        """How much of the run is spent, in the unit that ends it: checks under a check budget, else seconds."""
-        return float(self.checks()) if self.budget_checks is not None else self.elapsed()
+        """How much of the run is spent, in the unit that ends it: checks under a check budget, CPU
+        seconds under a CPU budget, else seconds."""
+        if self.budget_checks is not None:
+            return float(self.checks())
+        return self.cpu() if self.budget_cpu is not None else self.elapsed()
 
     def expired(self) -> bool:
-        if self.budget_checks is not None and self.checks() >= self.budget_checks:
+        """Whether the run is over; the first time it is, :attr:`end` records why (budget or clock)."""
+        if self.end is not None:
             return True
-        return self.elapsed() >= self.time_limit
+        if self.budget_checks is not None and self.checks() >= self.budget_checks:
+            self.end = "budget"
+        elif self.budget_cpu is not None and self.cpu() >= self.budget_cpu:
+            self.end = "budget"
+        elif self.elapsed() >= self.time_limit:
+            # Without another budget the time limit is the budget; with one, the clock is a backstop.
+            self.end = "clock" if self.budget_checks is not None or self.budget_cpu is not None else "budget"
+        return self.end is not None
 
     def improves(self, path: Sequence[Sequence[float]]) -> bool:
         """Whether ``path`` would need fewer actions than the best so far (no other check)."""
@@ -256,8 +316,16 @@ class AnytimeRecorder:
         self.clipped += 1
 
     def sample(self, iterations: int, force: bool = False) -> None:
-        """Record a progress sample if the sampling interval has passed (or ``force``)."""
+        """Record a progress sample if the sampling interval has passed (or ``force``). Under a check
+        budget the interval is 1/:data:`PROGRESS_SAMPLES` of the budget in checks, so that the same
+        run samples at the same iterations under any load (only the samples' times differ)."""
         now = self.elapsed()
+        if self.budget_checks is not None and math.isfinite(self.interval):
+            spent = self.checks()
+            if force or spent >= self._next_sample:
+                self.samples.append((now, iterations))
+                self._next_sample = spent + max(1, math.ceil(self.budget_checks / PROGRESS_SAMPLES))
+            return
         if force or now >= self._next_sample:
             self.samples.append((now, iterations))
             self._next_sample = now + self.interval
@@ -283,9 +351,11 @@ class AnytimeRecorder:
         goals = sampler.account() if sampler is not None else None
         return PlanResult(self.planner, solved, best, kept[-1][1] if solved else None,
                           kept[0][0] if solved else None, elapsed, iterations, tuple(progress), status, rejected,
-                          kept[-1][0] if solved else None, self.checks(), time.process_time() - self.cpu_started,
+                          kept[-1][0] if solved else None, self.checks(), self.cpu(),
                           self.improvement_checks[0] if solved else None,
-                          goals.states if goals is not None else None, goals.exhausted if goals is not None else None)
+                          goals.states if goals is not None else None, goals.exhausted if goals is not None else None,
+                          # A planner that ended by itself with a solution stopped at it (until first).
+                          self.end or ("solved" if solved else "stopped"))
 
 
 def planning_steps(problem: Problem, resolution: float = PLANNING_RESOLUTION) -> np.ndarray:

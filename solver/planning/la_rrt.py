@@ -450,8 +450,9 @@ class LaRrt:
         """Grow the trees until ``recorder`` expires, or until the first solution when ``until_first``.
 
         ``benchmark`` (the benchmark's entries, :func:`plan_la_rrt`): every connection's path is
-        defragmented before it is offered, the first one too, with ``until_first`` too (the original
-        always defragments; :attr:`LaRrtSettings.defragment_share` may skip later ones), and must hold
+        defragmented before it is offered, the first one too (the original always defragments;
+        :attr:`LaRrtSettings.defragment_share` may skip later ones), except with ``until_first``, where
+        the first path is offered as found, as every benchmark planner's is; each must hold
         at fine resolution; one that clips restarts the search, as every benchmark planner does
         (docs/benchmark/README.md, "One restart rule"): fresh trees from the start, the random
         stream where it is, the goal roots drawn so far again in their order, iterations added up.
@@ -502,7 +503,10 @@ class LaRrt:
                     elif not benchmark:
                         self._offer_raw_and_defragmented(recorder, raw)
                     else:
-                        offer = self._offer_defragmented(recorder, raw)
+                        # Until first, the first path is scored as found, as every planner's is
+                        # (docs/benchmark/README.md, "Until first"); anytime, defragmented.
+                        offer = recorder.offer_checked(raw) if until_first else \
+                            self._offer_defragmented(recorder, raw)
                         if offer is Offer.BEST and until_first:
                             break
                         if offer is Offer.CLIPPED:
@@ -552,16 +556,18 @@ class LaRrt:
 
 def plan_la_rrt(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
                 settings: LaRrtSettings | None = None, *, until_first: bool = False, goal_seed: int | None = None,
-                title: str = "LA-RRT", budget_checks: int | None = None) -> PlanResult:
-    """Run LA-RRT for ``time_limit`` seconds, or ``budget_checks`` collision checks with the time
-    limit as a backstop (or until its first solution); its own draws from ``seed``, goal roots from
-    the shared goal sampler seeded with ``goal_seed`` (default: from ``seed``)."""
+                title: str = "LA-RRT", budget_checks: int | None = None,
+                budget_cpu: float | None = None) -> PlanResult:
+    """Run LA-RRT for ``time_limit`` seconds, or ``budget_checks`` collision checks (motions charged by
+    their length) or ``budget_cpu`` CPU seconds with the time limit as a backstop (or until its first
+    solution); its own draws from ``seed``, goal roots from the shared goal sampler seeded with
+    ``goal_seed`` (default: from ``seed``)."""
     from solver.planning.goal_sampling import GoalSampler, default_goal_seed
 
-    problem = count_checks(problem)
+    problem = count_checks(problem, by_length=True)
     goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
     planner = LaRrt(problem, np.random.default_rng(seed), settings, goals)
-    recorder = AnytimeRecorder(title, problem, time_limit, progress_interval, budget_checks)
+    recorder = AnytimeRecorder(title, problem, time_limit, progress_interval, budget_checks, budget_cpu)
     return planner.solve(recorder, until_first, benchmark=True)
 
 

@@ -293,12 +293,14 @@ class LbtRrt:
 
 def plan_lbt_rrt(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
                  settings: LbtRrtSettings | None = None, *, until_first: bool = False,
-                 goal_seed: int | None = None, budget_checks: int | None = None) -> PlanResult:
-    """Run LBT-RRT for ``time_limit`` seconds, or ``budget_checks`` collision checks with the time
-    limit as a backstop (or until its first solution); its own draws from ``seed``, goal states
-    from the shared sampler seeded with ``goal_seed`` (default: from ``seed``)."""
-    problem = count_checks(problem)
+                 goal_seed: int | None = None, budget_checks: int | None = None,
+                 budget_cpu: float | None = None) -> PlanResult:
+    """Run LBT-RRT for ``time_limit`` seconds, or ``budget_checks`` collision checks (motions charged
+    by their length) or ``budget_cpu`` CPU seconds with the time limit as a backstop (or until its
+    first solution); its own draws from ``seed``, goal states from the shared sampler seeded with
+    ``goal_seed`` (default: from ``seed``)."""
+    problem = count_checks(problem, by_length=True)
     goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
     planner = LbtRrt(problem, np.random.default_rng(seed), settings, goals)
-    recorder = AnytimeRecorder("LBT-RRT", problem, time_limit, progress_interval, budget_checks)
+    recorder = AnytimeRecorder("LBT-RRT", problem, time_limit, progress_interval, budget_checks, budget_cpu)
     return planner.solve(recorder, until_first)

@@ -136,12 +136,12 @@ sampled between slices); a slice ends on the checks spent, so the slicing is the
 
 def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, seed: int,
              progress_interval: float = 0.1, until_first: bool = False, goal_seed: int | None = None,
-             budget_checks: int | None = None) -> OmplRun:
+             budget_checks: int | None = None, budget_cpu: float | None = None) -> OmplRun:
     """Run the OMPL planner ``make(si)`` for ``time_limit`` seconds, or ``budget_checks`` collision
-    checks with the time limit as a backstop, or until its first solution that holds at fine
-    resolution when ``until_first``; goal states from the shared sampler seeded with ``goal_seed``
-    (default: from ``seed``)."""
-    problem = count_checks(problem)
+    checks (motions charged by their length) or ``budget_cpu`` CPU seconds with the time limit as a
+    backstop, or until its first solution that holds at fine resolution when ``until_first``; goal
+    states from the shared sampler seeded with ``goal_seed`` (default: from ``seed``)."""
+    problem = count_checks(problem, by_length=True)
     rng = np.random.default_rng(seed)
     goals = GoalSampler(problem, default_goal_seed(seed) if goal_seed is None else goal_seed)
     si, pdef, keep = _setup(problem, goals, rng)
@@ -151,7 +151,7 @@ def run_ompl(name: str, make: Callable, problem: Problem, time_limit: float, see
     planner = make(si)
     planner.setProblemDefinition(pdef)
     planner.setup()
-    recorder = AnytimeRecorder(name, problem, time_limit, progress_interval, budget_checks)
+    recorder = AnytimeRecorder(name, problem, time_limit, progress_interval, budget_checks, budget_cpu)
     if not problem.model.is_valid(problem.start):
         return OmplRun(recorder.result(0, "Invalid start"), 0, 0, 0)
     dimension = len(problem.start)
@@ -225,6 +225,10 @@ def _slice(recorder: AnytimeRecorder, progress_interval: float, watch: _FirstSol
     a check budget a share of it in checks (the clock then only as the run's backstop); either ends
     early at the planner's first solution (``watch``)."""
     watch.fired = False
+    if recorder.budget_cpu is not None:
+        # A share of the CPU budget, in CPU seconds: the slicing follows the run's own work, not the load.
+        end_cpu = recorder.cpu() + recorder.budget_cpu / BUDGET_SLICES
+        return ob.PlannerTerminationCondition(lambda: watch() or recorder.cpu() >= end_cpu or recorder.expired())
     if recorder.budget_checks is None:
         end_time = recorder.elapsed() + max(min(recorder.time_limit - recorder.elapsed(), progress_interval), 1e-3)
         return ob.PlannerTerminationCondition(lambda: watch() or recorder.elapsed() >= end_time)
@@ -247,9 +251,10 @@ def ompl_plan_function(title: str, planner_class: Callable, configure: Callable 
         return planner
 
     def plan(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
-             until_first: bool = False, goal_seed: int | None = None, budget_checks: int | None = None) -> PlanResult:
+             until_first: bool = False, goal_seed: int | None = None, budget_checks: int | None = None,
+             budget_cpu: float | None = None) -> PlanResult:
         return run_ompl(title, make, problem, time_limit, seed, progress_interval, until_first, goal_seed,
-                        budget_checks).result
+                        budget_checks, budget_cpu).result
 
     plan.__doc__ = f"OMPL's {title} through :func:`run_ompl`."
     plan.__qualname__ = plan.__name__ = f"plan_{planner_class.__name__}"
@@ -258,15 +263,15 @@ def ompl_plan_function(title: str, planner_class: Callable, configure: Callable 
 
 def plan_rrt_star(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
                   until_first: bool = False, goal_seed: int | None = None,
-                  budget_checks: int | None = None) -> PlanResult:
-    """OMPL's RRT* (default range and goal bias) for ``time_limit`` seconds or ``budget_checks`` checks."""
+                  budget_checks: int | None = None, budget_cpu: float | None = None) -> PlanResult:
+    """OMPL's RRT* (default range and goal bias) for ``time_limit`` seconds or a budget (:func:`run_ompl`)."""
     return run_ompl("RRT*", og.RRTstar, problem, time_limit, seed, progress_interval, until_first, goal_seed,
-                    budget_checks).result
+                    budget_checks, budget_cpu).result
 
 
 def plan_bit_star(problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
                   until_first: bool = False, goal_seed: int | None = None,
-                  budget_checks: int | None = None) -> PlanResult:
-    """OMPL's BIT* (default batch size) for ``time_limit`` seconds or ``budget_checks`` checks."""
+                  budget_checks: int | None = None, budget_cpu: float | None = None) -> PlanResult:
+    """OMPL's BIT* (default batch size) for ``time_limit`` seconds or a budget (:func:`run_ompl`)."""
     return run_ompl("BIT*", og.BITstar, problem, time_limit, seed, progress_interval, until_first, goal_seed,
-                    budget_checks).result
+                    budget_checks, budget_cpu).result

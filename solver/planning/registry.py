@@ -3,8 +3,9 @@
 ``get_planner(name).plan(problem, time_limit, seed)`` -> :class:`~solver.planning.anytime.PlanResult`
 (best path, action cost, first-solution time, cost over time, collision checks and CPU time spent).
 Every planner scores paths with :func:`phyrogen_core.actions.count_actions`, runs until its time
-limit (all are anytime), or until a budget of collision checks is spent (``budget_checks``: the time
-limit is then only a backstop, and the same seed and budget give the same result on any machine), or,
+limit (all are anytime), or until a budget of collision checks is spent (``budget_checks``, a motion
+charged by its length in resolution steps: the time limit is then only a backstop, and the same seed
+and budget give the same result on any machine) or of CPU seconds (``budget_cpu``, machine-dependent), or,
 with ``until_first``, until its first solution that holds at fine resolution, and takes its goal
 states from the shared goal sampler (:mod:`solver.planning.goal_sampling`) seeded with ``goal_seed``:
 the benchmark gives every planner of a run the same one. Planners marked ``uses_ompl_rng`` draw
@@ -57,7 +58,9 @@ if TYPE_CHECKING:
     from solver.planning.problem import Problem
 
 PlanFunction = Callable[..., "PlanResult"]
-"""``plan(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None)``."""
+"""``plan(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
+budget_cpu=None)`` (``budget_cpu`` is passed only when set: a plan function without it runs every
+benchmark but those budgeted in CPU seconds)."""
 
 NAME_PATTERN = re.compile(r"[a-z][a-z0-9_]{0,39}")
 """A planner's name: what ``--planners`` takes, the journal's key and a log-safe word."""
@@ -88,11 +91,14 @@ class PlannerSpec:
 
     def plan(self, problem: Problem, time_limit: float, seed: int, progress_interval: float = 0.1,
              until_first: bool = False, goal_seed: int | None = None,
-             budget_checks: int | None = None) -> PlanResult:
-        """Run for ``time_limit`` seconds, or ``budget_checks`` collision checks with the time limit as
-        a backstop (or until the first solution when ``until_first``); ``seed`` drives the planner's
-        own random draws, ``goal_seed`` the shared goal sampler (default: from ``seed``)."""
-        from solver.planning.anytime import check_budget_checks, count_checks
+             budget_checks: int | None = None, budget_cpu: float | None = None) -> PlanResult:
+        """Run for ``time_limit`` seconds, or ``budget_checks`` collision checks or ``budget_cpu`` CPU
+        seconds with the time limit as a backstop (or until the first solution when ``until_first``);
+        ``seed`` drives the planner's own random draws, ``goal_seed`` the shared goal sampler (default:
+        from ``seed``). The result's ``end`` says which ended the run (``solved``: at its first solution)."""
+        from dataclasses import replace
+
+        from solver.planning.anytime import check_budget_checks, check_budget_cpu, count_checks
         from solver.planning.goal_sampling import default_goal_seed
 
         if not time_limit > 0:
@@ -100,18 +106,25 @@ class PlannerSpec:
         if not progress_interval > 0:
             raise ValueError(f"progress_interval must be positive seconds, got {progress_interval!r}")
         check_budget_checks(budget_checks)
+        check_budget_cpu(budget_cpu)
+        if budget_checks is not None and budget_cpu is not None:
+            raise ValueError("a run has one budget: in checks or in CPU seconds, not both")
         goal_seed = default_goal_seed(seed) if goal_seed is None else goal_seed
-        # Counted here, so that every registered planner spends a check budget in the same units.
-        return self.plan_function(count_checks(problem), time_limit, seed, progress_interval, bool(until_first),
-                                  goal_seed, budget_checks=budget_checks)
+        # Counted here, so that every registered planner spends a check budget in the same units:
+        # a motion costs its length in resolution steps.
+        extra = {} if budget_cpu is None else {"budget_cpu": float(budget_cpu)}  # older plan functions lack it
+        result = self.plan_function(count_checks(problem, by_length=True), time_limit, seed, progress_interval,
+                                    bool(until_first), goal_seed, budget_checks=budget_checks, **extra)
+        return replace(result, end="solved") if until_first and result.solved else result
 
 
 def _la_rrt(which: str, title: str, problem, time_limit, seed, progress_interval, until_first, goal_seed,
-            budget_checks=None) -> PlanResult:
+            budget_checks=None, budget_cpu=None) -> PlanResult:
     from solver.planning.la_rrt import plan_la_rrt
 
     return plan_la_rrt(problem, time_limit, seed, progress_interval, _la_rrt_settings(which),
-                       until_first=until_first, goal_seed=goal_seed, title=title, budget_checks=budget_checks)
+                       until_first=until_first, goal_seed=goal_seed, title=title, budget_checks=budget_checks,
+                       budget_cpu=budget_cpu)
 
 
 def _la_rrt_settings(which: str) -> object:
@@ -127,11 +140,12 @@ def _rrt_star(*args, **kwargs) -> PlanResult:
     return plan_rrt_star(*args, **kwargs)
 
 
-def _lbt_rrt(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None) -> PlanResult:
+def _lbt_rrt(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
+             budget_cpu=None) -> PlanResult:
     from solver.planning.lbt_rrt import plan_lbt_rrt
 
     return plan_lbt_rrt(problem, time_limit, seed, progress_interval, until_first=until_first, goal_seed=goal_seed,
-                        budget_checks=budget_checks)
+                        budget_checks=budget_checks, budget_cpu=budget_cpu)
 
 
 def _bit_star(*args, **kwargs) -> PlanResult:
@@ -153,17 +167,17 @@ def _version(code: str, settings: object = None) -> str:
 
 def _built_in() -> dict[str, PlannerSpec]:
     specs = (
-        PlannerSpec("la_rrt", "LA-RRT", partial(_la_rrt, "paper", "LA-RRT"), False, "paper-3",
+        PlannerSpec("la_rrt", "LA-RRT", partial(_la_rrt, "paper", "LA-RRT"), False, "paper-4",
                     partial(_la_rrt_settings, "paper"), True,
                     "the paper's LA-RRT; fewest actions, by path defragmentation"),
         PlannerSpec("la_rrt_push", "LA-RRT+push (ours)", partial(_la_rrt, "push", "LA-RRT+push (ours)"), False,
-                    "push-4", partial(_la_rrt_settings, "push"), True,
+                    "push-5", partial(_la_rrt_settings, "push"), True,
                     "our LA-RRT with blocker pushes; fewest actions, by path defragmentation"),
-        PlannerSpec("rrt_star", "RRT*", _rrt_star, True, "ompl-4", None, False,
+        PlannerSpec("rrt_star", "RRT*", _rrt_star, True, "ompl-5", None, False,
                     "OMPL's RRT*; objects moved per edge"),
-        PlannerSpec("lbt_rrt", "LBT-RRT", _lbt_rrt, False, "py-3", None, False,
+        PlannerSpec("lbt_rrt", "LBT-RRT", _lbt_rrt, False, "py-4", None, False,
                     "LBT-RRT in Python; objects moved per edge, epsilon 0.4"),
-        PlannerSpec("bit_star", "BIT*", _bit_star, True, "ompl-4", None, False,
+        PlannerSpec("bit_star", "BIT*", _bit_star, True, "ompl-5", None, False,
                     "OMPL's BIT*; objects moved per edge"),
     )
     return {spec.name: spec for spec in specs}
@@ -192,9 +206,9 @@ def register_planner(name: str, title: str, plan: PlanFunction, *, version: str,
                      summary: str = "", group: str | None = None) -> PlannerSpec:
     """Add a planner to :data:`PLANNERS`, after the ones there; returns its entry.
 
-    ``plan(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None)``
-    returns a :class:`~solver.planning.anytime.PlanResult`; build its recorder with
-    ``AnytimeRecorder(title, problem, time_limit, progress_interval, budget_checks)`` on the problem
+    ``plan(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
+    budget_cpu=None)`` returns a :class:`~solver.planning.anytime.PlanResult`; build its recorder with
+    ``AnytimeRecorder(title, problem, time_limit, progress_interval, budget_checks, budget_cpu)`` on the problem
     it is given (its collision checks are counted) and stop when the recorder expires.
     :func:`solver.planning.ompl_planners.ompl_plan_function` makes one from any ``ompl.geometric``
     planner. ``version``: bump it when the planner's code changes (the journal keys runs by it).
@@ -330,10 +344,10 @@ def run_seed(planner: str, puzzle: str, run: int, base_seed: int = 0) -> int:
 # behaviour changes back to the original's. Registered like any added planner, but outside
 # ``--planners all``, so that "all" still means the five entries it meant before.
 register_planner("la_rrt_segment_check", "LA-RRT, original segment check", partial(_la_rrt, "segment_check",
-                 "LA-RRT, original segment check"), version="paper-3", uses_ompl_rng=False,
+                 "LA-RRT, original segment check"), version="paper-4", uses_ompl_rng=False,
                  settings=partial(_la_rrt_settings, "segment_check"), group="ablations",
                  summary="la_rrt that also checks the straight segment a step replaces by its staircase (ablation)")
 register_planner("la_rrt_fixed_order", "LA-RRT, fixed factor order", partial(_la_rrt, "fixed_order",
-                 "LA-RRT, fixed factor order"), version="paper-3", uses_ompl_rng=False,
+                 "LA-RRT, fixed factor order"), version="paper-4", uses_ompl_rng=False,
                  settings=partial(_la_rrt_settings, "fixed_order"), group="ablations",
                  summary="la_rrt whose factors move in the original's fixed order (ablation)")
