@@ -47,7 +47,7 @@ from phyrogen_core.puzzle import Goal
 from solver.collision.model import DEFAULT_TOLERANCE
 from solver.planning.problem import GOAL_SLACK, LOCKED_WIDTH, shrunk_tolerance
 
-PROOF_EROSION = 0.02
+PROOF_EROSION = 0.03
 """Metres any point of an object may move within one cell of its joint range."""
 PROOF_SLACK = 1e-4
 """Metres added to every erosion, so that an overlap proven at a cell's centre is strictly more
@@ -66,6 +66,7 @@ class _Outline:
     z_low: float
     z_high: float
     corner: float  # the largest 1 / sin(alpha / 2) over its interior angles alpha
+    radius: float  # the farthest vertex from the vertices' mean
 
 
 @dataclass(frozen=True)
@@ -101,7 +102,8 @@ def _outline(vertices: np.ndarray, z_low: float, z_high: float) -> _Outline | No
     shortening = MAX_EROSION * (1 / np.tan(angles / 2) + np.roll(1 / np.tan(angles / 2), -1))
     if np.any(shortening > ERODE_HEADROOM * lengths):
         return None
-    return _Outline(vertices, normals, z_low, z_high, float(np.max(1 / np.sin(angles / 2))))
+    radius = float(np.max(np.linalg.norm(vertices - vertices.mean(axis=0), axis=1)))
+    return _Outline(vertices, normals, z_low, z_high, float(np.max(1 / np.sin(angles / 2))), radius)
 
 
 def _outlines(obj: PuzzleObject) -> tuple[_Outline, ...]:
@@ -160,17 +162,17 @@ def _world(outline: _Outline, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def _overlaps(va: np.ndarray, na: np.ndarray, vb: np.ndarray, nb: np.ndarray, threshold: float) -> np.ndarray:
-    """(len(va), len(vb)): whether outlines overlap by more than ``threshold`` along every edge normal
-    of both (the separating-axis test of :mod:`solver.collision.kernels`, with ``threshold`` as its tolerance)."""
-    a_on_a = np.einsum("akd,ajd->akj", na, va)
-    b_on_b = np.einsum("bkd,bjd->bkj", nb, vb)
-    a_on_b = np.einsum("bkd,ajd->abkj", nb, va)
-    b_on_a = np.einsum("akd,bjd->abkj", na, vb)
-    over_a = (np.minimum(a_on_a.max(axis=2)[:, None], b_on_a.max(axis=3))
-              - np.maximum(a_on_a.min(axis=2)[:, None], b_on_a.min(axis=3)))
-    over_b = (np.minimum(b_on_b.max(axis=2)[None], a_on_b.max(axis=3))
-              - np.maximum(b_on_b.min(axis=2)[None], a_on_b.min(axis=3)))
-    return np.all(over_a > threshold, axis=2) & np.all(over_b > threshold, axis=2)
+    """Whether outline pairs (``va[i]``, ``vb[i]``) overlap by more than ``threshold`` along every edge
+    normal of both (the separating-axis test of :mod:`solver.collision.kernels`, with ``threshold`` as its
+    tolerance); vertices and normals (p, k, 2)."""
+    overlap = None
+    for normals in (na, nb):
+        on_a = np.einsum("pkd,pjd->pkj", normals, va)
+        on_b = np.einsum("pkd,pjd->pkj", normals, vb)
+        over = np.minimum(on_a.max(axis=2), on_b.max(axis=2)) - np.maximum(on_a.min(axis=2), on_b.min(axis=2))
+        low = over.min(axis=1)
+        overlap = low if overlap is None else np.minimum(overlap, low)
+    return overlap > threshold
 
 
 class BlockingProver:
@@ -183,17 +185,24 @@ class BlockingProver:
         self._cells: dict[tuple, _Cells] = {}
         self._tables: dict[tuple, np.ndarray] = {}
         self._bounds: dict[tuple, np.ndarray] = {}
+        self._kept: dict[int, PuzzleObject] = {}  # keys hold objects by id (hashing one costs more than a check)
+
+    def _id(self, obj: PuzzleObject) -> int:
+        key = id(obj)
+        self._kept.setdefault(key, obj)  # alive as long as the prover, so no other object gets its id
+        return key
 
     # -- per object ------------------------------------------------------------
     def outlines(self, obj: PuzzleObject) -> tuple[_Outline, ...]:
-        found = self._outlines.get(obj)
+        key = self._id(obj)
+        found = self._outlines.get(key)
         if found is None:
-            found = self._outlines[obj] = _outlines(obj)
+            found = self._outlines[key] = _outlines(obj)
         return found
 
     def free_cells(self, obj: PuzzleObject) -> _Cells:
         """A one-joint object's cells over its whole range."""
-        key = (obj, "free")
+        key = (self._id(obj), "free")
         found = self._cells.get(key)
         if found is None:
             (lower, upper), = obj.limits
@@ -206,7 +215,7 @@ class BlockingProver:
 
     def placed(self, obj: PuzzleObject, values: tuple[float, ...]) -> _Cells:
         """An object at one pose: its joints at ``values`` (none for a fixed object)."""
-        key = (obj, values)
+        key = (self._id(obj), values)
         found = self._cells.get(key)
         if found is None:
             x, y, z = obj.pose.xyz
@@ -223,7 +232,7 @@ class BlockingProver:
     # -- per pair ----------------------------------------------------------------
     def _box(self, obj: PuzzleObject, where: tuple, cells: _Cells) -> np.ndarray:
         """The (x, y) bounds of everything the object covers over its cells: [low x, low y, high x, high y]."""
-        key = (obj, where)
+        key = (self._id(obj), where)
         found = self._bounds.get(key)
         if found is None:
             rho = _reach(self.outlines(obj))
@@ -235,11 +244,12 @@ class BlockingProver:
     def table(self, a: tuple[PuzzleObject, tuple, _Cells], b: tuple[PuzzleObject, tuple, _Cells],
               shrink: float) -> np.ndarray:
         """(cells of a, cells of b): whether a there overlaps b there wherever in both cells they are."""
-        key = (a[0], a[1], b[0], b[1], shrink)
+        id_a, id_b = self._id(a[0]), self._id(b[0])
+        key = (id_a, a[1], id_b, b[1], shrink)
         found = self._tables.get(key)
         if found is not None:
             return found
-        flipped = self._tables.get((b[0], b[1], a[0], a[1], shrink))
+        flipped = self._tables.get((id_b, b[1], id_a, a[1], shrink))
         if flipped is not None:
             return flipped.T
         (obj_a, where_a, cells_a), (obj_b, where_b, cells_b) = a, b
@@ -253,9 +263,17 @@ class BlockingProver:
                     if min(outline_a.z_high, outline_b.z_high) - max(outline_a.z_low, outline_b.z_low) <= tolerance:
                         continue
                     world_a = world_a if world_a is not None else _world(outline_a, cells_a.poses)
+                    world_b = _world(outline_b, cells_b.poses)
                     corner = max(outline_a.corner, outline_b.corner)
-                    threshold = 2 * corner * (shrink + self.erosion + PROOF_SLACK)
-                    table |= _overlaps(*world_a, *_world(outline_b, cells_b.poses), max(threshold, DEFAULT_TOLERANCE))
+                    threshold = max(2 * corner * (shrink + self.erosion + PROOF_SLACK), DEFAULT_TOLERANCE)
+                    # Only cell pairs whose bounding circles overlap by more than the threshold can.
+                    centre_a, centre_b = world_a[0].mean(axis=1), world_b[0].mean(axis=1)
+                    reach = outline_a.radius + outline_b.radius - threshold
+                    near = np.sum((centre_a[:, None] - centre_b[None]) ** 2, axis=2) < reach * abs(reach)
+                    i, j = np.nonzero(near & ~table)
+                    if len(i):
+                        hit = _overlaps(world_a[0][i], world_a[1][i], world_b[0][j], world_b[1][j], threshold)
+                        table[i[hit], j[hit]] = True
         self._tables[key] = table
         return table
 

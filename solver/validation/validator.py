@@ -24,7 +24,7 @@ from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from phyrogen_core.maker import Necessary, SolveResult
 from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
-from solver.collision.model import CollisionModel
+from solver.collision.model import DEFAULT_TOLERANCE, CollisionModel
 from solver.planning.ompl_setup import rrt_connect
 from solver.planning.problem import (
     DEFAULT_RESOLUTION,
@@ -104,7 +104,7 @@ class OmplValidator:
         if problem is None:
             return SolveResult(False)
         budget = int(self.budget * budget_scale)
-        path = self._extend_previous(objects, goal)
+        path = self._extend_previous(objects, goal, problem)
         if path is None:
             if self.routed:
                 extended = self._previous_in(objects, problem)
@@ -403,8 +403,9 @@ class OmplValidator:
         self.verdicts.append(verdict)
         return Necessary(verdict.margin, verdict.how) if verdict.necessary else None
 
-    def _extend_previous(self, objects: tuple[PuzzleObject, ...], goal: Goal):
-        """A certificate for ``objects`` built from one for a prefix of them, or None."""
+    def _extend_previous(self, objects: tuple[PuzzleObject, ...], goal: Goal, problem: Problem):
+        """A certificate for ``objects`` built from one for a prefix of them, or None. ``problem`` is
+        the puzzle's: its collision model is the whole chain's when it locks no joint (no new one built)."""
         prefix = self._solved_prefix(objects)
         if prefix is None:
             return None
@@ -413,7 +414,8 @@ class OmplValidator:
         new_joints = [j for j in chain.joint_order if j not in old_chain.joint_order]
         if len(new_joints) > 1:
             return None  # a grid over several new joints is not worth it; RRT-Connect decides
-        model = CollisionModel(chain)
+        whole = problem.model
+        model = whole if not whole.locked and whole.tolerance == DEFAULT_TOLERANCE else CollisionModel(chain)
         # Candidates are screened at the validator's resolution (most parkings fail, and fail
         # fast there); the one kept must hold at fine resolution, as certificates do.
         coarse, fine = model.motion_steps(self.resolution), model.motion_steps(FINE_RESOLUTION)
