@@ -1,12 +1,14 @@
 """Runs inside the real Blender UI (under Xvfb): clicks the panel's Generate, then (after an edit of
 the scene) Re-plan, then Manipulate with xdotool, each a job in a subprocess watched by a modal operator.
 
-    blender --factory-startup --python tests/blender_gui_check.py -- RESULT.json SCREENSHOT.png [BEFORE.png DURING.png]
+    blender --factory-startup --python tests/blender_gui_check.py -- RESULT.json SCREENSHOT.png \
+        [BEFORE.png DURING.png [GENERATED.png]]
 
 Started by tests/test_blender_binary.py. The add-on must be installed as
 the legacy add-on ``phyrogen`` (BLENDER_USER_SCRIPTS) and PHYROGEN_VENV set.
 Writes RESULT.json with what it saw, takes Blender's own screenshots (the 3D view with the panel before
-the first click and after the last job; the whole window, status bar included, while Manipulate runs),
+the first click, after Generate and after the last job; the whole window, status bar included, while
+Manipulate runs),
 quits. Nothing zooms or moves the view and nothing is removed from Blender's factory scene (its default
 cube included): what the screenshots show is what the panel did, at the sidebar's default width; the
 last one is taken without moving the mouse after the job ended.
@@ -24,6 +26,7 @@ import mathutils
 ARGUMENTS = sys.argv[sys.argv.index("--") + 1:]
 RESULT, SCREENSHOT = ARGUMENTS[:2]
 BEFORE, DURING = (ARGUMENTS[2:4] if len(ARGUMENTS) >= 4 else (None, None))
+GENERATED = ARGUMENTS[4] if len(ARGUMENTS) >= 5 else None
 PUZZLE = "simple_slider_1"
 state = {"clicks": [], "tab_clicks": [], "started": time.monotonic(), "errors": [], "drawn": False, "steps": [],
          "step": 0, "attempt": 0, "clicked_at": None, "running_ticks": 0, "statuses": [], "click": None,
@@ -94,7 +97,7 @@ def screenshot_and_quit(ok):
                              settings.result_columns, *(row.cells for row in settings.result_rows)],
                    "during": state.get("during"),
                    "view_after_generate": state.get("view_after_generate"),
-                   "objects_at_start": state.get("objects_at_start"),
+                   "objects_at_start": state.get("objects_at_start"), "sidebar": state.get("sidebar"),
                    "scene_after_generate": state.get("scene_after_generate"),
                    "buttons_enabled_after": bpy.ops.phyrogen.generate.poll(),
                    "blender": bpy.app.version_string}, stream)
@@ -179,6 +182,10 @@ def poll():
     if state["clicked_at"] is None:
         if BEFORE is not None and state["step"] == 0 and state["attempt"] == 0:
             screenshot_area(BEFORE)
+        if GENERATED is not None and step.label == "Re-plan" and state["attempt"] == 0:
+            screenshot_area(GENERATED)  # Generate's outcome, redrawn since (a second has passed)
+            window, area, region = view3d()
+            state["sidebar"] = {"width": region.width, "ui_scale": bpy.context.preferences.system.ui_scale}
         if step.before is not None and state["attempt"] == 0:
             step.before()
         # Taken before every attempt: a neighbour's job that a missed click started changes it too.

@@ -63,16 +63,17 @@ def test_panel_generate_replan_manipulate_clicks_in_the_real_ui(tmp_path):
     shutil.copytree(REPOSITORY / "blender_addon", addon, ignore=shutil.ignore_patterns("__pycache__"))
     result_path, screenshot = tmp_path / "result.json", tmp_path / "panel.png"
     before, during = tmp_path / "panel-before.png", tmp_path / "panel-during.png"
+    generated = tmp_path / "panel-generated.png"
     run = subprocess.run(
-        ["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", BLENDER, "--factory-startup", "--python",
+        ["xvfb-run", "-a", "-s", "-screen 0 1600x1200x24", BLENDER, "--factory-startup", "--python",
          str(REPOSITORY / "tests" / "blender_gui_check.py"), "--", str(result_path), str(screenshot), str(before),
-         str(during)],
+         str(during), str(generated)],
         capture_output=True, text=True, timeout=400, env=blender_environment(tmp_path), cwd=tmp_path)
     assert result_path.is_file(), run.stdout[-3000:] + run.stderr[-3000:]
     result = json.loads(result_path.read_text())
     assert result["ok"], result
     assert {"base_link", "goal", "obj_00", "obj_01"} <= set(result["objects"])
-    assert all(p.is_file() and p.stat().st_size > 10_000 for p in (screenshot, before, during))
+    assert all(p.is_file() and p.stat().st_size > 10_000 for p in (screenshot, before, during, generated))
     assert result["during"].startswith("Manipulate simple_slider_1: ")  # the status line while it ran
     assert result["buttons_enabled_after"]
     # Generate framed the new puzzle: the view looks at the middle of its visual objects' bounds (the

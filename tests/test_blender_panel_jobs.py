@@ -225,7 +225,7 @@ def test_the_first_job_says_it_compiles_the_kernels(monkeypatch, tmp_path):
 
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
     assert not environment.collision_kernels_cached()
-    job = Job("Generate x", ["sleep", "30"], note="compiling collision kernels (first run only, 1-2 min)...")
+    job = Job("Generate x", ["sleep", "30"], note="compiling collision kernels (first run only: about 20 s of CPU)...")
     try:
         assert job.status_text().startswith("Generate x: compiling collision kernels (first run only")
     finally:

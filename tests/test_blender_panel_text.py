@@ -24,8 +24,10 @@ def test_paths_break_only_after_a_slash(width):
                 assert all(part in names or part == "" for part in piece.split("/")), (piece, lines)
 
 
-def test_a_name_longer_than_a_line_stays_whole():
+def test_a_name_longer_than_a_line_breaks_after_its_underscores_or_stays_whole():
     assert wrap_lines("see /a/" + "x" * 30 + "/b", 12) == ["see /a/", "x" * 30 + "/", "b"]
+    assert wrap_lines("in /tmp/test_panel_generate_replan_man0/output", 22, "  ") == [
+        "in /tmp/test_panel_", "  generate_replan_", "  man0/output"]
 
 
 def test_the_old_wrapping_split_names():
