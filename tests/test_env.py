@@ -14,6 +14,7 @@ import pytest
 
 gym = pytest.importorskip("gymnasium")
 
+from env_support import quiet_check  # noqa: E402
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 from phyrogen.env import ENV_ID, STEP_LIMIT, PuzzleEnv, PuzzleVectorEnv  # noqa: E402
@@ -33,15 +34,6 @@ def dataset(tmp_path_factory):
     return root, {f"{r.generator}_{r.seed}": r.folder for r in reports}
 
 
-def _quiet_check(env) -> None:
-    """check_env, failing on any warning it raises as well as on its assertions."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        check_env(env)
-    complaints = [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
-    assert not complaints, complaints
-
-
 def _replay(env: PuzzleEnv, max_steps: int = 10_000) -> tuple[int, float, list[dict]]:
     """Follow the certificate with action_towards; (steps, total reward, infos)."""
     total, infos = 0.0, []
@@ -59,14 +51,14 @@ def _replay(env: PuzzleEnv, max_steps: int = 10_000) -> tuple[int, float, list[d
 def test_check_env_passes_for_a_folder_env(dataset):
     _, folders = dataset
     env = gym.make(ENV_ID, puzzle=folders["grid_world_8400"])
-    _quiet_check(env.unwrapped)
+    quiet_check(env.unwrapped)
     assert isinstance(env.unwrapped, PuzzleEnv)
 
 
 def test_check_env_passes_for_a_generator_env():
     env = gym.make(ENV_ID, generator="rooms", puzzle_seed=8402, action_mode="discrete", reward="shaped",
                    render_mode="ansi")
-    _quiet_check(env.unwrapped)
+    quiet_check(env.unwrapped)
     env.reset(seed=1)
     assert "rooms_8402" in env.render()
 
