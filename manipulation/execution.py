@@ -45,7 +45,7 @@ from .scene import (
     temporary_folder,
     write_scene_files,
 )
-from .solution import BenchmarkRun, Solution, candidate_solutions
+from .solution import BenchmarkRun, Solution, candidate_solutions, solution_problems
 from .source import ShortBenchmark, ensure_benchmark_solution
 from .transforms import inverse, matrix, quaternion
 
@@ -82,6 +82,12 @@ APPROACH_LEAST = 0.025
 """Metres the tool must rise straight up at least (the fingertips 5 mm above the knob's top)."""
 APPROACH_STEP = 0.001
 """Radians (or metres) per physics step, at most, of each joint while the tool rises or descends."""
+DRIFTED = "drifted after release"
+"""An action's stop: the object was within the goal's tolerance of its end as the fingers let go, and
+left it while it settled."""
+NOT_THERE = "not at its end at release"
+"""An action's stop: the follower's time (the path's and its settling window) ran out with the object
+still outside the goal's tolerance of its end; letting go did not bring it there."""
 REST_SPEED = 1e-3
 """Radians (or metres) per second: a puzzle joint slower than this is at rest."""
 REST_STEPS = 2400
@@ -323,12 +329,15 @@ class _Run:
                 stopped_at = result.time
             else:
                 stop, stopped_at = "the fingers did not close on the handle", t
+            # Measured as the fingers let go: an object not at its end then never got there; one that
+            # leaves it only afterwards drifted (the two causes had one label).
+            there_at_release = within(goal_tolerance)
             self.open_gripper()
             self.execution += time.perf_counter() - started
-            if stop == Stop.DONE.value:
+            if stop in (Stop.DONE.value, Stop.WINDOW_ENDED.value):
                 if self.settle_released(partial(within, goal_tolerance)):
                     break
-                stop = "drifted after release"
+                stop = DRIFTED if there_at_release else NOT_THERE
             stops.append(f"{stop} at t={stopped_at:.2f}s")
             regrasps += 1
             if regrasps > self.settings.max_regrasps_per_action:
@@ -646,15 +655,21 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings
         message = "refused before simulation: the gripper cannot hold " + "; ".join(refusals)
         report = ManipulationReport(name, generator, seed, scale, "none", 0, 0, 0, 0.0, 0.0, 0.0, False, False,
                                     0.0, message)
-        return report, Recording(), SceneSetup(scale_chain(loaded.chain, scale), Placement(scale, (0.0, 0.0)),
-                                               settings.robot)
+        return report, Recording(), _unplaced_setup(loaded, scale, settings)
     started = time.perf_counter()
     if settings.short_benchmark is not None and not runs:
         ensure_benchmark_solution(folder, settings.short_benchmark)
         loaded = read_puzzle_dir(folder)
     benchmark_seconds = time.perf_counter() - started
     attempts: list[AttemptReport] = []
+    recording, setup = Recording(), _unplaced_setup(loaded, scale, settings)  # when every solution is refused
     for solution in candidate_solutions(folder, loaded, runs):
+        problems = solution_problems(loaded, solution)
+        if problems:
+            # Refused before physics: a path our own model refutes is no test of the robot.
+            attempts.append(AttemptReport(solution.label, scale, 0, 0, 0.0, 0.0, 0.0, False, False, 0.0,
+                                          f"refused before simulation: {solution.source}: " + "; ".join(problems)))
+            continue
         # Seeded per solution too: an attempt's outcome does not depend on the attempts before it.
         seed_reaching(generator, name, seed, solution.label)
         attempt, recording, setup = execute_solution(loaded, solution, settings, gui, progress)
@@ -664,6 +679,11 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = ExecutionSettings
     report = replace(ManipulationReport.of_attempts(name, generator, seed, attempts),
                      benchmark_seconds=benchmark_seconds)
     return report, recording, setup
+
+
+def _unplaced_setup(loaded: LoadedPuzzle, scale: float, settings: ExecutionSettings) -> SceneSetup:
+    """The scene of a puzzle no solution of which reached physics: scaled, not placed."""
+    return SceneSetup(scale_chain(loaded.chain, scale), Placement(scale, (0.0, 0.0)), settings.robot)
 
 
 def execute_solution(loaded: LoadedPuzzle, solution: Solution, settings: ExecutionSettings, gui: bool = False,

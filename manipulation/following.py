@@ -69,6 +69,8 @@ class Stop(StrEnum):
     CONTACT = "near contact"
     SELF_CONTACT = "self contact"
     LOST_GRIP = "lost grip"
+    WINDOW_ENDED = "settling window ended"
+    """The path's end and its settling window passed without the object at its final state."""
 
 
 @dataclass(frozen=True)
@@ -190,7 +192,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
             # (its servos are PD), and a command at the sagged state sags it once more (a Move N Times
             # target held there turned 0.8 mrad out of its tolerance of 1, at every regrasp).
             return FollowResult(stop, t, steps + hold(world, target, settings.hold_steps, on_step))
-    return FollowResult(Stop.DONE, t, steps + hold(world, target, settings.hold_steps, on_step))
+    return FollowResult(Stop.WINDOW_ENDED, t, steps + hold(world, target, settings.hold_steps, on_step))
 
 
 def command(world: World, target: np.ndarray, velocity: np.ndarray | None = None) -> None:

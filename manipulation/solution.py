@@ -8,7 +8,9 @@ robot may find no grasp or no motion where it leaves an object), so
 :func:`candidate_solutions` lists every solution of the least action cost the
 benchmark found (the best-solution file and every LA-RRT run of the
 benchmark's journal on the same puzzle that reached that cost), then the
-clean certificate. Any path is split into single-object actions by
+clean certificate. Before any of them reaches physics, :func:`solution_problems` checks it as
+``phyrogen check`` checks a certificate (start, limits, collisions at 2 mm, goal): the robot never
+executes a path our own model refutes. Any path is split into single-object actions by
 :func:`phyrogen_core.actions.split_actions`, the rule the planners count actions by:
 a segment that moves several objects becomes one move per object (in factor
 order), and consecutive moves of the same object form one action.
@@ -83,6 +85,18 @@ def candidate_solutions(folder: Path, loaded: LoadedPuzzle,
         if not any(np.array_equal(solution.path, other.path) for other in out):
             out.append(solution)
     return out
+
+
+def solution_problems(loaded: LoadedPuzzle, solution: Solution) -> list[str]:
+    """What is wrong with ``solution`` as a path of the puzzle (empty when nothing is): the check
+    ``phyrogen check`` applies to a certificate (:func:`solver.planning.problem.verify_certificate`:
+    it starts at the puzzle's start, stays within the limits and free of collisions at
+    :data:`~solver.planning.problem.FINE_RESOLUTION`, 2 mm, and ends in the goal), its problems
+    worded for a solution rather than a certificate."""
+    from solver.planning.problem import FINE_RESOLUTION, verify_certificate
+
+    problems = verify_certificate(loaded.chain, solution.path, loaded.goal, FINE_RESOLUTION, start=loaded.start)
+    return [problem.replace("certificate", "path") for problem in problems]
 
 
 def load_solution(folder: Path, joint_order: Sequence[str], certificate: Sequence[Sequence[float]]) -> Solution:

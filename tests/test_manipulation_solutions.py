@@ -132,8 +132,8 @@ def test_the_next_solution_runs_when_one_fails_and_the_report_says_which(folder,
     from manipulation.outputs import report_json, summary_table
 
     loaded = read_puzzle_dir(folder)
-    certificate, longer, _ = _variants(loaded)
-    runs = [_run(loaded, longer, 1)]
+    certificate, _, _ = _variants(loaded)
+    runs = [_run(loaded, _with_midpoint(certificate), 1)]  # a valid path (the overshoot leaves the limits)
     tried = []
 
     def fake(loaded, solution, settings, gui=False, progress=None):
@@ -164,3 +164,92 @@ def test_the_next_solution_runs_when_one_fails_and_the_report_says_which(folder,
 def _failing(execution, solution):
     attempt = execution.AttemptReport(solution.label, 0.5, 2, 0, 1.0, 2.0, 3.0, False, False, 0.0, "no grasp")
     return attempt, execution.Recording(), None
+
+
+def _with_midpoint(path):
+    """The same motion with one more state, halfway along the first segment."""
+    path = np.asarray(path, dtype=float)
+    return np.vstack([path[:1], (path[0] + path[1]) / 2, path[1:]])
+
+
+def _straight_through(loaded):
+    """The target straight from start to goal, through its blockers."""
+    start = np.asarray(loaded.certificate[0], dtype=float)
+    end = start.copy()
+    for name, value in loaded.goal.values.items():
+        end[loaded.joint_order.index(name)] = value
+    return np.vstack([start, end])
+
+
+def _swapped(loaded):
+    """The certificate with its first two actions in each other's place (the target first)."""
+    from phyrogen_core.actions import split_actions
+
+    certificate = np.asarray(loaded.certificate, dtype=float)
+    actions = split_actions(certificate, _factors(loaded))
+    assert len(actions) >= 2
+    state, path = certificate[0].copy(), [certificate[0].copy()]
+    for action in [actions[1], actions[0], *actions[2:]]:
+        for row in action.states[1:]:
+            state = state.copy()
+            state[list(action.columns)] = row[list(action.columns)]
+            path.append(state)
+    return np.asarray(path)
+
+
+def _write_best(folder, loaded, path):
+    (folder / BEST_SOLUTION).parent.mkdir(exist_ok=True)
+    data = {"planner": "LA-RRT", "run": 3, "joint_order": list(loaded.joint_order), "path": np.asarray(path).tolist()}
+    (folder / BEST_SOLUTION).write_text(json.dumps(data))
+
+
+@pytest.mark.parametrize(("bad", "reason"), [
+    (_straight_through, "path collides at"),
+    (_swapped, "path collides at"),
+    (lambda loaded: np.asarray(loaded.certificate)[1:], "path does not begin at the start state"),
+    (lambda loaded: np.asarray(loaded.certificate)[:-1], "path does not end in the goal"),
+])
+def test_a_bad_solution_file_is_refused_before_physics_with_its_reason(folder, monkeypatch, bad, reason):
+    """Every solution is checked as ``phyrogen check`` checks a certificate (2 mm) before the robot
+    tries it: a refuted one never reaches physics, its attempt names why, and the next one runs."""
+    import manipulation.execution as execution
+
+    loaded = read_puzzle_dir(folder)
+    _write_best(folder, loaded, bad(loaded))
+    tried = []
+
+    def fake(loaded, solution, settings, gui=False, progress=None):
+        tried.append(solution.label)
+        attempt = execution.AttemptReport(solution.label, 0.5, 2, 0, 1.0, 2.0, 3.0, True, True, 0.0, "ok")
+        return attempt, execution.Recording(), None
+
+    monkeypatch.setattr(execution, "execute_solution", fake)
+    monkeypatch.setattr(execution, "ensure_benchmark_solution", lambda *args: None)
+    report, _, _ = execution.execute_puzzle(folder)
+    assert tried == ["certificate"]  # the bad file never reached physics
+    refused = report.attempts[0]
+    assert refused.solution == "benchmark best: LA-RRT run 3" and not refused.success
+    assert refused.message.startswith(f"refused before simulation: {folder / BEST_SOLUTION}: ")
+    assert reason in refused.message, refused.message
+    assert report.success and report.solutions_tried == 2
+
+
+def test_a_good_solution_file_passes_the_check_and_reaches_physics(folder, monkeypatch):
+    """The control: the same file holding a valid path (the certificate with one more state) is tried."""
+    import manipulation.execution as execution
+    from manipulation.solution import load_solution, solution_problems
+
+    loaded = read_puzzle_dir(folder)
+    _write_best(folder, loaded, _with_midpoint(loaded.certificate))
+    assert solution_problems(loaded, load_solution(folder, loaded.joint_order, loaded.certificate)) == []
+    for bad in (_straight_through, _swapped):  # and the bad paths are refuted by the check itself
+        _write_best(folder, loaded, bad(loaded))
+        assert solution_problems(loaded, load_solution(folder, loaded.joint_order, loaded.certificate))
+    _write_best(folder, loaded, _with_midpoint(loaded.certificate))
+    tried = []
+    monkeypatch.setattr(execution, "execute_solution",
+                        lambda loaded, solution, *args, **kwargs: (tried.append(solution.label),
+                                                                   _failing(execution, solution))[1])
+    monkeypatch.setattr(execution, "ensure_benchmark_solution", lambda *args: None)
+    execution.execute_puzzle(folder)
+    assert tried == ["benchmark best: LA-RRT run 3", "certificate"]
