@@ -17,7 +17,10 @@ Two steps, each a sub-command:
 ``table``   Read the benchmark journals of the suite measured on held-out
             seeds (``phyrogen benchmark ... --out DIR/<generator>``, one per
             generator, since each has its own paper budget) and print the
-            Markdown table of docs/benchmark/hard-suite.md.
+            Markdown table of docs/benchmark/hard-suite.md: every benchmark
+            entry (both LA-RRTs, RRT*, LBT-RRT, BIT*) on every generator, those
+            without a hard size (yet) at the size ``--sizes`` gives (default:
+            the largest paper size), with each run's end reason counted.
 
 ``commands`` Print the commands that generate and measure the suite.
 
@@ -58,12 +61,16 @@ def paper_budget_checks(generator: str) -> int:
     return round(get_generator(generator).time_limit("paper") * CHECKS_PER_SECOND)
 
 PLANNERS = ("bit_star", "rrt_star")
+"""The planners whose failure defines a hard size (the search runs these two)."""
+ENTRIES = ("la_rrt", "la_rrt_push", "rrt_star", "lbt_rrt", "bit_star")
+"""The entries the suite is measured with (``table``, ``commands``, ``pipeline``): the benchmark's five."""
+CHARGE = "motion-length"
+"""How the search's checks were counted: a motion by its length in resolution steps (the benchmark's
+unit since planner versions paper-4/push-5/ompl-5/py-4). Search lines without it counted a motion once
+(``per-motion``, the committed hard-suite-search*.jsonl): their verdicts are not reused at the same budget."""
 SEARCH_SEEDS = (70001, 70002)
 """Seeds of the search; no test and not the measurement (90001-90010) uses them."""
 MEASURE_SEEDS = "90001-90010"
-BACKSTOP = 3600
-"""Seconds: each benchmark run's time limit, only a backstop behind its check budget (a run that
-reached it would be flagged in the table: unsolved with fewer checks than its budget)."""
 
 
 @dataclass(frozen=True)
@@ -132,14 +139,15 @@ def search_size(generator: str, size: int, knob: Knob, seeds: tuple[int, ...], r
                 outcomes[planner].append(result.solved)
                 line = {"generator": generator, "size": size, "overrides": overrides, "puzzle": puzzle.name,
                         "planner": planner, "run": run, "budget_checks": budget, "solved": result.solved,
-                        "checks": result.checks, "cpu_time": result.cpu_time}
+                        "checks": result.checks, "cpu_time": result.cpu_time, "charge": CHARGE,
+                        "end": result.end}
                 log.write(json.dumps(line, sort_keys=True) + "\n")
                 log.flush()
                 print(f"  {puzzle.name} {overrides} {planner} run {run}: "
                       f"{'solved' if result.solved else 'failed'} after {result.checks} checks, "
                       f"{result.cpu_time:.1f} s CPU", flush=True)
                 decided = verdict(outcomes, total)
-    summary = {"generator": generator, "size": size, "overrides": overrides, "budget_checks": budget,
+    summary = {"generator": generator, "size": size, "overrides": overrides, "budget_checks": budget, "charge": CHARGE,
                "seeds": list(seeds), "uncertified": uncertified, "runs_per_seed": runs,
                "successes": {p: sum(o) for p, o in outcomes.items()}, "runs": {p: len(o) for p, o in outcomes.items()},
                "hard": bool(decided) if total else False, "generation_cpu": generation_cpu,
@@ -149,16 +157,18 @@ def search_size(generator: str, size: int, knob: Knob, seeds: tuple[int, ...], r
     return summary
 
 
-def _verdicts(log_path: Path) -> dict[tuple[str, int, int], dict]:
-    """The sizes the search log has a verdict for: (generator, size, budget in checks) -> its summary.
-    The budget is part of the key: a log may hold searches at several checks per second."""
+def _verdicts(log_path: Path) -> dict[tuple[str, int, int, str], dict]:
+    """The sizes the search log has a verdict for: (generator, size, budget in checks, charge) -> its
+    summary. The budget and the unit it was counted in (:data:`CHARGE`; ``per-motion`` for lines without
+    one) are part of the key: a log may hold searches at several checks per second and in either unit."""
     done = {}
     if log_path.is_file():
         for line in log_path.read_text().splitlines():
             data = json.loads(line)
             if "verdict" in data:
                 found = data["verdict"]
-                done[(found["generator"], found["size"], found["budget_checks"])] = found
+                done[(found["generator"], found["size"], found["budget_checks"],
+                      found.get("charge", "per-motion"))] = found
     return done
 
 
@@ -191,7 +201,7 @@ def cmd_search(args) -> int:
         for generator in args.generators.split(","):
             knob = KNOBS[generator]
             for size in _sizes(generator, starts):
-                summary = (done.get((generator, size, paper_budget_checks(generator)))
+                summary = (done.get((generator, size, paper_budget_checks(generator), CHARGE))
                            or search_size(generator, size, knob, seeds, args.runs, log))
                 print(f"{generator} {knob.knob}={size}: {summary['successes']} of {summary['runs']} runs solved "
                       f"(budget {summary['budget_checks']} checks), uncertified seeds {summary['uncertified']}: "
@@ -208,55 +218,107 @@ def wilson(successes: int, runs: int) -> tuple[float, float]:
     return interval.low, interval.high
 
 
-def cmd_table(args) -> int:
-    from solver.benchmark.runner import read_journal
+def _sizes_option(text: str) -> dict[str, int]:
+    """``--sizes rooms=4,lockbox_random=7``: the size of each generator without a hard size (yet)."""
+    return _starts(text)
 
-    titles = {"bit_star": "BIT*", "rrt_star": "RRT*"}
-    rows = ["| generator | parameters | budget (checks) | planner | solved / runs | success rate [95 % Wilson] "
-            "| median checks to first (solved runs) | CPU h |", "|---|---|---|---|---|---|---|---|"]
+
+def measured_sizes(sizes: dict[str, int]) -> list[tuple[str, dict[str, str], bool]]:
+    """(generator, overrides, in the suite) for every generator of :data:`KNOBS`: the suite's size, else
+    ``sizes``'s, else the knob's start (the largest paper size)."""
+    suite = {entry.generator: dict(entry.overrides) for entry in get_suite("hard")}
+    out = []
+    for generator, knob in KNOBS.items():
+        if generator in suite:
+            out.append((generator, suite[generator], True))
+        else:
+            out.append((generator, knob.overrides(sizes.get(generator, knob.start)), False))
+    return out
+
+
+def table_rows(bench: Path, sizes: dict[str, int]) -> tuple[list[str], float, list[str]]:
+    """The Markdown rows of the measured suite in ``bench`` (one benchmark folder per generator), the CPU
+    seconds of its runs and warnings (crashed runs left out, clock-ended runs)."""
+    from solver.benchmark.runner import read_journal
+    from solver.planning.registry import get_planner
+
+    rows = ["| generator | parameters | budget (checks) | entry | solved / runs | success rate [95 % Wilson] "
+            "| median checks to first (solved runs) | end reasons | CPU h |",
+            "|---|---|---:|---|---|---|---:|---|---:|"]
+    warnings = []
     total_cpu = 0.0
-    for entry in get_suite("hard"):
-        journal = Path(args.bench) / entry.generator / "runs.jsonl"
+    for generator, overrides, in_suite in measured_sizes(sizes):
+        journal = bench / generator / "runs.jsonl"
         records = list(read_journal(journal).values()) if journal.is_file() else []
-        sets = ", ".join(f"{k}={v}" for k, v in entry.overrides.items())
-        for planner in PLANNERS:
+        sets = ", ".join(f"{k}={v}" for k, v in overrides.items()) + ("" if in_suite else " (not a hard size)")
+        budget = paper_budget_checks(generator)
+        for planner in ENTRIES:
+            title = get_planner(planner).title
             # A crashed run (the worker died before it reported) is no verdict on the puzzle: left out and named;
             # the benchmark runs it again when resumed.
-            crashed = [r for r in records if r.planner == titles[planner] and r.error]
+            crashed = [r for r in records if r.planner == title and r.error]
             if crashed:
-                print(f"WARNING: {entry.generator} {titles[planner]}: {len(crashed)} crashed runs left out (run the "
-                      "benchmark again to redo them)", file=sys.stderr)
-            mine = [r for r in records if r.planner == titles[planner] and not r.error]
+                warnings.append(f"{generator} {title}: {len(crashed)} crashed runs left out (run the benchmark "
+                                "again to redo them)")
+            mine = [r for r in records if r.planner == title and not r.error]
+            # A run the wall clock ended is no result of its budget (docs/benchmark/README.md#end-reasons).
+            clock = [r for r in mine if r.end == "clock" or (r.end is None and not r.solved and
+                                                              (r.checks or 0) < budget)]
+            counted = [r for r in mine if r not in clock]
+            if clock:
+                warnings.append(f"{generator} {title}: {len(clock)} runs ended by the clock before their budget: "
+                                "left out, the cell is incomplete")
             if not mine:
-                rows.append(f"| {entry.generator} | {sets} | {paper_budget_checks(entry.generator):,} | "
-                            f"{titles[planner]} | not measured | | | |")
+                rows.append(f"| {generator} | {sets} | {budget:,} | {title} | not measured | | | | |")
                 continue
-            solved = [r for r in mine if r.solved]
-            low, high = wilson(len(solved), len(mine))
-            median = statistics.median(r.checks for r in solved) if solved else math.nan
+            ends: dict[str, int] = {}
+            for r in mine:
+                ends[r.end or "unknown"] = ends.get(r.end or "unknown", 0) + 1
+            end_text = ", ".join(f"{k} {v}" for k, v in sorted(ends.items())) + (" (incomplete)" if clock else "")
             cpu = sum(r.cpu_time or 0.0 for r in mine)
             total_cpu += cpu
-            clock = [r for r in mine if not r.solved and (r.checks or 0) < paper_budget_checks(entry.generator)]
-            if clock:
-                print(f"WARNING: {entry.generator} {titles[planner]}: {len(clock)} runs ended before their budget "
-                      f"(backstop or crash): {[r.status for r in clock]}", file=sys.stderr)
-            budget = paper_budget_checks(entry.generator)
-            rows.append(f"| {entry.generator} | {sets} | {budget:,} | {titles[planner]} | "
-                        f"{len(solved)} / {len(mine)} | {len(solved) / len(mine):.2f} [{low:.2f}, {high:.2f}] | "
-                        f"{'-' if not solved else f'{median:,.0f}'} | {cpu / 3600:.3f} |")
+            if not counted:
+                rows.append(f"| {generator} | {sets} | {budget:,} | {title} | 0 / 0 | - | - | {end_text} "
+                            f"| {cpu / 3600:.3f} |")
+                continue
+            solved = [r for r in counted if r.solved]
+            low, high = wilson(len(solved), len(counted))
+            median = statistics.median(r.checks for r in solved) if solved else math.nan
+            rows.append(f"| {generator} | {sets} | {budget:,} | {title} | "
+                        f"{len(solved)} / {len(counted)} | {len(solved) / len(counted):.2f} [{low:.2f}, {high:.2f}] | "
+                        f"{'-' if not solved else f'{median:,.0f}'} | {end_text} | {cpu / 3600:.3f} |")
+    return rows, total_cpu, warnings
+
+
+def cmd_table(args) -> int:
+    rows, total_cpu, warnings = table_rows(Path(args.bench), _sizes_option(args.sizes))
+    for line in warnings:
+        print(f"WARNING: {line}", file=sys.stderr)
     print("\n".join(rows))
     print(f"\nCPU time of all runs: {total_cpu / 3600:.3f} h (the planners' own CPU seconds, `cpu time` of the logs)")
     return 0
 
 
+def benchmark_command(out: str, generator: str, runs: int) -> list[str]:
+    """The ``phyrogen benchmark`` arguments that measure ``generator``'s puzzles in ``out/puzzles`` with every
+    entry, until the first solution, at its paper budget; the backstop derived from the budget."""
+    return ["benchmark", "--puzzles", f"{out}/puzzles", "--generator", generator, "--planners", ",".join(ENTRIES),
+            "--runs", str(runs), "--budget-checks", str(paper_budget_checks(generator)), "--until", "first",
+            "--workers", "1", "--no-solutions", "--out", f"{out}/bench/{generator}"]
+
+
 def cmd_commands(args) -> int:
     out = args.out
     print(f".venv/bin/phyrogen generate --suite hard --seeds {MEASURE_SEEDS} --workers 1 --out {out}/puzzles")
-    for entry in get_suite("hard"):
-        print(f".venv/bin/phyrogen benchmark --puzzles {out}/puzzles --generator {entry.generator} --planners "
-              f"{','.join(PLANNERS)} --runs {args.runs} --budget-checks {paper_budget_checks(entry.generator)} "
-              f"--until first --time-limit {BACKSTOP} --workers 1 --out {out}/bench/{entry.generator}")
-    print(f".venv/bin/python scripts/hard_suite.py table --bench {out}/bench")
+    for generator, overrides, in_suite in measured_sizes(_sizes_option(args.sizes)):
+        if not in_suite:
+            sets = " ".join(f"--set {k}={v}" for k, v in overrides.items())
+            print(f".venv/bin/phyrogen generate --generator {generator} {sets} --seeds {MEASURE_SEEDS} --workers 1 "
+                  f"--out {out}/puzzles")
+    for generator, _, _ in measured_sizes(_sizes_option(args.sizes)):
+        print(".venv/bin/phyrogen " + " ".join(benchmark_command(out, generator, args.runs)))
+    print(f".venv/bin/python scripts/hard_suite.py table --bench {out}/bench"
+          + (f" --sizes {args.sizes}" if args.sizes else ""))
     return 0
 
 
@@ -273,7 +335,7 @@ def cmd_pipeline(args) -> int:
             knob = KNOBS[generator]
             hard = None
             for size in _sizes(generator, starts):
-                summary = (done.get((generator, size, paper_budget_checks(generator)))
+                summary = (done.get((generator, size, paper_budget_checks(generator), CHARGE))
                            or search_size(generator, size, knob, seeds, args.search_runs, log))
                 print(f"{generator} {knob.knob}={size}: {summary['successes']} of {summary['runs']} solved, "
                       f"uncertified {summary['uncertified']}: {'HARD' if summary['hard'] else 'not hard'}", flush=True)
@@ -289,12 +351,8 @@ def cmd_pipeline(args) -> int:
             started = time.time()
             subprocess.run([*phyrogen, "generate", "--generator", generator, *sets, "--seeds", MEASURE_SEEDS,
                             "--workers", "1", "--quiet", "--out", str(out / "puzzles")], cwd=ROOT, check=False)
-            subprocess.run([*phyrogen, "benchmark", "--puzzles", str(out / "puzzles"), "--generator", generator,
-                            "--planners",
-                            ",".join(PLANNERS), "--runs", str(args.runs), "--budget-checks",
-                            str(paper_budget_checks(generator)), "--until", "first", "--time-limit", str(BACKSTOP),
-                            "--workers", "1", "--quiet",
-                            "--out", str(out / "bench" / generator)], cwd=ROOT, check=False)
+            subprocess.run([*phyrogen, *benchmark_command(str(out), generator, args.runs), "--quiet"], cwd=ROOT,
+                           check=False)
             print(f"{generator}: measured at {knob.knob}={hard} in {time.time() - started:.0f} s wall", flush=True)
     return 0
 
@@ -312,10 +370,14 @@ def main(argv: list[str] | None = None) -> int:
     search.set_defaults(func=cmd_search)
     table = sub.add_parser("table", help="the Markdown table of a measured suite")
     table.add_argument("--bench", required=True, help="folder with one benchmark output folder per generator")
+    table.add_argument("--sizes", default="", help="GENERATOR=SIZE,...: the size measured of a generator without "
+                       "a hard size (default: its largest paper size)")
     table.set_defaults(func=cmd_table)
     commands = sub.add_parser("commands", help="print the commands that generate and measure the suite")
     commands.add_argument("--out", default="output/hard")
     commands.add_argument("--runs", type=int, default=3)
+    commands.add_argument("--sizes", default="", help="GENERATOR=SIZE,...: the size to measure of a generator "
+                          "without a hard size (default: its largest paper size)")
     commands.set_defaults(func=cmd_commands)
     pipeline = sub.add_parser("pipeline", help="search, generate and benchmark each generator in turn")
     pipeline.add_argument("--generators", default=",".join(KNOBS))

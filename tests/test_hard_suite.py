@@ -95,13 +95,50 @@ def test_the_search_resumes_only_verdicts_made_at_the_same_budget(tmp_path):
     # budget is reused. Negative control: the other budget's verdict is not.
     script = _script()
     log = tmp_path / "search.jsonl"
-    lines = [{"verdict": {"generator": "move_n_times", "size": 7, "budget_checks": budget, "hard": hard}}
-             for budget, hard in ((200_000, True), (560_000, False))]
+    lines = [{"verdict": {"generator": "move_n_times", "size": 7, "budget_checks": budget, "hard": hard,
+                          "charge": script.CHARGE}} for budget, hard in ((200_000, True), (560_000, False))]
+    # A verdict of the old unit (a motion counted once; no "charge" in the line) at the same budget.
+    lines.append({"verdict": {"generator": "move_n_times", "size": 8, "budget_checks": 560_000, "hard": True}})
     log.write_text("".join(json.dumps(line) + "\n" for line in lines))
     done = script._verdicts(log)
-    assert done[("move_n_times", 7, 560_000)]["hard"] is False
-    assert done[("move_n_times", 7, 200_000)]["hard"] is True
-    assert ("move_n_times", 7, 1_000) not in done
+    assert done[("move_n_times", 7, 560_000, script.CHARGE)]["hard"] is False
+    assert done[("move_n_times", 7, 200_000, script.CHARGE)]["hard"] is True
+    assert ("move_n_times", 7, 1_000, script.CHARGE) not in done
+    assert ("move_n_times", 8, 560_000, script.CHARGE) not in done  # not reused: another unit
+    assert ("move_n_times", 8, 560_000, "per-motion") in done
+
+
+def test_the_table_reports_every_entry_on_every_generator_and_counts_clock_ended_runs_apart(tmp_path):
+    from solver.benchmark.runner import RunRecord, journal_line
+    from solver.planning.registry import get_planner
+
+    script = _script()
+    bench = tmp_path / "bench"
+    (bench / "rooms").mkdir(parents=True)
+    budget = script.paper_budget_checks("rooms")
+    lines = []
+    for k, planner in enumerate(script.ENTRIES):
+        title = get_planner(planner).title
+        for run, (solved, end, checks) in enumerate(((True, "solved", 1000 + k), (False, "budget", budget),
+                                                     (False, "clock", budget // 9))):
+            record = RunRecord(title, "rooms_90001", run, 10 * k + run, 600.0, solved,
+                               "Exact solution" if solved else "Timeout", 1.0, 0.5 if solved else None,
+                               3 if solved else None, 1.0 if solved else None, 10, 0, (), checks=checks,
+                               cpu_time=2.0, end=end)
+            key = json.dumps({"planner": planner, "puzzle": "rooms_90001", "run": run, "seed": 10 * k + run})
+            lines.append(journal_line(key, record))
+    (bench / "rooms" / "runs.jsonl").write_bytes(b"".join(lines))
+    rows, cpu, warnings = script.table_rows(bench, {})
+    body = rows[2:]
+    assert len(body) == len(script.KNOBS) * len(script.ENTRIES)  # every entry on every generator
+    assert {row.split(" | ")[0].strip("| ") for row in body} == set(script.KNOBS)
+    rooms = [row for row in body if row.startswith("| rooms |")]
+    assert [row.split(" | ")[3] for row in rooms] == [get_planner(p).title for p in script.ENTRIES]
+    for row in rooms:  # the clock-ended run is left out of the rate and named
+        assert "| 1 / 2 |" in row and "clock 1" in row and "(incomplete)" in row and "(not a hard size)" in row
+    assert len([w for w in warnings if "clock" in w]) == len(script.ENTRIES) and cpu == 2.0 * 3 * 5
+    # Control: the other generators were not measured here, and say so.
+    assert all("not measured" in row for row in body if not row.startswith("| rooms |"))
 
 
 def test_search_start_sizes():
