@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import bpy
@@ -20,11 +21,36 @@ from .scene import phobostype
 from .views import DEFAULT_VIEWS, GALLERY_VIEW, VIEWS, View, image_name
 
 STAGE = "phyrogen_stage"
-FLOOR_COLOR = (1.0, 1.0, 1.0, 1.0)
 CYCLES_SAMPLES = 16
-STILL_WORKBENCH_AA = "5"
-"""Workbench samples per still. Against 32-sample references of the paper's puzzles, 5 samples come
-as close as 8 (PSNR 46.9-48.3 dB against 46.2-47.6 dB) at two thirds of the time; see docs/performance.md."""
+
+
+@dataclass(frozen=True)
+class Look:
+    """How a puzzle stands on its stage in Workbench (Cycles takes the floor's and the world's colours)."""
+
+    floor_color: tuple[float, float, float, float]
+    world_color: tuple[float, float, float]
+    exposure: float
+    light_direction: tuple[float, float, float]
+    """Workbench's studio light, in the camera's frame (x right, y up, z towards the camera): shadows fall
+    away from it, so each view has them on the same side."""
+    shadow_intensity: float
+    shadow_focus: float
+    cavity: str | None
+    """Workbench's cavity: 'SCREEN' (ridges and valleys darkened on screen), 'WORLD' (ambient occlusion
+    by sampling), 'BOTH', or None."""
+    valley_factor: float
+    still_aa: str
+    """Workbench's anti-aliasing of stills ('FXAA', or a sample count as text)."""
+
+
+GROUND = Look(floor_color=(1.0, 1.0, 0.98, 1.0), world_color=(0.97, 0.97, 0.98), exposure=0.3,
+              light_direction=(-0.35, 0.8, 0.5), shadow_intensity=0.6, shadow_focus=0.5, cavity="SCREEN",
+              valley_factor=1.5, still_aa="FXAA")
+"""The puzzles standing on a light floor, as in the paper's Fig. 3: a shadow cast on the floor beside each
+object, edges and contacts darkened by the screen-space cavity. Costs what the flat look cost per still at
+its 480x360 (``benchmarks/render_look.py``, docs/blender-animation.md): FXAA instead of 5 samples pays for
+the larger default size; the shadows and the cavity cost little; AO by sampling (WORLD) doubled the time."""
 
 
 def visual_bounds(collection: bpy.types.Collection) -> tuple[np.ndarray, np.ndarray]:
@@ -43,8 +69,8 @@ def visual_bounds(collection: bpy.types.Collection) -> tuple[np.ndarray, np.ndar
 
 
 def setup_stage(scene: bpy.types.Scene, collection: bpy.types.Collection, engine: str,
-                size: tuple[int, int]) -> None:
-    """Floor, light, world and render settings for ``engine`` ('WORKBENCH' or 'CYCLES')."""
+                size: tuple[int, int], look: Look = GROUND) -> None:
+    """Floor, light, world and render settings for ``engine`` ('WORKBENCH' or 'CYCLES') in ``look``."""
     valid = ("WORKBENCH", "CYCLES")
     if engine not in valid:
         raise ValueError(f"render engine {engine!r} is not supported here; valid: {valid}")
@@ -56,7 +82,7 @@ def setup_stage(scene: bpy.types.Scene, collection: bpy.types.Collection, engine
         bpy.data.objects.remove(obj)
     centre = (low + high) / 2
     extent = float(max(high[0] - low[0], high[1] - low[1], 1.0))
-    _floor(stage, centre, extent * 20, float(low[2]))
+    _floor(stage, centre, extent * 20, float(low[2]), look.floor_color)
     sun = bpy.data.objects.new("phyrogen_sun", bpy.data.lights.new("phyrogen_sun", "SUN"))
     sun.data.energy = 3.0
     sun.data.angle = math.radians(10)
@@ -80,16 +106,22 @@ def setup_stage(scene: bpy.types.Scene, collection: bpy.types.Collection, engine
             setattr(render, flag, False)
     world = scene.world or bpy.data.worlds.new("phyrogen_world")
     scene.world = world
-    world.color = (0.9, 0.92, 0.95)
+    world.color = look.world_color
     scene.view_settings.view_transform = "Standard"
     if engine == "WORKBENCH":
+        scene.view_settings.exposure = look.exposure
         shading = scene.display.shading
         shading.light = "STUDIO"
         shading.color_type = "MATERIAL"
         shading.show_shadows = True
-        shading.show_cavity = False
-        scene.display.render_aa = STILL_WORKBENCH_AA
-        scene.display.light_direction = (0.35, -0.45, 0.82)
+        shading.shadow_intensity = look.shadow_intensity
+        shading.show_cavity = look.cavity is not None
+        if look.cavity is not None:
+            shading.cavity_type = look.cavity
+            shading.curvature_valley_factor = look.valley_factor
+        scene.display.render_aa = look.still_aa
+        scene.display.light_direction = look.light_direction
+        scene.display.shadow_focus = look.shadow_focus
         scene.display.shadow_shift = 0.1
     else:
         cycles = scene.cycles
@@ -101,22 +133,24 @@ def setup_stage(scene: bpy.types.Scene, collection: bpy.types.Collection, engine
         world.use_nodes = True
         background = world.node_tree.nodes.get("Background")
         if background is not None:
-            background.inputs["Color"].default_value = (0.9, 0.92, 0.95, 1.0)
+            background.inputs["Color"].default_value = (*look.world_color, 1.0)
             background.inputs["Strength"].default_value = 0.8
 
 
-def _floor(stage: bpy.types.Collection, centre: np.ndarray, size: float, z: float) -> None:
+def _floor(stage: bpy.types.Collection, centre: np.ndarray, size: float, z: float,
+           color: tuple[float, float, float, float]) -> None:
     mesh = bpy.data.meshes.get("phyrogen_floor") or bpy.data.meshes.new("phyrogen_floor")
     if not mesh.vertices:
         mesh.from_pydata([(-0.5, -0.5, 0), (0.5, -0.5, 0), (0.5, 0.5, 0), (-0.5, 0.5, 0)], [], [(0, 1, 2, 3)])
         material = bpy.data.materials.new("phyrogen_floor")
-        material.diffuse_color = FLOOR_COLOR
         material.use_nodes = True
-        bsdf = material.node_tree.nodes.get("Principled BSDF")
-        if bsdf is not None:
-            bsdf.inputs["Base Color"].default_value = FLOOR_COLOR
-            bsdf.inputs["Roughness"].default_value = 0.9
         mesh.materials.append(material)
+    material = mesh.materials[0]
+    material.diffuse_color = color
+    bsdf = material.node_tree.nodes.get("Principled BSDF")
+    if bsdf is not None:
+        bsdf.inputs["Base Color"].default_value = color
+        bsdf.inputs["Roughness"].default_value = 0.9
     floor = bpy.data.objects.new("phyrogen_floor", mesh)
     floor.location = (float(centre[0]), float(centre[1]), z - 1e-3)
     floor.scale = (size, size, 1.0)

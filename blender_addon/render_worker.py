@@ -19,7 +19,7 @@ from pathlib import Path
 
 from phyrogen_core.folder import PuzzleFormatError
 
-from .views import DEFAULT_VIEWS, parse_views
+from .views import DEFAULT_VIEWS, STILL_SIZE, parse_views
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ def parse_size(text: str) -> tuple[int, int]:
     try:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise ValueError(f"bad image size {text!r}; valid: WIDTHxHEIGHT, e.g. 480x360") from None
+        raise ValueError(f"bad image size {text!r}; valid: WIDTHxHEIGHT, e.g. 560x420") from None
     if not (MIN_IMAGE_SIDE <= width <= MAX_IMAGE_SIDE and MIN_IMAGE_SIDE <= height <= MAX_IMAGE_SIDE):
         raise ValueError(f"image size {text!r} is out of range; valid: each side {MIN_IMAGE_SIDE}..{MAX_IMAGE_SIDE}")
     return width, height
@@ -107,7 +107,7 @@ def parse_size(text: str) -> tuple[int, int]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m blender_addon.render_worker", description=__doc__)
     parser.add_argument("--engine", choices=("WORKBENCH", "CYCLES"), default="WORKBENCH")
-    parser.add_argument("--size", default="480x360")
+    parser.add_argument("--size", default="x".join(map(str, STILL_SIZE)))
     parser.add_argument("--views", default=",".join(DEFAULT_VIEWS))
     parser.add_argument("--no-animation", action="store_true", help="no solution animation")
     parser.add_argument("folders", nargs="+")

@@ -23,7 +23,7 @@ from pathlib import Path
 from solver.parallel.pool import deferred_signals
 
 from .environment import render_worker_command
-from .views import DEFAULT_VIEWS
+from .views import DEFAULT_VIEWS, STILL_SIZE
 
 ENGINES = ("auto", "workbench", "cycles")
 
@@ -66,7 +66,7 @@ class RenderReport:
         return sum(r.animation_seconds or 0.0 for r in self.rendered)
 
 
-def render_puzzles(puzzle_dirs: Sequence[str | Path], engine: str = "auto", size: tuple[int, int] = (480, 360),
+def render_puzzles(puzzle_dirs: Sequence[str | Path], engine: str = "auto", size: tuple[int, int] = STILL_SIZE,
                    views: Sequence[str] = DEFAULT_VIEWS, workers: int = 1,
                    on_done: Callable[[RenderedPuzzle], None] | None = None, animation: bool = True) -> RenderReport:
     """Render every folder: ``images/<name>_NN.png`` (one per view) and ``<name>.blend``.

@@ -749,10 +749,11 @@ class PHYROGEN_OT_render(bpy.types.Operator):  # noqa: N801
         from phyrogen_core.folder import Stage, owned_directory, stage_owns
 
         from .render import render_views, setup_stage
+        from .views import STILL_SIZE
 
         settings = context.scene.phyrogen
         collection = current_collection(context)
-        setup_stage(context.scene, collection, settings.engine, (480, 360))
+        setup_stage(context.scene, collection, settings.engine, STILL_SIZE)
         # Only the render stage's own images are replaced; a user's file in images/ stays.
         owns = lambda path: stage_owns(Stage.RENDER, collection.name, f"images/{path}")  # noqa: E731
         with owned_directory(puzzle_folder(settings, collection).images, owns) as folder:
