@@ -35,13 +35,15 @@ def generator_of(puzzle: str) -> str:
     return puzzle.rsplit("_", 1)[0]
 
 
-def records(folders: Iterable[Path]) -> list[RunRecord]:
+def records(folders: Iterable[Path], runs: int | None = None) -> list[RunRecord]:
+    """The runs of the folders' journals (crashed ones left out); with ``runs``, only runs 0..runs-1
+    (the same seeds in both benchmarks when one has more runs per cell than the other)."""
     out = []
     for folder in folders:
         journal = Path(folder) / JOURNAL
         if not journal.is_file():
             raise SystemExit(f"error: {journal}: no benchmark journal")
-        out += [r for r in read_journal(journal).values() if r.error is None]
+        out += [r for r in read_journal(journal).values() if r.error is None and (runs is None or r.run < runs)]
     return out
 
 
@@ -123,17 +125,18 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--checks", type=Path, nargs="+", required=True, help="benchmark folders budgeted in checks")
     parser.add_argument("--cpu", type=Path, nargs="*", default=[], help="benchmark folders budgeted in CPU seconds")
+    parser.add_argument("--runs", type=int, help="use runs 0..RUNS-1 of each cell only")
     parser.add_argument("--suggest", action="store_true",
                         help="print the CPU budget per generator that matches the paper's check budgets, and stop")
     args = parser.parse_args(argv)
-    checks = records(args.checks)
+    checks = records(args.checks, args.runs)
     if args.suggest:
         from solver.benchmark.paper_budgets import paper_budgets
 
         for generator, seconds in cpu_budgets(checks, paper_budgets()).items():
             print(f"{generator} {seconds:g}")
         return 0
-    print(report(checks, records(args.cpu)))
+    print(report(checks, records(args.cpu, args.runs)))
     return 0
 
 
