@@ -53,10 +53,10 @@ PROOF_SLACK = 1e-4
 """Metres added to every erosion, so that an overlap proven at a cell's centre is strictly more
 than the judge's tolerance everywhere in the cell."""
 ERODE_HEADROOM = 0.5
-"""An outline is modelled only while eroding it by its largest erosion keeps every edge at least
-half its length (the corner-factor bound needs every vertex to survive the erosion)."""
+"""An outline takes part in a proof only while eroding it keeps every edge at least half its length
+(the corner-factor bound needs every vertex to survive the erosion)."""
 MAX_EROSION = 0.2
-"""The largest shrink plus cell erosion an outline is modelled for (metres)."""
+"""The largest shrink plus cell erosion a proof is tried with (metres)."""
 
 
 @dataclass(frozen=True)
@@ -67,6 +67,7 @@ class _Outline:
     z_high: float
     corner: float  # the largest 1 / sin(alpha / 2) over its interior angles alpha
     radius: float  # the farthest vertex from the vertices' mean
+    erodible: float  # the largest erosion (metres) that keeps every edge at ERODE_HEADROOM of its length
 
 
 @dataclass(frozen=True)
@@ -99,11 +100,10 @@ def _outline(vertices: np.ndarray, z_low: float, z_high: float) -> _Outline | No
     if np.any(angles <= 1e-6) or np.any(angles >= math.pi - 1e-9):
         return None
     # Erosion by r moves an edge's ends inward along it by r cot(alpha / 2) at each end.
-    shortening = MAX_EROSION * (1 / np.tan(angles / 2) + np.roll(1 / np.tan(angles / 2), -1))
-    if np.any(shortening > ERODE_HEADROOM * lengths):
-        return None
+    shortening = 1 / np.tan(angles / 2) + np.roll(1 / np.tan(angles / 2), -1)
+    erodible = float(np.min(ERODE_HEADROOM * lengths / shortening))
     radius = float(np.max(np.linalg.norm(vertices - vertices.mean(axis=0), axis=1)))
-    return _Outline(vertices, normals, z_low, z_high, float(np.max(1 / np.sin(angles / 2))), radius)
+    return _Outline(vertices, normals, z_low, z_high, float(np.max(1 / np.sin(angles / 2))), radius, erodible)
 
 
 def _outlines(obj: PuzzleObject) -> tuple[_Outline, ...]:
@@ -257,15 +257,18 @@ class BlockingProver:
         box_a, box_b = self._box(obj_a, where_a, cells_a), self._box(obj_b, where_b, cells_b)
         if np.all(box_a[:2] < box_b[2:]) and np.all(box_b[:2] < box_a[2:]):
             tolerance = shrunk_tolerance(shrink)
+            erosion = shrink + self.erosion + PROOF_SLACK
             for outline_a in self.outlines(obj_a):
                 world_a = None
                 for outline_b in self.outlines(obj_b):
                     if min(outline_a.z_high, outline_b.z_high) - max(outline_a.z_low, outline_b.z_low) <= tolerance:
                         continue
+                    if erosion > min(outline_a.erodible, outline_b.erodible):
+                        continue  # too thin for the bound: left out, which can only prove less
                     world_a = world_a if world_a is not None else _world(outline_a, cells_a.poses)
                     world_b = _world(outline_b, cells_b.poses)
                     corner = max(outline_a.corner, outline_b.corner)
-                    threshold = max(2 * corner * (shrink + self.erosion + PROOF_SLACK), DEFAULT_TOLERANCE)
+                    threshold = max(2 * corner * erosion, DEFAULT_TOLERANCE)
                     # Only cell pairs whose bounding circles overlap by more than the threshold can.
                     centre_a, centre_b = world_a[0].mean(axis=1), world_b[0].mean(axis=1)
                     reach = outline_a.radius + outline_b.radius - threshold
