@@ -48,9 +48,10 @@ GROUND = Look(floor_color=(1.0, 1.0, 0.98, 1.0), world_color=(0.97, 0.97, 0.98),
               light_direction=(-0.35, 0.8, 0.5), shadow_intensity=0.6, shadow_focus=0.5, cavity="SCREEN",
               valley_factor=1.5, still_aa="FXAA")
 """The puzzles standing on a light floor, as in the paper's Fig. 3: a shadow cast on the floor beside each
-object, edges and contacts darkened by the screen-space cavity. Costs what the flat look cost per still at
-its 480x360 (``benchmarks/render_look.py``, docs/blender-animation.md): FXAA instead of 5 samples pays for
-the larger default size; the shadows and the cavity cost little; AO by sampling (WORLD) doubled the time."""
+object, edges and contacts darkened by the screen-space cavity. At the stills' 520x390 it costs less per
+still than the flat look did at 480x360 (``benchmarks/render_look.py``, docs/blender-animation.md): FXAA
+instead of 5 samples pays for the larger size (560x420 cost 14-24 % more wall time under load, though
+15 % less CPU); the shadows and the cavity cost little; AO by sampling (WORLD) doubled the time."""
 
 
 def visual_bounds(collection: bpy.types.Collection) -> tuple[np.ndarray, np.ndarray]:
@@ -230,6 +231,9 @@ ANIMATION_HOLD_SECONDS = 1.0
 """The solved puzzle is held this long before the animation loops."""
 WEBP_QUALITY = 75
 ANIMATION_WORKBENCH_AA = "FXAA"
+ANIMATION_CAVITY = False
+"""The animation's frames leave the stills' cavity out: at 320x240 it cost 6 % more CPU a frame (the floor's
+shadows cost nothing), and the small moving frames show it little."""
 ANIMATION_CYCLES_SAMPLES = 4
 
 
@@ -257,11 +261,13 @@ def render_animation(scene: bpy.types.Scene, collection: bpy.types.Collection, p
     camera = add_camera(scene, collection, VIEWS[view], (np.min(lows, axis=0), np.max(highs, axis=0)))
     render = scene.render
     saved = (render.resolution_x, render.resolution_y, render.filepath, scene.camera, scene.frame_start,
-             scene.frame_end, scene.frame_current, scene.display.render_aa, scene.cycles.samples)
+             scene.frame_end, scene.frame_current, scene.display.render_aa, scene.cycles.samples,
+             scene.display.shading.show_cavity)
     render.resolution_x, render.resolution_y = size
     # Small moving frames need less smoothing than stills: a third of the time, the same look.
     scene.display.render_aa = ANIMATION_WORKBENCH_AA
     scene.cycles.samples = ANIMATION_CYCLES_SAMPLES
+    scene.display.shading.show_cavity = scene.display.shading.show_cavity and ANIMATION_CAVITY
     scene.camera = camera
     scene.frame_start, scene.frame_end = first, moving_last
     image = render.image_settings
@@ -282,7 +288,7 @@ def render_animation(scene: bpy.types.Scene, collection: bpy.types.Collection, p
         render.resolution_x, render.resolution_y, render.filepath, scene.camera = saved[:4]
         scene.frame_start, scene.frame_end = saved[4:6]
         scene.frame_set(saved[6])
-        scene.display.render_aa, scene.cycles.samples = saved[7:]
+        scene.display.render_aa, scene.cycles.samples, scene.display.shading.show_cavity = saved[7:]
     return Path(path)
 
 

@@ -98,7 +98,7 @@ def parse_size(text: str) -> tuple[int, int]:
     try:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise ValueError(f"bad image size {text!r}; valid: WIDTHxHEIGHT, e.g. 560x420") from None
+        raise ValueError(f"bad image size {text!r}; valid: WIDTHxHEIGHT, e.g. 520x390") from None
     if not (MIN_IMAGE_SIDE <= width <= MAX_IMAGE_SIDE and MIN_IMAGE_SIDE <= height <= MAX_IMAGE_SIDE):
         raise ValueError(f"image size {text!r} is out of range; valid: each side {MIN_IMAGE_SIDE}..{MAX_IMAGE_SIDE}")
     return width, height

@@ -29,8 +29,8 @@ VIEWS: dict[str, View] = {
     "side": View("side", "side", -90.0, 12.0),
 }
 DEFAULT_VIEWS: tuple[str, ...] = ("top", "oblique", "oblique_back")
-STILL_SIZE = (560, 420)
-"""The stills' default width and height (480x360 before the floor and shadows came; at the same time per
+STILL_SIZE = (520, 390)
+"""The stills' default width and height (480x360 before the floor and shadows came; in no more time per
 still, see ``blender_addon.render.GROUND``)."""
 GALLERY_VIEW = "oblique"
 """The view shown in the gallery's table; the others are linked."""

@@ -970,8 +970,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="output folder holding the puzzles (default: output)")
     render.add_argument("--engine", default="auto", choices=("auto", "workbench", "cycles"),
                         help="auto: Workbench, Cycles (CPU) where Workbench cannot run (default)")
-    render.add_argument("--size", type=image_size_option, default="560x420",
-                        help="image size WIDTHxHEIGHT, each side 16..8192 (default 560x420)")
+    render.add_argument("--size", type=image_size_option, default="520x390",
+                        help="image size WIDTHxHEIGHT, each side 16..8192 (default 520x390)")
     render.add_argument("--views", default="top,oblique,oblique_back",
                         help="comma-separated views: top, oblique, oblique_back, side")
     render.add_argument("--workers", type=workers_option, default=1,

@@ -63,7 +63,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--render", action="store_true", help="also render the puzzle's images (images/)")
     parser.add_argument("--engine", choices=("workbench", "cycles"), default="workbench",
                         help="render engine for --render (default: workbench; cycles needs no OpenGL)")
-    parser.add_argument("--size", default="560x420", help="image size for --render, WIDTHxHEIGHT")
+    parser.add_argument("--size", default="520x390", help="image size for --render, WIDTHxHEIGHT")
     parser.add_argument("--views", default=None,
                         help="views for --render, comma-separated (default: those of phyrogen render)")
     args = parser.parse_args(arguments)
