@@ -11,13 +11,14 @@ the servos' targets (``ctrl``) are set from outside:
   state for :data:`SETTLE_STEPS` steps. It passes when every goal joint ends within the goal's
   tolerance and no contact between different objects was ever deeper than 1 mm.
 - :func:`push_target` is the negative control: the target starts on the straight line from its start
-  to its goal, at the last state our collision model finds free (2 mm resolution) before the line
-  first meets something; its servos are aimed at the goal (each at most its force limit, 20 N at the
-  part) and every other servo holds its joint where it is, for :data:`PUSH_STEPS` steps (2 s). It
-  passes when no contact ever got deeper than 2 mm, the target stayed out of its goal, and no other
-  movable part moved more than :data:`BLOCKER_STILL` at any of its collision points.
-  ``contacts=False`` runs the same push with contacts switched off: the target must then reach its
-  goal, so that stopping short was the contacts' doing, not a weak servo's.
+  to its goal, at the last state our collision model finds free before the line first meets
+  something (within 8 micrometres of the contact); its servos' targets walk the straight line on to
+  the goal at the drive's pace (each servo at most :data:`PUSH_FORCE`, 20 N at the part), and every
+  other servo holds its joint where it is, for :data:`PUSH_STEPS` steps (2 s). It passes when the
+  target touched another object, no contact ever got 2 mm deep, the target stayed out of its goal,
+  and no collision point of another movable part moved :data:`BLOCKER_STILL` or more.
+  ``contacts=False`` runs the same push with contacts switched off: the target must then travel far
+  past its stop, so that stopping was the contacts' doing, not a weak servo's.
 
 Every count here is of simulation steps (1 ms each); nothing reads a clock.
 """
@@ -45,6 +46,8 @@ PUSH_STEPS = 2000
 DRIVE_DEPTH = 0.001
 """Metres: the deepest contact a certificate rollout may show (the PyBullet referee's threshold)."""
 PUSH_DEPTH = 0.002
+TOUCH_HALVINGS = 8
+"""The push begins within 2 mm / 2^8 (8 micrometres) of the first contact."""
 PUSH_FORCE = 20.0
 """Newtons the target's servos push with at most (at its farthest point for a hinge): a firm push
 by hand, a tenth of the servos' limit in the file."""
@@ -154,19 +157,19 @@ def drive_certificate(xml: str, chain: KinematicChain, certificate: Sequence[Seq
 
 
 def push_target(xml: str, chain: KinematicChain, certificate: Sequence[Sequence[float]], goal: Goal,
-                contacts: bool = True, edit: Callable[[mujoco.MjModel, set[str]], None] | None = None) -> Rollout:
+                contacts: bool = True, edit: Callable[[mujoco.MjModel, set[str]], None] | None = None,
+                paced: bool = True) -> Rollout:
     """The target pushed from its start straight toward its goal, every other part held (module docstring).
 
     ``edit(model, held)``, when given, changes the loaded model before the push (``held``: the joints
-    whose servos hold their parts): for the controls of scripts/mjcf_rollouts.py."""
+    whose servos hold their parts): for the controls of scripts/mjcf_rollouts.py. ``paced=False``
+    aims the target's servos at the goal at once: the target then speeds up at its force limit
+    wherever nothing stops it (sliding along a wall, say) and meets the next blocker at speed."""
     start = np.asarray(certificate[0], dtype=float)
     aimed = start.copy()
     for name, value in goal.values.items():
         aimed[chain.joint_order.index(name)] = value
-    line = dense_path(chain, [start, aimed])
-    free = CollisionModel(chain).check(line)
-    blocked = np.flatnonzero(~free)
-    begin = line[max(int(blocked[0]) - 1, 0)] if len(blocked) else line[-1]
+    begin = _first_touch(chain, start, aimed)
     scene = _Scene(xml, chain, begin, contacts)
     target = _target_object(chain)
     for name in _object_joints(chain, target):
@@ -175,12 +178,33 @@ def push_target(xml: str, chain: KinematicChain, certificate: Sequence[Sequence[
     if edit is not None:
         edit(scene.model, held)
     before = chain.link_transforms(begin)
-    steps, deepest, between, touched = scene.run(aimed[None, :], PUSH_STEPS, 0)
+    # At the drive's pace: the servo targets walk the straight line, so the target moves no faster
+    # than 0.2 m/s until it is stopped, and then presses with at most PUSH_FORCE.
+    targets = dense_path(chain, [begin, aimed])[:PUSH_STEPS // STEPS_PER_STATE] if paced else aimed[None, :]
+    steps, deepest, between, touched = scene.run(targets, STEPS_PER_STATE, PUSH_STEPS - len(targets) * STEPS_PER_STATE)
     end = chain.link_transforms(scene.state())
     error = _goal_error(chain, scene.state(), goal)
     return Rollout(steps, deepest, between, error, error <= goal.tolerance + 1e-12,
                    _farthest_move(chain, before, end, held),
                    _farthest_move(chain, before, end, _object_joints(chain, target)), touched)
+
+
+def _first_touch(chain: KinematicChain, start: np.ndarray, aimed: np.ndarray) -> np.ndarray:
+    """The last state our collision model finds free on the straight line from ``start`` to ``aimed``
+    before the line first meets something, to within :data:`TOUCH` of the first colliding state
+    (``aimed`` when nothing is met)."""
+    model = CollisionModel(chain)
+    line = dense_path(chain, [start, aimed])
+    blocked = np.flatnonzero(~model.check(line))
+    if not len(blocked):
+        return line[-1]
+    if blocked[0] == 0:
+        return line[0]
+    free, hit = line[blocked[0] - 1], line[blocked[0]]
+    for _ in range(TOUCH_HALVINGS):  # the dense line's 2 mm halved down to TOUCH
+        middle = (free + hit) / 2
+        free, hit = (middle, hit) if model.is_valid(middle) else (free, middle)
+    return free
 
 
 def _target_object(chain: KinematicChain) -> str:

@@ -89,10 +89,21 @@ class JointDynamics:
     force_limit: float
 
 
-def joint_dynamics(chain: KinematicChain, start: Sequence[float] | None,
-                   dynamics: MjcfDynamics = DYNAMICS) -> dict[str, JointDynamics]:
-    """Per active joint, its numbers (module docstring) at ``start`` (all joints at zero clipped
-    into their limits when None)."""
+@dataclass(frozen=True)
+class JointLoad:
+    """What one active joint moves, at a state."""
+
+    mass: float
+    """Kilograms: its child link and everything below it."""
+    moved: float
+    """The mass for a slide; the moment of inertia about its axis (kg m^2) for a hinge."""
+    reach: float
+    """Metres from a hinge's axis to the farthest corner of the moved links' collision bounds (1 for
+    a slide, or a hinge without shapes)."""
+
+
+def joint_loads(chain: KinematicChain, start: Sequence[float] | None) -> dict[str, JointLoad]:
+    """Per active joint, what it moves at ``start`` (every joint at zero clipped into its limits when None)."""
     if start is None:
         start = np.clip(np.zeros(len(chain.joint_order)), chain.lower_limits, chain.upper_limits)
     transforms = chain.link_transforms(start)
@@ -103,20 +114,31 @@ def joint_dynamics(chain: KinematicChain, start: Sequence[float] | None,
     def subtree(link: str) -> list[str]:
         return [link, *(name for child in below.get(link, ()) for name in subtree(child))]
 
-    omega = 2 * math.pi * dynamics.servo_frequency
     out = {}
     for joint in chain.active_joints:
         links = subtree(joint.child)
         mass = sum(chain.link(name).mass for name in links)
-        friction = dynamics.joint_friction * mass * GRAVITY
         if joint.type is JointType.REVOLUTE:
-            moved = _inertia_about_axis(chain, joint, links, transforms)
-            friction *= dynamics.bearing_radius
-            force = dynamics.servo_force * _reach(chain, joint, links, transforms)
+            out[joint.name] = JointLoad(mass, _inertia_about_axis(chain, joint, links, transforms),
+                                        _reach(chain, joint, links, transforms))
         else:
-            moved, force = mass, dynamics.servo_force
-        out[joint.name] = JointDynamics(joint.name, moved / dynamics.damping_time, friction, moved * omega ** 2,
-                                        2 * dynamics.servo_damping_ratio * moved * omega, force)
+            out[joint.name] = JointLoad(mass, mass, 1.0)
+    return out
+
+
+def joint_dynamics(chain: KinematicChain, start: Sequence[float] | None,
+                   dynamics: MjcfDynamics = DYNAMICS) -> dict[str, JointDynamics]:
+    """Per active joint, its numbers (module docstring) at ``start`` (all joints at zero clipped
+    into their limits when None)."""
+    omega = 2 * math.pi * dynamics.servo_frequency
+    out = {}
+    for name, load in joint_loads(chain, start).items():
+        friction = dynamics.joint_friction * load.mass * GRAVITY
+        if chain.joint(name).type is JointType.REVOLUTE:
+            friction *= dynamics.bearing_radius
+        out[name] = JointDynamics(name, load.moved / dynamics.damping_time, friction, load.moved * omega ** 2,
+                                  2 * dynamics.servo_damping_ratio * load.moved * omega,
+                                  dynamics.servo_force * load.reach)
     return out
 
 
