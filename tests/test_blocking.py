@@ -156,3 +156,30 @@ def test_an_older_file_reads_with_the_kind_unknown_and_writes_back_as_it_was(tmp
     record = PuzzleRecord.from_dict(data)
     assert record.necessity == {} and record.format_version == 1
     assert json.loads(record.to_json()) == data
+
+
+def test_the_dataset_manifest_says_how_each_puzzles_blockers_were_shown_needed(tmp_path):
+    pytest.importorskip("pyarrow")
+    import pyarrow.parquet as pq
+
+    from phyrogen.cli import main
+
+    root = tmp_path / "dataset"
+    # Seeds 7421-7422 with three boxes, 7423 with one (the target alone: no blocker, no verdict).
+    assert main(["dataset", "--generator", "grid_world", "--seeds", "7421-7422", "--set", "n_objects=3",
+                 "--quiet", "--out", str(root)]) == 0
+    alone = tmp_path / "alone"
+    assert main(["dataset", "--generator", "grid_world", "--seeds", "7423", "--set", "n_objects=1",
+                 "--quiet", "--out", str(alone)]) == 0
+    rows = pq.read_table(root / "manifest.parquet").to_pylist()
+    assert [r["necessity"] for r in rows] == [BY_GEOMETRY, BY_GEOMETRY]
+    assert [r["necessity"] for r in pq.read_table(alone / "manifest.parquet").to_pylist()] == [None]
+
+
+def test_a_puzzle_counts_as_its_weakest_verdict():
+    from solver.pipelines.dataset.manifest import weakest_necessity
+
+    assert weakest_necessity(["geometry", "geometry"]) == "geometry"
+    assert weakest_necessity(["geometry", "goal sampler"]) == "goal sampler"
+    assert weakest_necessity(["goal sampler", "search", "geometry"]) == "search"
+    assert weakest_necessity([]) is None
