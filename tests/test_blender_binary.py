@@ -44,6 +44,19 @@ def test_generate_script_started_wrongly_says_what_to_do(tmp_path):
     assert "must follow '--'" in result.stdout + result.stderr
 
 
+@needs_blender
+def test_generate_script_help_lists_the_generators(tmp_path):
+    from phyrogen_core.registry import all_generators
+
+    result = subprocess.run(
+        [BLENDER, "--background", "--factory-startup", "--python-exit-code", "1", "--python",
+         str(REPOSITORY / "scripts" / "generate.py"), "--", "--help"],
+        capture_output=True, text=True, timeout=120, env=blender_environment(tmp_path))
+    assert "usage: blender --background --python scripts/generate.py" in result.stdout, result.stdout[-2000:]
+    assert "usage: usage:" not in result.stdout
+    assert all(name in result.stdout for name in all_generators())
+
+
 def test_generate_script_under_plain_python(tmp_path):
     pytest.importorskip("bpy", reason="the bpy wheel is not installed")
     environment = blender_environment(tmp_path)

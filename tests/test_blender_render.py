@@ -67,3 +67,33 @@ def test_gallery_in_headless_chromium(rendered, tmp_path):
     # The embedded render's red and green objects are on the page, not just text on white.
     assert sum(1 for r, g, b in pixels if r > 80 and g < 40 and b < 40) > 400
     assert sum(1 for r, g, b in pixels if g > 80 and r < 60 and b < 60) > 20
+
+
+def test_oblique_view_stands_on_a_lit_floor_with_shadows(tmp_path):
+    """The gallery's look: a light floor, and shadows on it. The control renders the same view without
+    shadows or cavity; where the two differ, the look darkened the floor."""
+    pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip install -e .[blender])")
+    import sys
+    from pathlib import Path
+
+    import numpy as np
+    from PIL import Image
+
+    from blender_addon.views import STILL_SIZE
+
+    folder = write_puzzle(every_shape_puzzle(), tmp_path / "out")
+    script = Path(__file__).resolve().parent / "blender_look_script.py"
+    run = subprocess.run([sys.executable, str(script), str(folder), str(tmp_path)], capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr[-3000:]
+    ground, plain = (np.asarray(Image.open(tmp_path / f"{name}.png").convert("RGB"), dtype=int)
+                     for name in ("ground", "plain"))
+    assert ground.shape == (STILL_SIZE[1], STILL_SIZE[0], 3)
+    corners = np.concatenate([ground[-20:, :20].reshape(-1, 3), ground[-20:, -20:].reshape(-1, 3)])
+    assert corners.min() > 150 and np.ptp(corners, axis=1).max() < 12  # a light, neutral floor
+    def shadows(lit, unlit) -> float:
+        """The share of pixels that are neutral (the floor) in ``lit`` and 25 levels darker than in ``unlit``."""
+        return float(((np.ptp(lit, axis=2) < 12) & ((unlit - lit).min(axis=2) >= 25)).mean())
+
+    assert shadows(ground, plain) > 0.005
+    assert shadows(plain, ground) < 0.001  # the control: the measure finds none the other way round
