@@ -14,6 +14,7 @@ line naming it instead of a traceback. Needs the network (pip reaches PyPI): ski
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -53,6 +54,8 @@ def user_folder(tmp_path_factory):
     home = tmp_path_factory.mktemp("fresh-blender")
     environment = blender_environment(home)
     environment["PYTHONUSERBASE"] = str(home / "userbase")  # Phobos runs ``ensurepip --user`` at start
+    # Debian's Blender runs the first python3.11 on PATH: Debian's own (PEP 668 applies), as for a user.
+    environment["PATH"] = os.pathsep.join(["/usr/bin", environment.get("PATH", "")])
     shutil.copytree(REPOSITORY / "blender_addon", home / "scripts" / "addons" / ADDON,
                     ignore=shutil.ignore_patterns("__pycache__"))
     run = _blender(environment, "--python-expr",
@@ -78,6 +81,8 @@ def test_installed_phobos_runs_every_step_in_a_background_session(user_folder):
     assert "phyrogen-phobos-" not in result["executable"]  # sys.executable restored
     assert "PhyRoGen: Phobos reloaded so that it recognises this Blender" in result["log"]
     assert "externally-managed-environment" not in result["log"]
+    if Path("/usr/bin/python3.11").exists() and Path("/usr/lib/python3.11/EXTERNALLY-MANAGED").exists():
+        assert result["executable"] == "/usr/bin/python3.11"  # the Python that PEP 668 protects
     name = "simple_slider_5"
     ours = pybullet_model(home / "full" / "simple_slider" / name / "urdf" / f"{name}.urdf")
     movable = {joint: info for joint, info in ours["joints"].items() if info["type"] != 4}  # 4: fixed
