@@ -85,7 +85,16 @@ def _ranks(by_planner: dict[str, list[RunRecord]]) -> dict[str, int]:
     return {p: 1 + sum(1 for other in solved.values() if other > mine) for p, mine in solved.items()}
 
 
+def same_cells(checks: Sequence[RunRecord], cpu: Sequence[RunRecord]) -> tuple[list[RunRecord], list[RunRecord]]:
+    """The runs of both benchmarks whose (puzzle, planner, run) both hold: the same seeds on either side."""
+    both = {(r.puzzle, r.planner, r.run) for r in checks} & {(r.puzzle, r.planner, r.run) for r in cpu}
+    return ([r for r in checks if (r.puzzle, r.planner, r.run) in both],
+            [r for r in cpu if (r.puzzle, r.planner, r.run) in both])
+
+
 def report(checks: Sequence[RunRecord], cpu: Sequence[RunRecord]) -> str:
+    """The side-by-side tables of the runs both benchmarks hold (:func:`same_cells`)."""
+    checks, cpu = same_cells(checks, cpu)
     planners = _order(r.planner for r in (*checks, *cpu))
     mine = {name: {p: [r for r in runs if r.planner == p] for p in planners}
             for name, runs in (("checks", checks), ("cpu", cpu))}

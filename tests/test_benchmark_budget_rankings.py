@@ -45,7 +45,9 @@ def test_the_rankings_side_by_side_count_a_clock_ended_run_apart(tmp_path):
     script = _script()
     solved, failed = (True, "solved", 1000, 0.1), (False, "budget", 1_120_000, 1.0)
     # Under checks BIT* solves more; under CPU seconds RRT* does (its checks are cheap in CPU).
-    checks = _journal(tmp_path / "checks", {"rrt_star": [solved, failed, failed], "bit_star": [solved, solved, failed]})
+    # LBT-RRT ran under the check budget only: not compared.
+    checks = _journal(tmp_path / "checks", {"rrt_star": [solved, failed, failed], "bit_star": [solved, solved, failed],
+                                            "lbt_rrt": [failed]})
     cpu = _journal(tmp_path / "cpu", {"rrt_star": [solved, solved, solved],
                                       "bit_star": [solved, failed, (False, "clock", 500, 0.2)]})
     text = script.report(script.records([checks]), script.records([cpu]))
@@ -55,7 +57,7 @@ def test_the_rankings_side_by_side_count_a_clock_ended_run_apart(tmp_path):
     assert rows["BIT*"][1].startswith("2/3") and rows["BIT*"][2] == "1"
     # The clock-ended run is neither a success nor a failure of the CPU budget: 1 of 2, named apart.
     assert rows["BIT*"][4].startswith("1/2") and "(+1 clock)" in rows["BIT*"][4] and rows["BIT*"][5] == "2"
-    assert "end reasons budget 1, clock 1, solved 4" in text
+    assert "end reasons budget 1, clock 1, solved 4" in text and "LBT-RRT" not in text
     assert "| grid_world | 1/3 / 3/3 | 2/3 / 1/2 |" in text
 
 
