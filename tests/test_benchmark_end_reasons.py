@@ -116,7 +116,7 @@ def test_a_tiny_backstop_records_the_clock_and_marks_the_cell_incomplete(puzzles
     assert summary["complete"] is False
     for cell in summary["cells"]:  # reported apart, not as a budget result
         assert cell["clock_ended"] == 1 and cell["runs"] == 0 and cell["complete"] is False
-        assert cell["rate"] is None and cell["successes"] is None
+        assert cell["rate"] is None and cell["successes"] == 0  # of 0 runs of the budget
     text = (out / "summary.md").read_text()
     assert "**Incomplete: 10 of 10 cells**" in text and "(+1 clock-ended: incomplete)" in text
     assert "Incomplete: 10 cells" in (out / "results.html").read_text()

@@ -180,7 +180,7 @@ def summary_json(rows: Sequence[SummaryRow]) -> str:
                   "clock_ended": row.clock_ended, "complete": row.complete, "ends": dict(row.ends),
                   "machine_dependent": row.machine_dependent}
         if cell is None:  # every run ended on the clock: nothing of the budget to report
-            cells.append(common | {"successes": None, "rate": None, "rate_low": None, "rate_high": None,
+            cells.append(common | {"successes": 0, "rate": None, "rate_low": None, "rate_high": None,
                                    "interval": None, "solved_all": None, "solved_any": None, "time_to_first": None,
                                    "checks_to_first": None, "final_cost": None})
             continue
