@@ -64,8 +64,8 @@ def test_a_fixed_target_away_from_its_goal_is_proven():
     assert BlockingProver().proves(objects, goal, ["obj_00"], 0.04)
 
 
-def _questions(seeds):
-    """Every necessity question the Maker asked on Grid World ``seeds``: (objects, goal, fixed, margin, verdict)."""
+def _questions(seeds, generator="grid_world", params=None):
+    """Every necessity question the Maker asked on ``seeds``: (objects, goal, fixed, margin, verdict)."""
     asked = []
     original = validator_module.OmplValidator.necessity
 
@@ -77,18 +77,23 @@ def _questions(seeds):
     validator_module.OmplValidator.necessity = recording
     try:
         for seed in seeds:
-            generate_here("grid_world", seed)
+            generate_here(generator, seed, params)
     finally:
         validator_module.OmplValidator.necessity = original
     return asked
 
 
 @pytest.mark.slow
-def test_on_fresh_grid_worlds_every_proven_question_defeats_both_judges_with_ten_times_their_budgets():
-    asked = _questions([7401, 7402])
+@pytest.mark.parametrize("generator, seeds, size", [("grid_world", [7401, 7402], {}),
+                                                    ("simple_slider", [7405], {"n_objects": "4"})])
+def test_on_fresh_puzzles_every_proven_question_defeats_both_judges_with_ten_times_their_budgets(generator, seeds,
+                                                                                              size):
+    from phyrogen_core.registry import get_generator
+
+    asked = _questions(seeds, generator, get_generator(generator).parse_params(size))
     prover = BlockingProver()
     proven = [q for q in asked if q[4] is not None and q[4].how == BY_GEOMETRY]
-    assert len(proven) >= 8
+    assert len(proven) >= 4 * len(seeds)
     for index, (objects, goal, fixed, _, verdict) in enumerate(proven):
         assert prover.proves(objects, goal, fixed, verdict.margin)
         chain = build_chain(objects)

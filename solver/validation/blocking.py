@@ -20,7 +20,8 @@ go to let the target by. :class:`BlockingProver` looks for such an answer, as a 
 "Overlaps anywhere in the cell" is proven from the cell's centre, conservatively: two convex
 outlines whose every separating-axis overlap exceeds ``2 c (s + e)`` (``s`` the judge's shrink,
 ``e`` how far any point moves within a cell, ``c`` the outlines' corner factor, the largest
-``1 / sin(alpha / 2)`` of an interior angle) contain outlines eroded by ``s + e`` that meet,
+``1 / sin(alpha / 2)`` of an interior angle; 1 for two rectangles whose sides are parallel, which
+share their separating axes) contain outlines eroded by ``s + e`` that meet,
 so the outlines eroded by ``s`` meet wherever in their cells the objects are, and the
 collision model of the judge's problem (every shape shrunk by ``s``,
 :func:`~solver.planning.problem.shrunk_tolerance`) finds them colliding. Shapes the proof does
@@ -52,9 +53,11 @@ PROOF_EROSION = 0.03
 PROOF_SLACK = 1e-4
 """Metres added to every erosion, so that an overlap proven at a cell's centre is strictly more
 than the judge's tolerance everywhere in the cell."""
-ERODE_HEADROOM = 0.5
-"""An outline takes part in a proof only while eroding it keeps every edge at least half its length
-(the corner-factor bound needs every vertex to survive the erosion)."""
+ERODE_HEADROOM = 0.9
+"""An outline takes part in a proof only while eroding it keeps every edge at least a tenth of its
+length (the corner-factor bound needs every vertex to survive the erosion)."""
+PARALLEL = 1e-9
+"""Radians within which two rectangles count as parallel (corner factor 1)."""
 MAX_EROSION = 0.2
 """The largest shrink plus cell erosion a proof is tried with (metres)."""
 
@@ -67,7 +70,8 @@ class _Outline:
     z_high: float
     corner: float  # the largest 1 / sin(alpha / 2) over its interior angles alpha
     radius: float  # the farthest vertex from the vertices' mean
-    erodible: float  # the largest erosion (metres) that keeps every edge at ERODE_HEADROOM of its length
+    erodible: float  # the largest erosion (metres) that keeps every edge at 1 - ERODE_HEADROOM of its length
+    phase: float | None  # a rectangle's first edge direction in the object's frame; None for other outlines
 
 
 @dataclass(frozen=True)
@@ -103,7 +107,10 @@ def _outline(vertices: np.ndarray, z_low: float, z_high: float) -> _Outline | No
     shortening = 1 / np.tan(angles / 2) + np.roll(1 / np.tan(angles / 2), -1)
     erodible = float(np.min(ERODE_HEADROOM * lengths / shortening))
     radius = float(np.max(np.linalg.norm(vertices - vertices.mean(axis=0), axis=1)))
-    return _Outline(vertices, normals, z_low, z_high, float(np.max(1 / np.sin(angles / 2))), radius, erodible)
+    rectangle = len(vertices) == 4 and bool(np.all(np.abs(angles - math.pi / 2) < PARALLEL))
+    phase = math.atan2(edges[0, 1], edges[0, 0]) if rectangle else None
+    return _Outline(vertices, normals, z_low, z_high, float(np.max(1 / np.sin(angles / 2))), radius, erodible,
+                    phase)
 
 
 def _outlines(obj: PuzzleObject) -> tuple[_Outline, ...]:
@@ -267,14 +274,19 @@ class BlockingProver:
                         continue  # too thin for the bound: left out, which can only prove less
                     world_a = world_a if world_a is not None else _world(outline_a, cells_a.poses)
                     world_b = _world(outline_b, cells_b.poses)
-                    corner = max(outline_a.corner, outline_b.corner)
-                    threshold = max(2 * corner * erosion, DEFAULT_TOLERANCE)
+                    least = max(2 * erosion, DEFAULT_TOLERANCE)
                     # Only cell pairs whose bounding circles overlap by more than the threshold can.
                     centre_a, centre_b = world_a[0].mean(axis=1), world_b[0].mean(axis=1)
-                    reach = outline_a.radius + outline_b.radius - threshold
+                    reach = outline_a.radius + outline_b.radius - least
                     near = np.sum((centre_a[:, None] - centre_b[None]) ** 2, axis=2) < reach * abs(reach)
                     i, j = np.nonzero(near & ~table)
                     if len(i):
+                        threshold = np.full(len(i), max(2 * max(outline_a.corner, outline_b.corner) * erosion,
+                                                        DEFAULT_TOLERANCE))
+                        if outline_a.phase is not None and outline_b.phase is not None:
+                            turn = np.mod(cells_a.poses[i, 2] + outline_a.phase - cells_b.poses[j, 2] - outline_b.phase,
+                                          math.pi / 2)
+                            threshold[np.minimum(turn, math.pi / 2 - turn) < PARALLEL] = least
                         hit = _overlaps(world_a[0][i], world_a[1][i], world_b[0][j], world_b[1][j], threshold)
                         table[i[hit], j[hit]] = True
         self._tables[key] = table
