@@ -71,9 +71,12 @@ def _model(exported, name):
 
 
 def _set_state(model, data, joint_order, state) -> None:
+    """Place the bodies at ``state`` and find their contacts (no dynamics: the constraint solver the
+    file asks for costs 7x more per state on overlapping shapes, and a replay needs only geometry)."""
     for joint_name, value in zip(joint_order, state, strict=True):
         data.qpos[model.jnt_qposadr[model.joint(joint_name).id]] = value
-    mujoco.mj_forward(model, data)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_collision(model, data)
 
 
 def _deepest_between_objects(model, data, chain) -> tuple[float, tuple[str, str]]:
