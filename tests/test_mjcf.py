@@ -270,6 +270,8 @@ def test_contacts_follow_objects_not_bodies():
     text = chain_to_mjcf(chain)
     assert '<exclude body1="hinge" body2="leaf"/>' in text
     model = mujoco.MjModel.from_xml_string(text)
+    # Without a certificate (None or no states): servos on both joints, no keyframes.
+    assert model.nu == 2 and model.nkey == 0 and chain_to_mjcf(chain, ()) == text
     data = mujoco.MjData(model)
     goal = model.body("goal").id
     assert all(not model.geom_contype[g] and not model.geom_conaffinity[g]

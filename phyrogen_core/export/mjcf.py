@@ -77,8 +77,8 @@ def chain_to_mjcf(chain: KinematicChain, certificate: Sequence[Sequence[float]] 
     """The MJCF text of ``chain`` (see the module's docstring for what maps to what).
 
     With a ``certificate``, its first and last states are the keyframes ``start`` and ``goal``
-    (joint values and servo targets) and the dynamics are taken at its start; without, there are
-    no keyframes and the dynamics are taken at zero (clipped into the limits).
+    (joint values and servo targets) and the dynamics are taken at its start; without one (None or
+    no states), there are no keyframes and the dynamics are taken at zero (clipped into the limits).
 
     Self-contained: prism pieces are inline meshes, so the text loads with
     ``mujoco.MjModel.from_xml_string`` as well as from a file. Element names
@@ -88,8 +88,9 @@ def chain_to_mjcf(chain: KinematicChain, certificate: Sequence[Sequence[float]] 
     Raises TypeError on an unknown shape, ValueError on a number that is not
     finite.
     """
-    start = None if certificate is None else _state(chain, certificate[0], "start")
-    goal = None if certificate is None else _state(chain, certificate[-1], "goal")
+    given = certificate is not None and len(certificate) > 0
+    start = _state(chain, certificate[0], "start") if given else None
+    goal = _state(chain, certificate[-1], "goal") if given else None
     writer = _Writer(chain, joint_dynamics(chain, start, DYNAMICS))
     body = writer.body_lines(chain.root, 2)
     d = DYNAMICS
