@@ -26,9 +26,9 @@ Newton solver left pushes of hinged bars into each other (Grid World, Continuous
 at its default iterations and at 1000 with a tolerance of 1e-12 (measured in docs/interop.md).
 
 The floor is a plane under the lowest collision shape at the start state. The puzzle's joints carry
-its parts' weight (every joint moves in the horizontal plane), so the floor never touches a puzzle
-part (its collision bits are disjoint from theirs); a body a user adds with MuJoCo's default bits
-collides with the floor and with the puzzle.
+its parts' weight (every generator's joints move in the horizontal plane), so the floor touches no
+puzzle part (its collision bits are disjoint from theirs); a body a user adds with MuJoCo's default
+bits collides with the floor and with the puzzle.
 """
 
 from __future__ import annotations
