@@ -17,25 +17,12 @@ from pathlib import Path
 
 import bpy
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from phobos_export_script import export_with_phobos_operator  # noqa: E402
+
 ARGUMENTS = sys.argv[sys.argv.index("--") + 1:]
 RESULT, OUT, MODE = Path(ARGUMENTS[0]), Path(ARGUMENTS[1]), ARGUMENTS[2]
 GENERATOR, SEED = "simple_slider", 5
-
-
-def export_model(name: str, folder: Path) -> str:
-    """Phobos's own Export Model, as its panel runs it, set to URDF with OBJ meshes; the URDF's path."""
-    scene = bpy.context.scene
-    settings = scene.phobosexportsettings
-    settings.path = str(folder)
-    settings.selectedOnly = False
-    settings.export_urdf_mesh_type = "obj"
-    for kind in ("smurf", "sdf", "joint_limits", "pdf"):
-        setattr(scene, f"export_entity_{kind}", False)
-    scene.export_entity_urdf = True
-    outcome = bpy.ops.phobos.export_model(modelname=name)
-    if outcome != {"FINISHED"}:
-        raise RuntimeError(f"phobos.export_model returned {outcome}")
-    return str(folder / name / "urdf" / f"{name}.urdf")
 
 
 def main() -> None:
@@ -63,11 +50,11 @@ def main() -> None:
 
     steps = [("generate", bpy.ops.phyrogen.generate)]
     if MODE == "full":
-        steps += [("export_model_first", lambda: export_model(name, OUT / "own-first")),
+        steps += [("export_model_first", lambda: export_with_phobos_operator(bpy, name, OUT / "own-first")),
                   ("validate", bpy.ops.phyrogen.validate),
                   ("replan", bpy.ops.phyrogen.replan),
                   ("export_with_phobos", bpy.ops.phyrogen.export_phobos),
-                  ("export_model", lambda: export_model(name, OUT / "own"))]
+                  ("export_model", lambda: export_with_phobos_operator(bpy, name, OUT / "own"))]
     else:
         steps += [("validate", bpy.ops.phyrogen.validate)]
     for label, work in steps:
