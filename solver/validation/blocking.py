@@ -57,6 +57,10 @@ ERODE_HEADROOM = 0.9
 """An outline takes part in a proof only while eroding it keeps every edge at least a tenth of its
 length (the corner-factor bound needs every vertex to survive the erosion)."""
 PARALLEL = 1e-9
+PAIR_WORK = 50_000
+"""The most vertex projections one outline pair's table may take (near cell pairs times axes times
+vertices): a pair of many-sided outlines close together over many cells (Lockbox Random's slotted
+discs) is left out rather than paid for; a budget in counts, so the same question gets the same answer."""
 """Radians within which two rectangles count as parallel (corner factor 1)."""
 MAX_EROSION = 0.2
 """The largest shrink plus cell erosion a proof is tried with (metres)."""
@@ -280,6 +284,9 @@ class BlockingProver:
                     reach = outline_a.radius + outline_b.radius - least
                     near = np.sum((centre_a[:, None] - centre_b[None]) ** 2, axis=2) < reach * abs(reach)
                     i, j = np.nonzero(near & ~table)
+                    sides_a, sides_b = len(outline_a.vertices), len(outline_b.vertices)
+                    if len(i) * (sides_a + sides_b) * max(sides_a, sides_b) > PAIR_WORK:
+                        continue  # too dear: left out, which can only prove less
                     if len(i):
                         threshold = np.full(len(i), max(2 * max(outline_a.corner, outline_b.corner) * erosion,
                                                         DEFAULT_TOLERANCE))
