@@ -7,14 +7,10 @@ import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from phyrogen_core.atomic_writes import OutputError, require_writable_dir, write_file_atomic
+from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import read_puzzle_dir
-from phyrogen_core.folder import (
-    METADATA_FILE,
-    OutputError,
-    PuzzleFormatError,
-    require_writable_dir,
-    write_file_atomic,
-)
+from phyrogen_core.folder_layout import METADATA_FILE
 from solver.parallel.pool import deferred_signals
 from solver.planning.problem import verify_certificate
 
@@ -78,7 +74,7 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
     or :class:`~phyrogen_core.folder.OutputError`, one line naming the path, or ValueError naming
     a puzzle too large for the base's floor at its scale.
     """
-    from phyrogen_core.folder import require_stage_folder
+    from phyrogen_core.atomic_writes import require_stage_folder
 
     runs = runs or {}
     settings = settings or ExecutionSettings()

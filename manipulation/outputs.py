@@ -8,7 +8,7 @@ import re
 from collections.abc import Sequence
 from pathlib import Path
 
-from phyrogen_core.folder import owned_directory
+from phyrogen_core.stage_writes import owned_directory
 
 from .execution import ManipulationReport, Recording, SceneSetup
 from .media import Renderer, write_frames, write_grip_frames, write_video

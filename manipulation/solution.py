@@ -26,9 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from phyrogen_core.actions import count_actions
+from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import LoadedPuzzle
 from phyrogen_core.export.reader import MAX_MAGNITUDE
-from phyrogen_core.folder import BEST_SOLUTION, PuzzleFormatError, read_folder_json
+from phyrogen_core.folder_layout import BEST_SOLUTION
+from phyrogen_core.folder_reads import read_folder_json
 from phyrogen_core.sizes import CERTIFICATE_STATES
 
 CERTIFICATE = "certificate"

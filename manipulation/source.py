@@ -15,7 +15,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from phyrogen_core.folder import BEST_SOLUTION, PuzzleFolder
+from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.folder_layout import BEST_SOLUTION
 
 
 @dataclass(frozen=True)

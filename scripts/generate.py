@@ -125,7 +125,8 @@ def render(folder: Path, engine: str, size: tuple[int, int], views: tuple[str, .
     import time
 
     from blender_addon.render_worker import render_folder
-    from phyrogen_core.folder import PuzzleFolder, PuzzleFormatError
+    from phyrogen_core.errors import PuzzleFormatError
+    from phyrogen_core.folder import PuzzleFolder
 
     started = time.perf_counter()
     try:

@@ -22,7 +22,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from phyrogen_core.folder import OutputError
+from phyrogen_core.atomic_writes import OutputError
 from solver.benchmark.plots import summary_json, summary_markdown, summary_rows
 from solver.benchmark.results_page import write_results_page
 from solver.benchmark.runner import build_database, read_journal, write_log

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from phyrogen_core.folder import BEST_SOLUTION, PuzzleFolder
+from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.folder_layout import BEST_SOLUTION
 from solver.benchmark.plots import (
     COLORS,
     PLANNER_ORDER,

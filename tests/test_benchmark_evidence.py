@@ -259,7 +259,8 @@ def test_a_paper_budget_is_the_paper_limit_times_the_stated_rate():
 
 
 def test_paper_budgets_reach_each_run_and_its_journal_key(tmp_path):
-    from phyrogen_core.folder import PuzzleFolder, PuzzleFormatError
+    from phyrogen_core.errors import PuzzleFormatError
+    from phyrogen_core.folder import PuzzleFolder
     from solver.benchmark.paper_budgets import paper_budgets
     from solver.benchmark.runner import budget_for, get_profile, make_jobs, run_key
 

@@ -14,8 +14,8 @@ bpy = pytest.importorskip("bpy", reason="the bpy wheel is not installed (pip ins
 from blender_addon.animation import clear_solution, keyframe_solution, planner_solution  # noqa: E402
 from blender_addon.scene import build_chain, build_puzzle, read_chain  # noqa: E402
 from phyrogen_core.actions import count_actions  # noqa: E402
+from phyrogen_core.errors import PuzzleFormatError  # noqa: E402
 from phyrogen_core.export import write_puzzle  # noqa: E402
-from phyrogen_core.folder import PuzzleFormatError  # noqa: E402
 from phyrogen_core.registry import all_generators  # noqa: E402
 
 pytestmark = pytest.mark.blender

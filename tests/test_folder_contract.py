@@ -9,7 +9,9 @@ import pytest
 from blender_support import every_shape_puzzle, private_blender_home
 
 from phyrogen_core.export import read_puzzle_dir, write_puzzle
-from phyrogen_core.folder import BEST_SOLUTION, PuzzleFolder, Stage, find_puzzle_folders, stage_entries
+from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
+from phyrogen_core.folder_layout import BEST_SOLUTION
+from phyrogen_core.folder_ownership import Stage, stage_entries
 
 
 def tree(folder: Path) -> dict[str, bytes]:

@@ -19,8 +19,10 @@ import pytest
 from hostile_support import hostile_puzzle
 
 from phyrogen.cli import main
+from phyrogen_core.atomic_writes import OutputError
+from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import write_puzzle
-from phyrogen_core.folder import OutputError, PuzzleFormatError, find_puzzle_folders
+from phyrogen_core.folder import find_puzzle_folders
 from solver.benchmark.runner import (
     JOURNAL,
     Journal,

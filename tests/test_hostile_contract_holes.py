@@ -23,7 +23,8 @@ from hostile_support import refused
 from test_hostile_user_files import USER, _reading_commands, no_work, place, put  # noqa: F401
 
 from phyrogen.cli import main
-from phyrogen_core.folder import MAX_FILE_BYTES, PuzzleFolder
+from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.folder_reads import MAX_FILE_BYTES
 
 
 def sparse(path: Path, size: int) -> Path:

@@ -40,15 +40,11 @@ from hostile_support import (
 )
 
 from manipulation.solution import load_solution
+from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import read_puzzle_dir
-from phyrogen_core.folder import (
-    BEST_SOLUTION,
-    MAX_FILE_BYTES,
-    MAX_NAME_LENGTH,
-    PuzzleFolder,
-    PuzzleFormatError,
-    find_puzzle_folders,
-)
+from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
+from phyrogen_core.folder_layout import BEST_SOLUTION, MAX_NAME_LENGTH
+from phyrogen_core.folder_reads import MAX_FILE_BYTES
 
 REPOSITORY = Path(__file__).resolve().parents[1]
 MESH_COUNT = 6

@@ -47,10 +47,11 @@ from hostile_support import (
 
 from manipulation.solution import load_solution
 from phyrogen.cli import main
+from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import read_puzzle_dir
 from phyrogen_core.export.reader import MAX_MAGNITUDE
 from phyrogen_core.export.urdf import chain_to_urdf
-from phyrogen_core.folder import BEST_SOLUTION, PuzzleFormatError
+from phyrogen_core.folder_layout import BEST_SOLUTION
 from phyrogen_core.puzzle import Goal
 from phyrogen_core.registry import ParameterError, all_generators, get_generator
 from solver.pipelines.generation import generate_puzzle

@@ -15,21 +15,16 @@ from pathlib import Path
 import pytest
 from hostile_support import PARAMETERS, hostile_puzzle
 
-from phyrogen_core import folder as folder_module
+from phyrogen_core import atomic_writes
+from phyrogen_core.atomic_writes import OutputError, atomic_directory
 from phyrogen_core.chain import RED, Geometry
 from phyrogen_core.export import read_puzzle_dir, write_export_files, write_puzzle
 from phyrogen_core.export.metadata import record_for_chain
-from phyrogen_core.folder import (
-    OutputError,
-    PuzzleFolder,
-    Stage,
-    atomic_directory,
-    same_stage_entries,
-    stage_directory,
-    stage_entries,
-)
+from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.folder_ownership import Stage, stage_entries
 from phyrogen_core.geometry import Pose, slot_disc
 from phyrogen_core.record import PuzzleRecord
+from phyrogen_core.stage_writes import same_stage_entries, stage_directory
 
 
 def tree(root: Path) -> dict[str, bytes]:
@@ -313,7 +308,7 @@ def test_processes_racing_for_one_folder_leave_one_complete_folder(tmp_path):
 def test_without_the_swap_lock_a_writer_moves_the_winner_aside_and_still_lands_whole(tmp_path, monkeypatch):
     """On a file system without flock, the rename onto another writer's folder fails (ENOTEMPTY) and
     is retried after moving that folder aside: still one writer's whole folder, and no exception."""
-    monkeypatch.setattr(folder_module, "_swap_lock", lambda folder: contextlib.nullcontext())
+    monkeypatch.setattr(atomic_writes, "_swap_lock", lambda folder: contextlib.nullcontext())
     for race in range(RACES):
         final = tmp_path / str(race) / "out"
         barrier = threading.Barrier(WRITERS)

@@ -319,7 +319,7 @@ def test_a_traceback_only_with_debug(argv, monkeypatch, capsys):
 
 
 def test_an_unusable_output_path_is_bad_input(monkeypatch, capsys):
-    from phyrogen_core.folder import OutputError
+    from phyrogen_core.atomic_writes import OutputError
 
     monkeypatch.setattr("phyrogen.cli.cmd_list", fail_with(OutputError("output folder out is a file")))
     assert main(["list"]) == 2

@@ -22,8 +22,11 @@ import pytest
 from hostile_support import PARAMETERS, hostile_puzzle, refused, snapshot
 
 from phyrogen.cli import main
+from phyrogen_core.atomic_writes import OutputError, atomic_directory
+from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import read_puzzle_dir, write_mjcf, write_puzzle
-from phyrogen_core.folder import OutputError, PuzzleFolder, PuzzleFormatError, Stage, atomic_directory
+from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.folder_ownership import Stage
 
 USER = b"a user's own file"
 
@@ -82,7 +85,7 @@ def test_regenerating_a_changed_puzzle_keeps_a_users_files_inside_its_folders(pl
         assert (place.path / path).read_bytes() == USER + path.encode(), path
     stale = place.path / "stale" / "1"
     if rendered:  # negative control: the stage's own earlier outputs do move, and only they
-        from phyrogen_core.folder import stage_owns
+        from phyrogen_core.folder_ownership import stage_owns
 
         assert (stale / "images" / "hostile_1_00.png").read_bytes() == b"render"
         assert (stale / "urdf" / "hostile_1.urdf").read_bytes() == old_urdf
@@ -102,7 +105,7 @@ def test_regenerating_a_changed_puzzle_keeps_a_users_files_inside_its_folders(pl
 
 def test_a_stage_still_replaces_and_removes_its_own_files(place, tmp_path):
     """Negative control: an own mesh the new puzzle no longer has goes; a user's file in meshes/ stays."""
-    from phyrogen_core.folder import stage_owns
+    from phyrogen_core.folder_ownership import stage_owns
 
     put(place.meshes / "my_part.obj")
     own = sorted(p.name for p in place.meshes.glob("*_*_*_*.obj"))
@@ -117,7 +120,8 @@ def test_a_stage_still_replaces_and_removes_its_own_files(place, tmp_path):
 def test_export_with_phobos_replaces_only_phobos_files(tmp_path):
     """The folder rule Export with Phobos swaps its folder in by (``blender_addon.phobos``): Phobos's
     URDF and OBJ meshes are replaced, an old mesh it no longer writes goes, a user's file stays."""
-    from phyrogen_core.folder import owned_directory, phobos_owns
+    from phyrogen_core.folder_ownership import phobos_owns
+    from phyrogen_core.stage_writes import owned_directory
 
     final = tmp_path / "phobos"
     for path in ("urdf/hostile_1.urdf", "meshes/obj/obj_00.obj", "meshes/obj/gone.obj"):
@@ -258,7 +262,7 @@ def test_dataset_mjcf_refuses_what_its_writers_would_meet_before_any_work(damage
                                          (".my_notes.tmp", None), (".thesis_draft.tmp.tex", None),
                                          ("notes.abcdefgh.tmp", None), (".a.b.tmp", None)])
 def test_temporary_names_follow_one_exact_pattern(name, entry):
-    from phyrogen_core.folder import temporary_entry
+    from phyrogen_core.atomic_writes import temporary_entry
 
     assert temporary_entry(name) == entry
 
@@ -318,7 +322,7 @@ def test_generate_with_mjcf_refuses_a_users_file_of_its_name_before_any_work(tmp
 def test_an_output_folder_shared_with_a_user_keeps_the_users_files(tmp_path):
     """``owned_directory``, as manipulate (``manipulation.outputs.owns_output``) and render use it."""
     from manipulation.outputs import owns_output
-    from phyrogen_core.folder import owned_directory
+    from phyrogen_core.stage_writes import owned_directory
 
     final = tmp_path / "runs" / "hostile_1"
     put(final / "my_analysis.md")

@@ -16,7 +16,7 @@ from manipulation.robot import ROBOT_JOINTS, RobotSpec, mobile_iiwa_urdf
 from manipulation.solution import load_solution
 from phyrogen_core.actions import count_actions, split_actions
 from phyrogen_core.chain import Geometry, JointType, KinematicChain, Role
-from phyrogen_core.folder import BEST_SOLUTION
+from phyrogen_core.folder_layout import BEST_SOLUTION
 from phyrogen_core.geometry import Box, Pose
 from phyrogen_core.objects import Motion, PuzzleObject, build_chain
 

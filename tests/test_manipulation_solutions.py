@@ -11,7 +11,8 @@ import pytest
 from manipulation.solution import BenchmarkRun, candidate_solutions
 from phyrogen_core.actions import count_actions
 from phyrogen_core.export import read_puzzle_dir
-from phyrogen_core.folder import BEST_SOLUTION, PuzzleFolder
+from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.folder_layout import BEST_SOLUTION
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +102,7 @@ def test_a_costlier_best_file_gives_way_to_cheaper_journal_runs(folder):
 
 def test_the_command_line_takes_solved_la_rrt_runs_of_this_very_puzzle_from_the_journal(folder, tmp_path):
     from phyrogen.cli import benchmark_runs
-    from phyrogen_core.folder import OutputError
+    from phyrogen_core.atomic_writes import OutputError
     from solver.benchmark.runner import RunRecord, journal_line
 
     loaded = read_puzzle_dir(folder)

@@ -1,6 +1,6 @@
 """Export of puzzles to files: URDF, SRDF, MJCF, ``puzzle.json``, atomic puzzle folders, and reading them back."""
 
-from ..folder import atomic_directory
+from ..atomic_writes import atomic_directory
 from .metadata import metadata_json, puzzle_metadata
 from .mjcf import MJCF_FOLDER, chain_to_mjcf, mjcf_path, write_mjcf
 from .output import puzzle_folder, write_export_files, write_puzzle

@@ -52,10 +52,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic_writes import OutputError, require_stage_folder
 from ..chain import Geometry, JointType, KinematicChain, Link, Role
 from ..errors import PuzzleFormatError
-from ..folder import OutputError, name_problem, owned_directory, read_folder_file, require_stage_folder
+from ..folder_layout import name_problem
+from ..folder_reads import read_folder_file
 from ..geometry import Box, ConvexPrism, Cylinder, Pose
+from ..stage_writes import owned_directory
 from .formatting import attribute, number, numbers
 from .mjcf_dynamics import DYNAMICS, JointDynamics, floor_height, joint_dynamics
 from .urdf import color_name, link_inertia

@@ -11,8 +11,10 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from ..chain import KinematicChain
-from ..folder import PuzzleFolder, Stage, stage_directory
+from ..folder import PuzzleFolder
+from ..folder_ownership import Stage
 from ..puzzle import Puzzle
+from ..stage_writes import stage_directory
 from .metadata import metadata_json
 from .srdf import chain_to_srdf
 from .urdf import chain_to_urdf

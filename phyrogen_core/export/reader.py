@@ -51,15 +51,10 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from ..chain import Geometry, Joint, JointType, KinematicChain, Link, Role
-from ..folder import (
-    METADATA_FILE,
-    PuzzleFolder,
-    PuzzleFormatError,
-    name_problem,
-    read_folder_file,
-    read_folder_json,
-    require_no_escapes,
-)
+from ..errors import PuzzleFormatError
+from ..folder import PuzzleFolder
+from ..folder_layout import METADATA_FILE, name_problem
+from ..folder_reads import read_folder_file, read_folder_json, require_no_escapes
 from ..geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from ..objects import Motion
 from ..puzzle import Goal

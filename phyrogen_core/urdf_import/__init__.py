@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ..chain import Role
 from ..export.reader import goal_problems, start_state
-from ..folder import name_problem
+from ..folder_layout import name_problem
 from ..provenance import Imported, ImportedJoint, Provenance
 from ..puzzle import Goal, Puzzle
 from .goal import GoalChoice, goal_from_pose, goal_from_values

@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from ..chain import GRAY, RGBA, pose_matrix
+from ..errors import PuzzleFormatError
 from ..export.reader import MAX_MAGNITUDE
-from ..folder import MAX_FILE_BYTES, PuzzleFormatError, read_folder_file
+from ..folder_reads import MAX_FILE_BYTES, read_folder_file
 from ..geometry import Pose
 from ..mesh_files import MeshFormatError, read_triangles
 from ..sizes import urdf_size_problem
