@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pybullet as pb
 
-from .execution import Recording, SceneSetup
+from .execution_records import Recording, SceneSetup
 from .scene import World, temporary_folder, write_scene_files
 
 FRAME_SIZE = (640, 480)

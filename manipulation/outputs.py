@@ -10,7 +10,7 @@ from pathlib import Path
 
 from phyrogen_core.stage_writes import owned_directory
 
-from .execution import ManipulationReport, Recording, SceneSetup
+from .execution_records import ManipulationReport, Recording, SceneSetup
 from .media import Renderer, write_frames, write_grip_frames, write_video
 
 
