@@ -133,12 +133,19 @@ def test_ppo_trains_a_few_hundred_steps_on_the_curriculum():
         return CurriculumEnv("grid_world", levels=(1, 2), puzzle_seed=SEEDS, raster_size=8, action_mode="discrete",
                              max_episode_steps=30)
 
-    venv = DummyVecEnv([make, make])
-    model = PPO("MultiInputPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
-    model.learn(256)
-    assert model.num_timesteps == 256
-    action, _ = model.predict(venv.reset(), deterministic=True)
-    assert action.shape == (2,)
+    def train(seed):
+        venv = DummyVecEnv([make, make])
+        model = PPO("MultiInputPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=seed, device="cpu")
+        model.learn(256)
+        assert model.num_timesteps == 256
+        action, _ = model.predict(venv.reset(), deterministic=True)
+        assert action.shape == (2,)
+        return torch.cat([p.detach().flatten() for p in model.policy.parameters()])
+
+    # Reproducible by seed (PyTorch on one thread); another seed trains another policy.
+    first = train(0)
+    assert torch.equal(first, train(0))
+    assert not torch.equal(first, train(1))
 
 
 @pytest.mark.slow
