@@ -118,8 +118,8 @@ def main(argv: list[str] | None = None) -> int:
         results["rows"][name] = [asdict(o) for o in outcomes]
         report(name, {"heldout": outcomes}, sizes, beyond, success_row)
     results["cpu_seconds"] = time.process_time() - cpu0 + children_cpu()
-    (out / "results.json").write_text(json.dumps(results, indent=1) + "\n")
-    (out / "table.md").write_text(table(results, success_row, np) + "\n")
+    write_whole(out / "results.json", json.dumps(results, indent=1) + "\n")
+    write_whole(out / "table.md", table(results, success_row, np) + "\n")
     plot(results, out / "curves.png")
     say(f"wrote {out}/results.json, table.md, curves.png; CPU {results['cpu_seconds']:.0f} s")
     return 0
@@ -273,8 +273,15 @@ def plot(results, path: Path) -> None:
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    tmp = path.with_suffix(".tmp.png")
+    tmp = path.with_name(f".{path.stem}.tmp.png")
     fig.savefig(tmp, dpi=100)
+    os.replace(tmp, path)
+
+
+def write_whole(path: Path, text: str) -> None:
+    """Write ``text`` beside ``path`` and rename it into place: an interrupted run leaves no torn file."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
     os.replace(tmp, path)
 
 
