@@ -19,7 +19,7 @@ order), and consecutive moves of the same object form one action.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,10 +28,8 @@ import numpy as np
 from phyrogen_core.actions import count_actions
 from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import LoadedPuzzle
-from phyrogen_core.export.reader import MAX_MAGNITUDE
 from phyrogen_core.folder_layout import BEST_SOLUTION
-from phyrogen_core.folder_reads import read_folder_json
-from phyrogen_core.sizes import CERTIFICATE_STATES
+from phyrogen_core.solution_file import SolutionFile, read_solution_file
 
 CERTIFICATE = "certificate"
 
@@ -104,19 +102,18 @@ def solution_problems(loaded: LoadedPuzzle, solution: Solution) -> list[str]:
 def load_solution(folder: Path, joint_order: Sequence[str], certificate: Sequence[Sequence[float]]) -> Solution:
     """The LA-RRT best solution of the puzzle in ``folder`` if there is one, else its certificate.
 
-    The solution file is read by the puzzle folder's rule
-    (:func:`phyrogen_core.folder.read_folder_json`: inside the folder, a
-    regular file of bounded size, finite numbers); its path must hold at
-    least 2 and at most :data:`~phyrogen_core.sizes.MAX_CERTIFICATE_STATES`
-    states of finite joint values within ``MAX_MAGNITUDE``. Raises
-    :class:`~phyrogen_core.folder.PuzzleFormatError` naming the file and the field.
+    The solution file is read by its one strict reader
+    (:func:`phyrogen_core.solution_file.read_solution_file`: the puzzle folder's rule, then the
+    format's: a path of 2 to :data:`~phyrogen_core.sizes.MAX_CERTIFICATE_STATES` states of finite
+    joint values within ``MAX_MAGNITUDE``), and its joints must be the puzzle's. Raises
+    :class:`~phyrogen_core.errors.PuzzleFormatError` naming the file and the field.
     """
     folder = Path(folder)
     file = folder / BEST_SOLUTION
     if not os.path.lexists(file):
         return _certificate(folder, certificate)
-    data = read_folder_json(file, folder, f"{file}: solution file")
-    return Solution(_reorder(data, joint_order, file), str(file), "benchmark best: " + _run_name(data))
+    solution = read_solution_file(file, folder)
+    return Solution(solution.path_in(joint_order, str(file)), str(file), "benchmark best: " + solution.run_name)
 
 
 def _certificate(folder: Path, certificate: Sequence[Sequence[float]]) -> Solution:
@@ -129,52 +126,12 @@ def _certificate(folder: Path, certificate: Sequence[Sequence[float]]) -> Soluti
     return Solution(path, CERTIFICATE, CERTIFICATE)
 
 
-def _run_name(data: object) -> str:
-    """``<planner> run <n>`` from a solution file's fields; what is missing or odd is left out."""
-    planner = data.get("planner") if isinstance(data, Mapping) else None
-    run = data.get("run") if isinstance(data, Mapping) else None
-    parts = [planner if isinstance(planner, str) and planner.isprintable() else "LA-RRT"]
-    if isinstance(run, int) and not isinstance(run, bool):
-        parts.append(f"run {run}")
-    return " ".join(parts)[:80]
-
-
 def _from_run(run: BenchmarkRun, joint_order: Sequence[str]) -> Solution:
-    data = {"joint_order": list(run.joint_order), "path": [list(state) for state in run.path]}
     label = f"benchmark: {run.planner} run {run.run}"
-    return Solution(_reorder(data, joint_order, Path(f"journal run ({label})")), "journal", label)
+    where = f"journal run ({label})"
+    data = {"joint_order": list(run.joint_order), "path": [list(state) for state in run.path]}
+    return Solution(SolutionFile.from_data(data, where).path_in(joint_order, where), "journal", label)
 
 
 def _length(path: Sequence[Sequence[float]]) -> float:
     return float(np.linalg.norm(np.diff(np.asarray(path, dtype=float), axis=0), axis=1).sum())
-
-
-def _reorder(data: object, joint_order: Sequence[str], file: Path) -> np.ndarray:
-    if not isinstance(data, Mapping) or "path" not in data or "joint_order" not in data:
-        raise PuzzleFormatError(f"{file}: expected an object with 'joint_order' and 'path'")
-    order = data["joint_order"]
-    if (not isinstance(order, list) or not all(isinstance(name, str) for name in order)
-            or sorted(order) != sorted(joint_order)):
-        raise PuzzleFormatError(f"{file}: joint_order {_show(order)} does not match the puzzle's joints "
-                                f"{list(joint_order)} (each once)")
-    rows = data["path"]
-    if not isinstance(rows, list) or len(rows) < 2:
-        raise PuzzleFormatError(f"{file}: path must be a list of at least 2 states, got {_show(rows)}")
-    too_long = CERTIFICATE_STATES.problem(len(rows))  # the certificate's bound: the robot's work grows with it
-    if too_long is not None:
-        raise PuzzleFormatError(f"{file}: path {too_long}")
-    for i, row in enumerate(rows):
-        if not isinstance(row, list) or len(row) != len(order):
-            raise PuzzleFormatError(f"{file}: path[{i}] must be a list of {len(order)} numbers, got {_show(row)}")
-        for j, value in enumerate(row):
-            if (isinstance(value, bool) or not isinstance(value, int | float)
-                    or not -MAX_MAGNITUDE <= value <= MAX_MAGNITUDE):
-                raise PuzzleFormatError(f"{file}: path[{i}][{j}] = {_show(value)} must be a finite number "
-                                        f"within +-{MAX_MAGNITUDE:g}")
-    path = np.asarray(rows, dtype=float)
-    return path[:, [order.index(name) for name in joint_order]]
-
-
-def _show(value: object, width: int = 80) -> str:
-    text = repr(value)
-    return text if len(text) <= width else text[:width - 3] + "..."
