@@ -218,7 +218,8 @@ def test_bad_input_is_a_one_line_value_error(dataset, tmp_path):
     cases = [
         (lambda: PuzzleEnv(tmp_path / "missing"), "no such folder"),
         (lambda: PuzzleEnv(generator="no_such_generator", puzzle_seed=1), "unknown generator"),
-        (lambda: PuzzleEnv(generator="grid_world"), "puzzle_seed"),
+        (lambda: PuzzleEnv(generator="grid_world", puzzle_seed="7"), "puzzle_seed"),
+        (lambda: PuzzleEnv(generator="grid_world", puzzle_seed=[]), "puzzle_seed"),
         (lambda: PuzzleEnv(), "no puzzle"),
         (lambda: PuzzleEnv(folder, reward="dense"), "reward must be one of"),
         (lambda: PuzzleEnv(folder, max_episode_steps=0), "max_episode_steps"),

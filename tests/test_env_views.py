@@ -112,10 +112,16 @@ def test_check_env_passes_for_every_observation_mode(puzzles, observation):
     assert env.observation_space.contains(obs)
 
 
-def test_render_rgb_array_is_an_image(puzzles):
+def test_render_rgb_array_is_an_image_before_and_after_reset(puzzles):
+    # As a user first tries it: no seed (the generator's seed 1), no reset.
+    first = gym.make(ENV_ID, generator="grid_world", render_mode="rgb_array").render()
+    assert first.ndim == 3 and first.shape[2] == 3 and first.dtype == np.uint8
     env = gym.make(ENV_ID, generator="grid_world", puzzle_seed=8465, render_mode="rgb_array")
+    before = env.render()
     env.reset(seed=0)
     image = env.render()
+    assert np.array_equal(before, image)  # the start state, before the first reset as after it
+    assert not np.array_equal(first, image)  # another puzzle, another image
     assert image.shape[2] == 3 and image.ndim == 3 and image.dtype == np.uint8
     assert len(np.unique(image.reshape(-1, 3), axis=0)) >= 3  # background, target, goal at least
     # The image follows the state: the certificate's first move changes it.

@@ -63,8 +63,11 @@ def _make_registered(**kwargs: Any) -> PuzzleEnv:
 _make_registered.metadata = PuzzleEnv.metadata  # type: ignore[attr-defined]  # gym.make reads render modes here
 
 if ENV_ID not in gym.registry:
+    # No OrderEnforcing wrapper: the environment is defined from construction (the first puzzle at its
+    # start state), so render() before the first reset shows it, as RecordVideo and a first look want;
+    # the environment itself raises ResetNeeded for a step after an episode's end.
     gym.register(id=ENV_ID, entry_point=_make_registered, vector_entry_point=PuzzleVectorEnv,
-                 max_episode_steps=STEP_LIMIT)
+                 max_episode_steps=STEP_LIMIT, order_enforce=False)
 
 if CURRICULUM_ID not in gym.registry:
     # The curriculum counts its own steps (an episode's end moves the level), so gym.make adds no TimeLimit.

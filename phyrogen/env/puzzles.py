@@ -41,6 +41,8 @@ REWARDS = ("sparse", "shaped", "guided")
 OBSERVATIONS = ("vector", "raster", "geometry")
 RASTER_SIZE = 32
 """Cells along each side of the raster observation, by default."""
+DEFAULT_PUZZLE_SEED = 1
+"""The puzzle ``generator=`` makes when no ``puzzle_seed`` is given: the paper's first seed."""
 ACTION_MODES = ("continuous", "discrete")
 ON_COLLISION = ("stop", "reject")
 KIND_PRISMATIC, KIND_REVOLUTE = 1.0, 2.0
@@ -148,7 +150,7 @@ def _as_sources(puzzle: Any, generator: str | None, puzzle_seed: Any, params: An
         raise ValueError("puzzle_seed= and params= need generator=; a puzzle folder already fixes its puzzle")
     if puzzle is None:
         raise ValueError("no puzzle: give puzzle=<puzzle folder | dataset root | list of folders> "
-                         "or generator=<name> with puzzle_seed=<int or list of ints>")
+                         "or generator=<name> (with puzzle_seed=<int or list of ints>)")
     items = [puzzle] if isinstance(puzzle, str | Path) or not isinstance(puzzle, Sequence) else list(puzzle)
     if not items:
         raise ValueError("puzzle= is an empty list: give at least one puzzle folder")
@@ -189,10 +191,12 @@ def _generated(generator: str, puzzle_seed: Any, params: Any) -> list[Source]:
     known = all_generators()
     if generator not in known:
         raise ValueError(f"unknown generator {generator!r}; valid: {', '.join(known)}")
+    if puzzle_seed is None:
+        puzzle_seed = DEFAULT_PUZZLE_SEED
     seeds = [puzzle_seed] if isinstance(puzzle_seed, int | np.integer) else puzzle_seed
     if seeds is None or isinstance(seeds, str) or not isinstance(seeds, Sequence | range) or not seeds or not all(
             isinstance(s, int | np.integer) and not isinstance(s, bool) for s in seeds):
-        raise ValueError(f"generator= needs puzzle_seed=<int or non-empty list of ints>, got {puzzle_seed!r}")
+        raise ValueError(f"puzzle_seed must be an int or a non-empty list of ints, got {puzzle_seed!r}")
     if params is None or isinstance(params, Mapping):
         overrides = {str(k): str(v) for k, v in (params or {}).items()}
         jobs = [Job(generator, int(s), overrides) for s in seeds]

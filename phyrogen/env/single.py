@@ -22,7 +22,7 @@ class PuzzleEnv(gym.Env):
     ``<root>/<generator>/<name>/`` under it), a list of folders, or in-memory
     :class:`~phyrogen_core.puzzle.Puzzle` / :class:`~phyrogen_core.export.reader.LoadedPuzzle`
     objects; or ``generator`` with ``puzzle_seed`` (an int or a list of ints,
-    generated once, deterministically, in worker processes; ``params`` are the
+    generated once, deterministically, in worker processes; seed 1 when not given; ``params`` are the
     generator's overrides). With several puzzles, ``reset(seed=...)`` draws
     the episode's puzzle from the seeded ``np_random``;
     ``reset(options={"puzzle": name_or_index})`` chooses one.
@@ -83,7 +83,8 @@ class PuzzleEnv(gym.Env):
 
     **Info.** ``puzzle`` (name), ``goal_distance``, ``collided``,
     ``is_success``. ``render_mode="ansi"`` renders text, ``"rgb_array"`` a
-    (256, 256, 3) uint8 image of the raster in colour (Gymnasium's RecordVideo takes it).
+    (256, 256, 3) uint8 image of the raster in colour (Gymnasium's RecordVideo takes it), before the
+    first ``reset()`` too (the first puzzle at its start).
     For search: :attr:`state` / :meth:`set_state`,
     :attr:`certificate` (the stored solution in :attr:`joint_order`) and
     :meth:`action_towards`.
