@@ -92,27 +92,17 @@ def planner_solution(folder: str | Path, joint_order: Sequence[str]) -> np.ndarr
     """The benchmark's best solution in a puzzle folder (``solutions/la_rrt_best.json``) in ``joint_order``,
     or None when there is none.
 
-    Raises :class:`~phyrogen_core.folder.PuzzleFormatError` naming the file when
-    its joint order is not the puzzle's or its path is not a list of at least
-    two states of finite numbers, one per joint.
+    Read by the format's one strict reader (:func:`phyrogen_core.solution_file.read_solution_file`, as
+    ``manipulate`` reads it): :class:`~phyrogen_core.folder.PuzzleFormatError` naming the file when it
+    breaks the format or its joints are not the puzzle's.
     """
-    from phyrogen_core.folder import BEST_SOLUTION, PuzzleFormatError, read_folder_json
+    from phyrogen_core.folder import BEST_SOLUTION
+    from phyrogen_core.solution_file import read_solution_file
 
     file = Path(folder) / BEST_SOLUTION
     if not file.exists():
         return None
-    data = read_folder_json(file, folder, f"{file}: solution file")
-    order = data.get("joint_order") if isinstance(data, dict) else None
-    if not isinstance(order, list) or sorted(map(str, order)) != sorted(joint_order) or len(set(order)) != len(order):
-        raise PuzzleFormatError(f"{file}: joint_order {order!r} is not the puzzle's joints {list(joint_order)}")
-    rows = data.get("path")
-    try:
-        path = np.asarray(rows, dtype=float)
-    except (TypeError, ValueError):
-        path = np.empty((0, 0))
-    if path.ndim != 2 or path.shape[1] != len(order) or len(path) < 2 or not np.isfinite(path).all():
-        raise PuzzleFormatError(f"{file}: path must be a list of at least 2 states of {len(order)} finite numbers")
-    return path[:, [order.index(name) for name in joint_order]]
+    return read_solution_file(file, folder).path_in(joint_order, str(file))
 
 
 def frames_per_action_for(actions: int, seconds: float, fps: int, least: int = 4) -> int:

@@ -153,6 +153,9 @@ def test_a_planner_solution_plays_in_the_puzzles_joint_order(generated, tmp_path
     built = build_puzzle(puzzle)
     keyframe_solution(built, solution, puzzle.chain)
     assert_scene_shows(built, puzzle.chain, puzzle.certificate[-1], bpy.context.scene.frame_end)
-    file.write_text(json.dumps({"joint_order": order[1:], "path": path.tolist()}))
+    file.write_text(json.dumps({"joint_order": order[1:], "path": path[:, 1:].tolist()}))
     with pytest.raises(PuzzleFormatError, match="joint_order"):
+        planner_solution(folder, puzzle.joint_order)
+    file.write_text(json.dumps({"joint_order": order[1:], "path": path.tolist()}))  # a state wider than the joints
+    with pytest.raises(PuzzleFormatError, match=r"la_rrt_best\.json: path\[0\]"):
         planner_solution(folder, puzzle.joint_order)
