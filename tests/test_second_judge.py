@@ -18,6 +18,7 @@ import pytest
 
 from phyrogen_core.chain import Geometry
 from phyrogen_core.geometry import Box, Pose
+from phyrogen_core.maker import BY_GEOMETRY
 from phyrogen_core.objects import Motion, PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 from solver.pipelines.generation import generate_here
@@ -160,6 +161,7 @@ def test_a_superfluous_object_is_caught_by_the_second_judge_alone(slider):
 
 def test_the_maker_keeps_each_verdict_with_its_goal_accounting(slider):
     validator = OmplValidator(np.random.default_rng(0))
+    validator.prover = None  # the judges alone: a geometric proof would spare the second judge here
     objects = _with_a_superfluous_object(slider)
     margin = slider.parameters.interlock_margin
     assert validator.necessity(objects, slider.goal, ["obj_99"], margin) is None
@@ -169,6 +171,9 @@ def test_the_maker_keeps_each_verdict_with_its_goal_accounting(slider):
     assert not superfluous.necessary and necessary.necessary
     assert necessary.reason in (NO_GOAL_STATE, NO_PATH) and necessary.attempts[-1].goals is not None
     assert validator.checks >= superfluous.queries + necessary.queries + necessary.second_checks > 0
+    # With the proof (as the Maker runs): the same verdict and margin, settled by geometry, no second judge.
+    proven = OmplValidator(np.random.default_rng(0)).necessity(slider.objects, slider.goal, [blocker], margin)
+    assert proven is not None and proven.how == BY_GEOMETRY and proven.margin == necessary.margin
 
 
 def test_a_planner_run_says_when_its_goal_sampler_found_nothing_or_gave_out():
