@@ -3,9 +3,13 @@
 A generator is registered with everything that is known about it: its
 parameters (a frozen dataclass whose fields say what they mean, see
 :func:`parameter`), whether it is one of the paper's six and in which row of
-Table I, and its benchmark time limit in every profile. The six built-in
-generators are loaded the first time the registry is asked for anything, so it
-is never seen empty. ``docs/adding-a-generator.md`` walks through adding one.
+Table I, and its benchmark time limit in every profile. Generators are
+plug-ins: each is a ``build`` function decorated with :func:`register` and
+declared in the ``phyrogen.generators`` entry-point group of its package, the
+built-in six in PhyRoGen's own ``pyproject.toml`` like any other package's
+(:mod:`phyrogen_core.plugins`). They are loaded the first time the registry is
+asked for anything, so it is never seen empty; this module imports no
+generator. ``docs/adding-a-generator.md`` walks through adding one.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from numbers import Integral, Real
 from typing import Any
 
 from .maker import MakerInput
+from .plugins import GENERATOR_GROUP, PluginError, load_group
 
 BENCHMARK_PROFILES = ("paper", "quick")
 """The benchmark profiles (``solver.benchmark.runner``) every generator gives a time limit for:
@@ -88,6 +93,8 @@ class GeneratorSpec:
     paper_row: int | None = None
     time_limits: Mapping[str, float] = field(default_factory=dict)
     scene_scale: float = 1.0
+    version: str = "1"
+    """Bumped by hand when the generator's puzzles change for the same seed and parameters."""
 
     def __post_init__(self) -> None:
         if not dataclasses.is_dataclass(self.params):
@@ -111,6 +118,8 @@ class GeneratorSpec:
         if not (math.isfinite(self.scene_scale) and self.scene_scale > 0):
             raise ValueError(f"generator {self.name!r}: scene_scale must be a positive number, "
                              f"got {self.scene_scale!r}")
+        if not isinstance(self.version, str) or not self.version or any(c.isspace() for c in self.version):
+            raise ValueError(f"generator {self.name!r}: version must be a non-empty word, got {self.version!r}")
 
     @property
     def paper(self) -> bool:
@@ -293,27 +302,52 @@ _current = _BUILTIN
 
 
 def register(name: str, title: str, params: type, *, time_limits: Mapping[str, float],
-             paper_row: int | None = None, scene_scale: float = 1.0) -> Callable[[Build], Build]:
+             paper_row: int | None = None, scene_scale: float = 1.0, version: str = "1") -> Callable[[Build], Build]:
     """Decorator: register ``build(seed, params) -> MakerInput`` under ``name``.
 
     ``time_limits``: benchmark seconds per run for every profile in
     :data:`BENCHMARK_PROFILES`; ``paper_row``: the row in the paper's Table I,
     for the paper's six only; ``scene_scale``: the physical scale (metres per
-    puzzle metre) where a robot handles the puzzles. The docstring of ``build`` is the generator's
+    puzzle metre) where a robot handles the puzzles; ``version``: bump it by hand when the
+    puzzles for a seed change. A package outside PhyRoGen declares the decorated function in its
+    ``phyrogen.generators`` entry points (docs/adding-a-generator.md). The docstring of ``build`` is the generator's
     documentation (sections Mechanism, Randomization, Goal, Difficulty
     parameters, Departures).
     """
 
     def wrap(build: Build) -> Build:
         _current.add(GeneratorSpec(name, title, build, params, (build.__doc__ or "").strip(), paper_row,
-                                   dict(time_limits), scene_scale))
+                                   dict(time_limits), scene_scale, version))
         return build
 
     return wrap
 
 
+_loaded = False
+
+
+def load_generator_plugins() -> None:
+    """Load every generator declared in the ``phyrogen.generators`` entry-point group, once: the
+    built-in six (declared in PhyRoGen's own ``pyproject.toml``) and any other package's
+    (:mod:`phyrogen_core.plugins`). PluginError names an entry that does not load or registers no
+    generator of its name."""
+    global _loaded
+    if _loaded:
+        return
+    _loaded = True  # before importing: the modules' @register calls land in the registry meanwhile
+    try:
+        for plugin in load_group(GENERATOR_GROUP):
+            spec = _current.all().get(plugin.name)
+            if spec is None or spec.build is not plugin.loaded:
+                raise PluginError(f"{GENERATOR_GROUP}: {plugin.where()} registers no generator named {plugin.name!r}; "
+                                  f"decorate the function it names with @register({plugin.name!r}, ...)")
+    except PluginError:
+        _loaded = False
+        raise
+
+
 def _load_builtin() -> None:
-    from . import generators  # noqa: F401  (registers the six paper generators)
+    load_generator_plugins()
 
 
 def registry() -> Registry:

@@ -99,6 +99,16 @@ def _benchmark_help(parser) -> str:
 
 def test_a_duplicate_or_malformed_registration_is_refused(with_example):
     plan = with_example.plan_function
+    from solver.planning.registry import Planner, planner
+
+    class Duplicate(Planner):
+        name, title, version = NAME, "Another title", "1"
+        plan = staticmethod(with_example.plan_function)
+
+    with pytest.raises(ValueError, match="registered already"):
+        planner(Duplicate)
+    with pytest.raises(ValueError, match="must declare version"):
+        planner(type("NoVersion", (Planner,), {"name": "fresh", "title": "Fresh", "plan": staticmethod(plan)}))
     with pytest.raises(ValueError, match="registered already"):
         register_planner(NAME, "Another title", plan, version="1", uses_ompl_rng=True)
     with pytest.raises(ValueError, match="title 'RRT\\*' is taken by 'rrt_star'"):
@@ -141,8 +151,8 @@ def test_it_runs_in_a_benchmark_and_is_scored_like_the_others(with_example, slid
 def test_the_guide_and_the_docs_name_every_registered_planner():
     guide = (ROOT / "docs" / "adding-a-planner.md").read_text(encoding="utf-8")
     example = EXAMPLE.read_text(encoding="utf-8")
-    register_call = example[example.index("register_planner(\n"):].strip()
-    assert register_call in guide, "the guide shows the example's registration as it is"
+    declaration = example[example.index("@planner\n"):].strip()
+    assert declaration in guide, "the guide shows the example's planner class as it is"
     table = (ROOT / "docs" / "benchmark" / "README.md").read_text(encoding="utf-8")
     for spec in PLANNERS.values():
         assert f"| `{spec.name}` | {spec.title} |" in table, spec.name

@@ -10,9 +10,12 @@ it keeps connecting its two trees, and a connection that needs fewer actions is 
 from ompl import geometric as og
 
 from solver.planning.ompl_planners import ompl_plan_function
-from solver.planning.registry import register_planner
+from solver.planning.registry import Planner, planner
 
-register_planner(
-    "rrt_connect", "RRT-Connect", ompl_plan_function("RRT-Connect", og.RRTConnect),
-    version="ompl-1", uses_ompl_rng=True,
-    summary="OMPL's RRT-Connect (not optimizing); the cheapest of its connections")
+
+@planner
+class RrtConnect(Planner):
+    name, title, version = "rrt_connect", "RRT-Connect", "ompl-1"
+    uses_ompl_rng = True
+    summary = "OMPL's RRT-Connect (not optimizing); the cheapest of its connections"
+    plan = staticmethod(ompl_plan_function("RRT-Connect", og.RRTConnect))

@@ -1,15 +1,6 @@
-"""The six generators of the paper's Table I, registered by name when this package is imported.
+"""The six generators of the paper's Table I, one module each; :mod:`.kit` holds what they share.
 
-Import the registry (:mod:`phyrogen_core.registry`), not this package: it loads
-the generators the first time it is asked. :mod:`.kit` holds what the
-generators share.
+Nothing is imported here: each generator is declared in the ``phyrogen.generators`` entry points of
+``pyproject.toml``, as a generator from another package is, and the registry
+(:mod:`phyrogen_core.registry`) loads them the first time it is asked. Ask the registry, not this package.
 """
-
-from . import (  # noqa: F401  (each module registers its generator)
-    continuous_space,
-    grid_world,
-    lockbox_random,
-    move_n_times,
-    rooms,
-    simple_slider,
-)

@@ -1,4 +1,11 @@
-"""The benchmark planners by name, behind one interface, and :func:`register_planner` to add one.
+"""The benchmark planners by name, behind one interface: the :class:`Planner` plug-in shape.
+
+A planner is a :class:`Planner` subclass declaring its settings (name, title, version, parameters),
+registered with the :func:`planner` decorator and declared in a package's ``phyrogen.planners``
+entry points; the built-ins (:mod:`solver.planning.builtin_planners`) are declared so in PhyRoGen's
+own ``pyproject.toml``, and the registry loads every declared entry the first time it is read
+(:func:`load_planner_modules`). :func:`register_planner` registers a bare plan function the same way
+(for trials inside a test).
 
 ``get_planner(name).plan(problem, time_limit, seed)`` -> :class:`~solver.planning.anytime.PlanResult`
 (best path, action cost, first-solution time, cost over time, collision checks and CPU time spent).
@@ -18,7 +25,7 @@ The audit and the Maker's necessity judge do not choose a planner by name: they 
 :func:`solver.planning.la_rrt.la_rrt_within` with the judge's own settings
 (:mod:`solver.validation.judge`), which must not change with the benchmark's entries.
 
-The built-in entries, in the order of logs, tables and plots:
+The built-in entries (:mod:`solver.planning.builtin_planners`), in the order of logs, tables and plots:
 
 - ``la_rrt`` "LA-RRT": the paper's LA-RRT (:data:`solver.planning.la_rrt.PAPER_SETTINGS`);
 - ``la_rrt_push`` "LA-RRT+push (ours)": our LA-RRT with blocker pushes and the
@@ -33,8 +40,8 @@ recorded before a planner's code or settings changed is run again, not
 reused. Bump the code part by hand when a planner's code changes; its
 settings and the goal sampler's are digested into it.
 
-This module imports nothing heavy (the command line builds its parser from it): plan functions
-and settings are imported when a planner runs or a version is first asked for.
+This module imports nothing heavy (the command line builds its parser from it): plan code and
+settings are imported when a planner runs or a version is first asked for.
 docs/adding-a-planner.md walks through adding a planner.
 """
 
@@ -46,11 +53,12 @@ import importlib
 import importlib.util
 import re
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, MutableMapping
 from dataclasses import dataclass, field
-from functools import cached_property, partial
-from typing import TYPE_CHECKING
+from functools import cached_property
+from typing import TYPE_CHECKING, ClassVar
 
+from phyrogen_core.plugins import PLANNER_GROUP, PluginError, load_group
 from phyrogen_core.seeding import stable_seed
 
 if TYPE_CHECKING:
@@ -118,42 +126,6 @@ class PlannerSpec:
         return replace(result, end="solved") if until_first and result.solved else result
 
 
-def _la_rrt(which: str, title: str, problem, time_limit, seed, progress_interval, until_first, goal_seed,
-            budget_checks=None, budget_cpu=None) -> PlanResult:
-    from solver.planning.la_rrt import plan_la_rrt
-
-    return plan_la_rrt(problem, time_limit, seed, progress_interval, _la_rrt_settings(which),
-                       until_first=until_first, goal_seed=goal_seed, title=title, budget_checks=budget_checks,
-                       budget_cpu=budget_cpu)
-
-
-def _la_rrt_settings(which: str) -> object:
-    from solver.planning import la_rrt
-
-    return {"paper": la_rrt.PAPER_SETTINGS, "push": la_rrt.PUSH_SETTINGS, "fixed_order": la_rrt.FIXED_ORDER_SETTINGS,
-            "segment_check": la_rrt.SEGMENT_CHECK_SETTINGS}[which]
-
-
-def _rrt_star(*args, **kwargs) -> PlanResult:
-    from solver.planning.ompl_planners import plan_rrt_star
-
-    return plan_rrt_star(*args, **kwargs)
-
-
-def _lbt_rrt(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
-             budget_cpu=None) -> PlanResult:
-    from solver.planning.lbt_rrt import plan_lbt_rrt
-
-    return plan_lbt_rrt(problem, time_limit, seed, progress_interval, until_first=until_first, goal_seed=goal_seed,
-                        budget_checks=budget_checks, budget_cpu=budget_cpu)
-
-
-def _bit_star(*args, **kwargs) -> PlanResult:
-    from solver.planning.ompl_planners import plan_bit_star
-
-    return plan_bit_star(*args, **kwargs)
-
-
 def _version(code: str, settings: object = None) -> str:
     """``code`` (bumped by hand), a digest of ``settings`` (a frozen dataclass) and the goal sampler's tag."""
     from solver.planning.goal_sampling import DEFAULT_GOAL_SETTINGS
@@ -165,27 +137,41 @@ def _version(code: str, settings: object = None) -> str:
     return "/".join(parts)
 
 
-def _built_in() -> dict[str, PlannerSpec]:
-    specs = (
-        PlannerSpec("la_rrt", "LA-RRT", partial(_la_rrt, "paper", "LA-RRT"), False, "paper-4",
-                    partial(_la_rrt_settings, "paper"), True,
-                    "the paper's LA-RRT; fewest actions, by path defragmentation"),
-        PlannerSpec("la_rrt_push", "LA-RRT+push (ours)", partial(_la_rrt, "push", "LA-RRT+push (ours)"), False,
-                    "push-5", partial(_la_rrt_settings, "push"), True,
-                    "our LA-RRT with blocker pushes; fewest actions, by path defragmentation"),
-        PlannerSpec("rrt_star", "RRT*", _rrt_star, True, "ompl-5", None, False,
-                    "OMPL's RRT*; objects moved per edge"),
-        PlannerSpec("lbt_rrt", "LBT-RRT", _lbt_rrt, False, "py-4", None, False,
-                    "LBT-RRT in Python; objects moved per edge, epsilon 0.4"),
-        PlannerSpec("bit_star", "BIT*", _bit_star, True, "ompl-5", None, False,
-                    "OMPL's BIT*; objects moved per edge"),
-    )
-    return {spec.name: spec for spec in specs}
+class _Planners(MutableMapping[str, PlannerSpec]):
+    """The registered planners by name, in registration order. Reading it first loads the
+    ``phyrogen.planners`` entry points (:func:`load_planner_modules`), so it is never seen without
+    the built-ins; registering does not, so that the modules being loaded can register meanwhile."""
+
+    def __init__(self) -> None:
+        self._specs: dict[str, PlannerSpec] = {}
+
+    def _ready(self) -> dict[str, PlannerSpec]:
+        load_planner_modules()
+        return self._specs
+
+    def __getitem__(self, name: str) -> PlannerSpec:
+        return self._ready()[name]
+
+    def __setitem__(self, name: str, spec: PlannerSpec) -> None:
+        self._specs[name] = spec
+
+    def __delitem__(self, name: str) -> None:
+        del self._specs[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(list(self._ready()))
+
+    def __len__(self) -> int:
+        return len(self._ready())
+
+    def __repr__(self) -> str:
+        return f"PLANNERS({list(self._specs)})"
 
 
-PLANNERS: dict[str, PlannerSpec] = _built_in()
-"""Every registered planner, in registration order: the paper's four, with our LA-RRT variant
-after the paper's, then any added with :func:`register_planner`."""
+PLANNERS: MutableMapping[str, PlannerSpec] = _Planners()
+"""Every registered planner, in registration order: the built-ins of PhyRoGen's own
+``phyrogen.planners`` entry points (the paper's four with our LA-RRT variant after the paper's,
+then the ablations), then other packages' plug-ins, then any added with :func:`register_planner`."""
 
 LA_RRT_PLANNERS = ("la_rrt", "la_rrt_push")
 """The built-in entries whose best path is saved into the puzzle folder (the manipulation stage's
@@ -196,9 +182,52 @@ GROUPS: dict[str, str] = {
 }
 """Named sets of planners outside ``--planners all`` (:attr:`PlannerSpec.group`), and what each holds."""
 
-PLANNER_MODULES: tuple[str, ...] = ()
-"""Modules that register more planners, imported the first time the registry is asked
-(:func:`load_planner_modules`): add yours here (docs/adding-a-planner.md)."""
+class Planner:
+    """The base of a benchmark planner: its declared settings as class attributes, :meth:`plan` as its
+    code. Decorate the class with :func:`planner` to register it, and declare it in your package's
+    ``phyrogen.planners`` entry points (``name = "module:Class"``), as the built-ins are in PhyRoGen's
+    own ``pyproject.toml`` (docs/adding-a-planner.md).
+
+    ``name``: what ``--planners`` takes and the journal's key (lower-case letters, digits, ``_``);
+    ``title``: the name in logs, plots and tables; ``version``: the code version, bumped by hand
+    when the code changes (:attr:`PlannerSpec.version` adds a digest of :meth:`settings` and the goal
+    sampler's tag); ``uses_ompl_rng``: it draws from OMPL's global RNG; ``saves_solution``: its best
+    path per puzzle is saved for the manipulation stage; ``summary``: one line for ``--help`` and the
+    docs; ``group``: None for ``--planners all``, else a name of :data:`GROUPS`.
+    """
+
+    name: ClassVar[str]
+    title: ClassVar[str]
+    version: ClassVar[str]
+    uses_ompl_rng: ClassVar[bool] = False
+    saves_solution: ClassVar[bool] = False
+    summary: ClassVar[str] = ""
+    group: ClassVar[str | None] = None
+
+    def settings(self) -> object | None:
+        """The planner's parameters: a frozen dataclass (digested into its version), or None."""
+        return None
+
+    def plan(self, problem: Problem, time_limit: float, seed: int, progress_interval: float, until_first: bool,
+             goal_seed: int, budget_checks: int | None = None, budget_cpu: float | None = None) -> PlanResult:
+        """One run (see :func:`register_planner` for the rules every planner keeps)."""
+        raise NotImplementedError
+
+
+def planner(cls: type[Planner]) -> type[Planner]:
+    """Class decorator: register a :class:`Planner` subclass under its ``name``; returns the class,
+    with its registry entry as ``cls.spec``. Raises ValueError as :func:`register_planner` does."""
+    if not (isinstance(cls, type) and issubclass(cls, Planner)):
+        raise ValueError(f"@planner decorates a subclass of solver.planning.registry.Planner, got {cls!r}")
+    missing = [a for a in ("name", "title", "version") if not hasattr(cls, a)]
+    if missing or cls.plan is Planner.plan:
+        raise ValueError(f"planner class {cls.__qualname__} must declare {', '.join(missing or ['a plan method'])}")
+    instance = cls()
+    settings = None if cls.settings is Planner.settings else instance.settings
+    module = sys.modules.get(cls.__module__)
+    cls.spec = _add(cls.name, cls.title, instance.plan, cls.version, cls.uses_ompl_rng, settings, cls.saves_solution,
+                    cls.summary, cls.group, (cls.__module__, getattr(module, "__file__", None)))
+    return cls
 
 
 def register_planner(name: str, title: str, plan: PlanFunction, *, version: str, uses_ompl_rng: bool,
@@ -220,6 +249,14 @@ def register_planner(name: str, title: str, plan: PlanFunction, *, version: str,
     process, which loads the registering module (by name, else from its file) to find the planner.
     Raises ValueError for a bad or taken name or title.
     """
+    caller = sys._getframe(1).f_globals
+    source = None if caller.get("__name__") == __name__ else (caller.get("__name__", ""), caller.get("__file__"))
+    return _add(name, title, plan, version, uses_ompl_rng, settings, saves_solution, summary, group, source)
+
+
+def _add(name: str, title: str, plan: PlanFunction, version: str, uses_ompl_rng: bool,
+         settings: Callable[[], object] | None, saves_solution: bool, summary: str, group: str | None,
+         source: tuple[str, str | None] | None) -> PlannerSpec:
     if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name) or name == "all":
         raise ValueError(f"planner name must be 1-40 lower-case letters, digits or _, starting with a letter, "
                          f"and not 'all'; got {name!r}")
@@ -236,8 +273,6 @@ def register_planner(name: str, title: str, plan: PlanFunction, *, version: str,
         raise ValueError(f"version must be a non-empty word (bump it when the code changes), got {version!r}")
     if group is not None and group not in GROUPS:
         raise ValueError(f"planner group must be None (one of 'all') or one of {', '.join(GROUPS)}; got {group!r}")
-    caller = sys._getframe(1).f_globals
-    source = None if caller.get("__name__") == __name__ else (caller.get("__name__", ""), caller.get("__file__"))
     spec = PlannerSpec(name, title, plan, bool(uses_ompl_rng), version, settings, bool(saves_solution), summary,
                        source, group)
     PLANNERS[name] = spec
@@ -245,7 +280,7 @@ def register_planner(name: str, title: str, plan: PlanFunction, *, version: str,
 
 
 @contextlib.contextmanager
-def registry_copy() -> Iterator[dict[str, PlannerSpec]]:
+def registry_copy() -> Iterator[MutableMapping[str, PlannerSpec]]:
     """Register into a copy of the registry for the duration (tests, experiments); the registry is
     as it was afterwards."""
     saved = dict(PLANNERS)
@@ -260,12 +295,23 @@ _modules_loaded = False
 
 
 def load_planner_modules() -> None:
-    """Import :data:`PLANNER_MODULES` once, so that their planners are registered."""
+    """Load every planner declared in the ``phyrogen.planners`` entry-point group, once: the built-ins
+    (declared in PhyRoGen's own ``pyproject.toml``) first, then other packages' plug-ins
+    (:mod:`phyrogen_core.plugins`). PluginError (a ValueError) names an entry that does not load or
+    registers no planner of its name."""
     global _modules_loaded
-    if not _modules_loaded:
-        _modules_loaded = True
-        for module in PLANNER_MODULES:
-            importlib.import_module(module)
+    if _modules_loaded:
+        return
+    _modules_loaded = True  # before importing: the modules' @planner calls land in the registry meanwhile
+    try:
+        for plugin in load_group(PLANNER_GROUP):
+            spec = PLANNERS._specs.get(plugin.name)
+            if spec is None or getattr(plugin.loaded, "spec", None) is not spec:
+                raise PluginError(f"{PLANNER_GROUP}: {plugin.where()} registers no planner named {plugin.name!r}; "
+                                  f"name a Planner subclass decorated with @planner whose name is {plugin.name!r}")
+    except PluginError:
+        _modules_loaded = False
+        raise
 
 
 def load_planner_source(name: str, source: tuple[str, str | None] | None) -> None:
@@ -338,16 +384,3 @@ def plan(name: str, problem: Problem, time_limit: float, seed: int, progress_int
 def run_seed(planner: str, puzzle: str, run: int, base_seed: int = 0) -> int:
     """The seed of run ``run`` of ``planner`` on ``puzzle``: stable across machines, orders and processes."""
     return stable_seed("run", base_seed, planner, puzzle, run)
-
-
-# The ablations of ``la_rrt`` (docs/benchmark/README.md, "Ablations"): each switches one of its two
-# behaviour changes back to the original's. Registered like any added planner, but outside
-# ``--planners all``, so that "all" still means the five entries it meant before.
-register_planner("la_rrt_segment_check", "LA-RRT, original segment check", partial(_la_rrt, "segment_check",
-                 "LA-RRT, original segment check"), version="paper-4", uses_ompl_rng=False,
-                 settings=partial(_la_rrt_settings, "segment_check"), group="ablations",
-                 summary="la_rrt that also checks the straight segment a step replaces by its staircase (ablation)")
-register_planner("la_rrt_fixed_order", "LA-RRT, fixed factor order", partial(_la_rrt, "fixed_order",
-                 "LA-RRT, fixed factor order"), version="paper-4", uses_ompl_rng=False,
-                 settings=partial(_la_rrt_settings, "fixed_order"), group="ablations",
-                 summary="la_rrt whose factors move in the original's fixed order (ablation)")

@@ -1,0 +1,81 @@
+"""Plug-ins found through package entry points: the one way planners and generators are added.
+
+A package declares its planners in the entry-point group ``phyrogen.planners`` and its generators in
+``phyrogen.generators`` (``[project.entry-points."phyrogen.planners"]`` in its ``pyproject.toml``), each
+entry ``name = "module:object"``; PhyRoGen's own built-ins are declared the same way in its own
+``pyproject.toml``. Loading an entry imports its module, whose decorator registers the object; the
+registry then checks that the object is registered under the entry's name. PhyRoGen's own entries
+load first, then every other package's, each by package and entry name, so that the order of logs
+and tables does not follow the order of ``sys.path`` (the built-in planners register in the order of
+their one module, :mod:`solver.planning.builtin_planners`, whichever of its entries loads first).
+
+An entry that cannot be loaded (a missing module, a misspelled object, an error while importing)
+is :class:`PluginError`: one line naming the entry and its package.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from importlib import metadata
+
+PLANNER_GROUP = "phyrogen.planners"
+GENERATOR_GROUP = "phyrogen.generators"
+OWN_DISTRIBUTION = "phyrogen"
+
+
+class PluginError(ValueError):
+    """A plug-in's entry point cannot be loaded, or does not register what it names."""
+
+
+@dataclass(frozen=True)
+class Plugin:
+    """One loaded entry point: its name, the object it names, and where it was declared."""
+
+    name: str
+    value: str  # "module:object", as declared
+    distribution: str
+    loaded: object
+
+    def where(self) -> str:
+        return f"entry point {self.name!r} ({self.value}) of package {self.distribution!r}"
+
+
+def _distribution(entry: metadata.EntryPoint) -> str:
+    dist = getattr(entry, "dist", None)
+    return dist.metadata["Name"] if dist is not None else "?"
+
+
+def entry_points(group: str) -> list[metadata.EntryPoint]:
+    """The group's entry points: PhyRoGen's own first, then others, by package and name.
+    A name declared twice is kept once, the first; PhyRoGen's own are never shadowed."""
+    found = list(metadata.entry_points(group=group))
+    own = sorted((e for e in found if _distribution(e) == OWN_DISTRIBUTION), key=lambda e: e.name)
+    others = sorted((e for e in found if _distribution(e) != OWN_DISTRIBUTION),
+                    key=lambda e: (_distribution(e), e.name))
+    seen: set[str] = set()
+    unique = []
+    for entry in own + others:
+        if entry.name not in seen:
+            seen.add(entry.name)
+            unique.append(entry)
+    return unique
+
+
+def load_group(group: str) -> list[Plugin]:
+    """Import every entry point of ``group`` (see :func:`entry_points`); PluginError names the first
+    that fails. Raises PluginError, too, when PhyRoGen itself declares none: its package metadata is
+    missing (run ``pip install -e .``), and its built-ins would silently be absent."""
+    entries = entry_points(group)
+    if not any(_distribution(e) == OWN_DISTRIBUTION for e in entries):
+        raise PluginError(f"no {group!r} entry points of package {OWN_DISTRIBUTION!r} are installed: its built-ins "
+                          f"are declared there; install it (pip install -e . --no-deps)")
+    plugins = []
+    for entry in entries:
+        plugin = Plugin(entry.name, entry.value, _distribution(entry), None)
+        try:
+            loaded = entry.load()
+        except Exception as exc:  # any failure of someone else's import is reported as theirs, in one line
+            message = str(exc).splitlines()[0] if str(exc) else ""
+            raise PluginError(f"{group}: {plugin.where()} cannot be loaded: {type(exc).__name__}: {message}") from None
+        plugins.append(Plugin(entry.name, entry.value, plugin.distribution, loaded))
+    return plugins

@@ -1,0 +1,102 @@
+"""The built-in benchmark planners, each a :class:`~solver.planning.registry.Planner` plug-in.
+
+They are declared in PhyRoGen's own ``pyproject.toml`` (``[project.entry-points."phyrogen.planners"]``)
+exactly as a planner of another package is declared in its own, and registered, in this order (the
+order of logs, tables and plots), when the registry first loads them. Names, titles and versions are
+the journal's keys: see :mod:`solver.planning.registry`. Plan code is imported only when a planner
+runs or a version is first asked for, so that building the command line's parser stays light.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from solver.planning.registry import Planner, planner
+
+if TYPE_CHECKING:
+    from solver.planning.anytime import PlanResult
+
+
+class _LaRrtBase(Planner):
+    """LA-RRT under one of :mod:`solver.planning.la_rrt`'s settings (named by ``which``)."""
+
+    which = "paper"
+    version = "paper-4"
+    saves_solution = True
+
+    def settings(self) -> object:
+        from solver.planning import la_rrt
+
+        return {"paper": la_rrt.PAPER_SETTINGS, "push": la_rrt.PUSH_SETTINGS,
+                "fixed_order": la_rrt.FIXED_ORDER_SETTINGS, "segment_check": la_rrt.SEGMENT_CHECK_SETTINGS}[self.which]
+
+    def plan(self, problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
+             budget_cpu=None) -> PlanResult:
+        from solver.planning.la_rrt import plan_la_rrt
+
+        return plan_la_rrt(problem, time_limit, seed, progress_interval, self.settings(), until_first=until_first,
+                           goal_seed=goal_seed, title=self.title, budget_checks=budget_checks, budget_cpu=budget_cpu)
+
+
+@planner
+class LaRrt(_LaRrtBase):
+    name, title = "la_rrt", "LA-RRT"
+    summary = "the paper's LA-RRT; fewest actions, by path defragmentation"
+
+
+@planner
+class LaRrtPush(_LaRrtBase):
+    name, title, which, version = "la_rrt_push", "LA-RRT+push (ours)", "push", "push-5"
+    summary = "our LA-RRT with blocker pushes; fewest actions, by path defragmentation"
+
+
+@planner
+class RrtStar(Planner):
+    name, title, version, uses_ompl_rng = "rrt_star", "RRT*", "ompl-5", True
+    summary = "OMPL's RRT*; objects moved per edge"
+
+    def plan(self, *args, **kwargs) -> PlanResult:
+        from solver.planning.ompl_planners import plan_rrt_star
+
+        return plan_rrt_star(*args, **kwargs)
+
+
+@planner
+class LbtRrt(Planner):
+    name, title, version = "lbt_rrt", "LBT-RRT", "py-4"
+    summary = "LBT-RRT in Python; objects moved per edge, epsilon 0.4"
+
+    def plan(self, problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
+             budget_cpu=None) -> PlanResult:
+        from solver.planning.lbt_rrt import plan_lbt_rrt
+
+        return plan_lbt_rrt(problem, time_limit, seed, progress_interval, until_first=until_first, goal_seed=goal_seed,
+                            budget_checks=budget_checks, budget_cpu=budget_cpu)
+
+
+@planner
+class BitStar(Planner):
+    name, title, version, uses_ompl_rng = "bit_star", "BIT*", "ompl-5", True
+    summary = "OMPL's BIT*; objects moved per edge"
+
+    def plan(self, *args, **kwargs) -> PlanResult:
+        from solver.planning.ompl_planners import plan_bit_star
+
+        return plan_bit_star(*args, **kwargs)
+
+
+# The ablations of ``la_rrt`` (docs/benchmark/README.md, "Ablations"): each switches one of its two
+# behaviour changes back to the original's; outside ``--planners all``, so that "all" still means the
+# five entries it meant before.
+@planner
+class LaRrtSegmentCheck(_LaRrtBase):
+    name, title, which, group = "la_rrt_segment_check", "LA-RRT, original segment check", "segment_check", "ablations"
+    saves_solution = False
+    summary = "la_rrt that also checks the straight segment a step replaces by its staircase (ablation)"
+
+
+@planner
+class LaRrtFixedOrder(_LaRrtBase):
+    name, title, which, group = "la_rrt_fixed_order", "LA-RRT, fixed factor order", "fixed_order", "ablations"
+    saves_solution = False
+    summary = "la_rrt whose factors move in the original's fixed order (ablation)"
