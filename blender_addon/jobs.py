@@ -1,6 +1,6 @@
 """Long work of the panel in a subprocess: start it, watch its progress, cancel it, read its result.
 
-No bpy here (the operators in :mod:`.ui` poll a :class:`Job` from a modal
+No bpy here (the operators of :mod:`.job_control` poll a :class:`Job` from a modal
 timer, so Blender's UI never waits for it). A job is one command of
 ``phyrogen`` run in the project's Python (:func:`.environment.worker_python`)
 in a process group of its own; its stdout and stderr go to files in a
@@ -13,7 +13,6 @@ command"), and SIGKILL to what is left after :data:`KILL_AFTER` seconds.
 from __future__ import annotations
 
 import atexit
-import json
 import os
 import re
 import shutil
@@ -24,6 +23,13 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+
+from phyrogen_core.command_result import (
+    BenchmarkResult,
+    GenerateResult,
+    ManipulationOutcome,
+    ReplanResult,
+)
 
 from .environment import worker_python
 
@@ -47,20 +53,10 @@ class JobResult:
     def ok(self) -> bool:
         return self.returncode == 0 and not self.cancelled
 
-    def json(self) -> dict:
-        """The command's result: the one JSON object that ``--json`` prints on stdout.
-        Raises ValueError when stdout holds none."""
-        try:
-            value = json.loads(self.stdout)
-        except ValueError:
-            raise ValueError(f"the command printed no JSON result (stdout: {self.stdout[-200:]!r})") from None
-        if not isinstance(value, dict):
-            raise ValueError(f"the command's JSON result is not an object: {self.stdout[-200:]!r}")
-        return value
-
 
 def phyrogen_command(*arguments: str) -> list[str]:
-    """``phyrogen ARGUMENTS --json`` in the project's Python: the result comes as JSON (:meth:`JobResult.json`)."""
+    """``phyrogen ARGUMENTS --json`` in the project's Python: the result comes as JSON on stdout, read by the
+    command's reader in :mod:`phyrogen_core.command_result`."""
     return [worker_python(), "-m", "phyrogen", *arguments, "--json"]
 
 
@@ -251,41 +247,39 @@ def _seconds(value) -> str:
     return "-" if value is None else f"{value:.2g} s" if value < 10 else f"{value:.0f} s"
 
 
-def generate_table(result: dict) -> ResultTable:
+def generate_table(result: GenerateResult) -> ResultTable:
     """``phyrogen generate --json`` of one puzzle: what was made, one quantity a row."""
-    (puzzle,) = result["puzzles"]
-    return ResultTable(("Puzzle", puzzle["generator"] + "_" + str(puzzle["seed"])),
-                       (("Objects", str(puzzle["objects"])), ("Actions", str(puzzle["actions"])),
-                        ("Time", _seconds(puzzle["seconds"]))))
+    (puzzle,) = result.puzzles
+    return ResultTable(("Puzzle", f"{puzzle.generator}_{puzzle.seed}"),
+                       (("Objects", str(puzzle.objects)), ("Actions", str(puzzle.actions)),
+                        ("Time", _seconds(puzzle.seconds))))
 
 
-def replan_table(result: dict) -> ResultTable:
+def replan_table(result: ReplanResult) -> ResultTable:
     """``phyrogen replan --json``: the new certificate, one quantity a row."""
     return ResultTable(("Certificate", "new"),
-                       (("Planner", result["planner"]), ("Queries", str(result["queries"])),
-                        ("States", str(result["states"])), ("Dependencies", str(result["dependencies"]))))
+                       (("Planner", str(result.planner)), ("Queries", str(result.queries)),
+                        ("States", str(result.states)), ("Dependencies", str(result.dependencies))))
 
 
-def benchmark_table(result: dict) -> ResultTable:
+def benchmark_table(result: BenchmarkResult) -> ResultTable:
     """``phyrogen benchmark --json`` (``summary.json`` under ``summary``): per planner the solved runs of all
     runs and the median time to a first solution (over all runs; "none" when at most half solved)."""
-    rows = []
-    for cell in result["summary"]["cells"]:
-        median = (cell.get("time_to_first") or {}).get("median")
-        rows.append((cell["planner"].removesuffix(" (ours)"), f"{cell['successes']}/{cell['runs']}",
-                     "none" if median is None else _seconds(median)))
-    return ResultTable(("Planner", "Solved", "Time"), tuple(rows))
+    return ResultTable(("Planner", "Solved", "Time"),
+                       tuple((cell.planner.removesuffix(" (ours)"), f"{cell.successes}/{cell.runs}",
+                              "none" if cell.time_to_first is None else _seconds(cell.time_to_first))
+                             for cell in result.cells))
 
 
-def manipulation_table(report: dict) -> ResultTable:
+def manipulation_table(report: ManipulationOutcome) -> ResultTable:
     """One ``phyrogen manipulate --json`` report: how the execution went, one quantity a row."""
-    return ResultTable(("Execution", "succeeded" if report.get("success") else "failed"),
-                       (("Actions", str(report.get("actions", "?"))), ("Regrasps", str(report.get("regrasps", "?"))),
-                        ("Planning", _seconds(report.get("planning_seconds"))),
-                        ("Execution", _seconds(report.get("execution_seconds")))))
+    return ResultTable(("Execution", "succeeded" if report.success else "failed"),
+                       (("Actions", str(report.actions)), ("Regrasps", str(report.regrasps)),
+                        ("Planning", _seconds(report.planning_seconds)),
+                        ("Execution", _seconds(report.execution_seconds))))
 
 
-def manipulation_summary(report: dict) -> str:
+def manipulation_summary(report: ManipulationOutcome) -> str:
     """The outcome in a ``phyrogen manipulate`` report (``report.json``), in one line."""
-    outcome = "succeeded" if report.get("success") else f"failed: {report.get('message', '?')}"
-    return f"{report.get('puzzle', '?')}: execution {outcome} with {report.get('solution', '?')}"
+    outcome = "succeeded" if report.success else f"failed: {report.message}"
+    return f"{report.puzzle}: execution {outcome} with {report.solution}"

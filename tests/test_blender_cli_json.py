@@ -1,6 +1,6 @@
 """``--json`` on the commands the Blender panel runs: stdout is one JSON object, the rest goes to stderr.
 
-The panel (``blender_addon/ui.py``) reads its results from these objects, never from the printed tables.
+The panel (``blender_addon/job_operators.py``) reads its results from these objects, never from the printed tables.
 Benchmark's and Manipulate's objects are read by the panel's own tests (tests/test_blender_panel_jobs.py).
 """
 
@@ -10,6 +10,7 @@ import json
 import subprocess
 import sys
 
+from phyrogen_core.command_result import read_generate_result, read_replan_result
 from phyrogen_core.export import read_puzzle_dir
 
 SEED = 23
@@ -33,6 +34,8 @@ def test_generate_and_replan_print_one_json_object(tmp_path):
     loaded = read_puzzle_dir(folder)
     assert row["objects"] == len(loaded.chain.object_names) and row["actions"] == loaded.record.certificate_actions
     assert "generator" in run.stderr and "seed" in run.stderr  # the human table went to stderr
+    (puzzle,) = read_generate_result(run.stdout).puzzles  # the panel's reader takes the real output
+    assert (puzzle.folder, puzzle.objects, puzzle.seed) == (str(folder), row["objects"], SEED)
 
     run = phyrogen("replan", str(folder), "--json")
     assert run.returncode == 0, run.stderr
@@ -41,6 +44,7 @@ def test_generate_and_replan_print_one_json_object(tmp_path):
     assert result["solved"] is True and result["puzzle"] == f"simple_slider_{SEED}"
     assert result["states"] == len(replanned.certificate)
     assert result["planner"] in ("RRT-Connect", "LA-RRT+push") and result["queries"] > 0
+    assert read_replan_result(run.stdout).states == len(replanned.certificate)
 
 
 def test_bad_input_with_json_prints_nothing_on_stdout(tmp_path):
