@@ -262,3 +262,27 @@ def test_same_seed_same_puzzle_other_seed_other_puzzle(name):
     first, again, other = run(name, 3), run(name, 3), run(name, 4)
     assert first.objects == again.objects and first.goal == again.goal
     assert (first.objects, first.goal) != (other.objects, other.goal)
+
+
+def test_the_built_ins_are_declared_as_entry_points_and_the_registry_imports_no_generator():
+    """Built-in generators and planners are found the way outside plug-ins are: through the entry points
+    pyproject.toml declares (and the installed metadata holds: run ``pip install -e . --no-deps`` after
+    editing them); the registry module itself imports no generator, so the import circle is gone."""
+    import ast
+    import tomllib
+    from importlib import metadata
+    from pathlib import Path
+
+    from solver.planning.registry import PLANNERS
+
+    root = Path(__file__).resolve().parents[1]
+    declared = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))["project"]["entry-points"]
+    for group, registered in (("phyrogen.generators", paper_generators()), ("phyrogen.planners", tuple(PLANNERS))):
+        assert set(declared[group]) == set(registered), group
+        entries = metadata.entry_points(group=group)
+        installed = {e.name: e.value for e in entries if e.dist.metadata["Name"] == "phyrogen"}
+        assert installed == declared[group], f"{group}: the installed metadata is stale; pip install -e . --no-deps"
+    tree = ast.parse((root / "phyrogen_core" / "registry.py").read_text(encoding="utf-8"))
+    imported = {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    imported |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    assert not any("generators" in name for name in imported), imported

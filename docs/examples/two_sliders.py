@@ -1,9 +1,8 @@
 """Two Sliders: the smallest useful generator, the worked example of docs/adding-a-generator.md.
 
 Not one of the built-in generators: the tests load it into a copy of the
-registry (tests/test_example_generator.py). Copied into
-``phyrogen_core/generators/`` and imported in that package's ``__init__.py``,
-it becomes a seventh generator.
+registry (tests/test_example_generator.py) and install it as a package of its
+own, declared in the ``phyrogen.generators`` entry points (tests/test_plugins.py).
 """
 
 from __future__ import annotations
