@@ -34,6 +34,7 @@ from . import startup  # noqa: F401
 from pathlib import Path
 from typing import Any
 
+from phyrogen.stage_checks import certificate_problems, check_generation
 from phyrogen_core import __version__
 from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
 
@@ -48,21 +49,12 @@ def generators() -> dict:
     return all_generators()
 
 
-def _check_arguments(generator: str, seed: int, params: dict[str, Any]) -> None:
-    """Raise :class:`phyrogen_core.registry.ParameterError` (a ValueError) naming what is wrong,
-    as the command line does before any work; the worker would only find it after starting."""
-    from phyrogen_core.registry import get_generator
-
-    spec = get_generator(generator)
-    spec.check(seed, spec.parse_params(params))
-
-
 def generate(generator: str, seed: int, **params: Any):
     """One certified :class:`phyrogen_core.puzzle.Puzzle`, generated deterministically in a fresh
     process; ``params`` override the generator's defaults (``phyrogen list`` shows them)."""
     from solver.pipelines.generation import generate_puzzle
 
-    _check_arguments(generator, seed, params)
+    check_generation(generator, params, (seed,))  # as the command line checks, before any work
     return generate_puzzle(generator, seed, params)
 
 
@@ -72,7 +64,7 @@ def generate_into(out: str | Path, generator: str, seed: int, **params: Any) -> 
     from phyrogen_core.maker import GenerationError
     from solver.pipelines.generation import Job, run_jobs
 
-    _check_arguments(generator, seed, params)
+    check_generation(generator, params, (seed,))  # as the command line checks, before any work
     require_writable_dir(out)
     (report,) = list(run_jobs([Job(generator, seed, dict(params))], Path(out), workers=1))
     if report.error is not None or report.folder is None:
@@ -89,10 +81,7 @@ def load(folder: str | Path):
 
 def check(folder: str | Path) -> list[str]:
     """Problems with a puzzle folder's certificate (empty when it is valid at fine resolution)."""
-    from solver.planning.problem import verify_certificate
-
-    loaded = load(folder)
-    return verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)
+    return certificate_problems(load(folder))
 
 
 def find_puzzles(root: str | Path, generators: list[str] | None = None) -> list[PuzzleFolder]:

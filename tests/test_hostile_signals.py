@@ -309,7 +309,7 @@ def fail_with(exc: Exception):
 
 @pytest.mark.parametrize("argv", [["list"], ["--debug", "list"], ["list", "--debug"]])
 def test_a_traceback_only_with_debug(argv, monkeypatch, capsys):
-    monkeypatch.setattr("phyrogen.cli.cmd_list", fail_with(RuntimeError("boom\nsecond line")))
+    monkeypatch.setattr("phyrogen.commands.list.run", fail_with(RuntimeError("boom\nsecond line")))
     assert main(argv) == 1
     err = capsys.readouterr().err
     if "--debug" in argv:
@@ -321,7 +321,7 @@ def test_a_traceback_only_with_debug(argv, monkeypatch, capsys):
 def test_an_unusable_output_path_is_bad_input(monkeypatch, capsys):
     from phyrogen_core.atomic_writes import OutputError
 
-    monkeypatch.setattr("phyrogen.cli.cmd_list", fail_with(OutputError("output folder out is a file")))
+    monkeypatch.setattr("phyrogen.commands.list.run", fail_with(OutputError("output folder out is a file")))
     assert main(["list"]) == 2
     assert capsys.readouterr().err == "phyrogen: error: output folder out is a file\n"
 
@@ -340,6 +340,7 @@ def test_a_worker_killed_from_outside_is_reported_not_waited_for(tmp_path):
 FINALIZER_COMMAND = """
 import os, signal, sys, time
 import phyrogen.cli as cli
+import phyrogen.commands.list as list_command
 
 class Finalized:
     def __del__(self):
@@ -352,7 +353,7 @@ def command(args):
     print("finished")
     return 0
 
-cli.cmd_list = command
+list_command.run = command
 sys.exit(cli.main())
 """
 

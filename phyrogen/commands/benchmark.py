@@ -1,0 +1,179 @@
+"""``phyrogen benchmark``: planners on puzzle folders (OMPL logs, database, plots), resumed from its journal;
+``--report DIR`` writes a finished benchmark's results page again."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from phyrogen.json_output import add_json_option
+from phyrogen.options import (
+    MAX_BENCHMARK_SEED,
+    add_quiet_option,
+    add_workers_option,
+    benchmark_seed_option,
+    budget_checks_option,
+    path_option,
+    whole_number,
+)
+from phyrogen.ray_options import add_ray_option, check_ray, ray_connection
+from phyrogen.usage import UsageError, generator_names
+from phyrogen_core.folder import find_puzzle_folders
+
+
+def add_parser(sub) -> None:
+    bench = sub.add_parser("benchmark", help="benchmark planners on puzzle folders (OMPL logs, database, plots)")
+    bench.add_argument("--puzzles", type=path_option, default="output",
+                       help="folder of puzzle folders (default: output)")
+    bench.add_argument("--generator", default="all", help="generators to include (default: all found)")
+    bench.add_argument("--planners", default="all", help=_planners_help())
+    bench.add_argument("--profile", default="quick", help="paper (100 runs, the paper's limits) or quick")
+    bench.add_argument("--runs", type=runs_option,
+                       help=f"runs per planner and puzzle, 1..{MAX_RUNS} (overrides the profile)")
+    bench.add_argument("--time-limit", type=time_limit_option,
+                       help=f"seconds per run for every puzzle, above 0 and at most {MAX_TIME_LIMIT:g} "
+                            "(overrides the profile); with a budget, a wall-clock backstop of your choice (a run "
+                            "it ends is recorded as clock-ended and its cell marked incomplete)")
+    bench.add_argument("--seed", type=benchmark_seed_option, default=0,
+                       help=f"base seed of every run's seed, 0..{MAX_BENCHMARK_SEED} (default 0)")
+    bench.add_argument("--out", type=path_option, default="output/benchmark",
+                       help="output folder (default: output/benchmark)")
+    add_workers_option(bench)
+    add_ray_option(bench, "runs")
+    bench.add_argument("--until", choices=("limit", "first"), default="limit",
+                       help="limit (default): every run lasts its time limit; first: a run stops at its first "
+                            "solution (success within the limit and time to it, affordably)")
+    bench.add_argument("--budget-checks", type=budget_checks_option, metavar="N",
+                       help="every run ends after N collision checks (1..10^9; a motion counts its length in "
+                            "resolution steps), the same result on any machine; the wall-clock backstop is derived "
+                            "from the budget (docs/benchmark/README.md#end-reasons) unless --time-limit is given")
+    bench.add_argument("--budget-cpu", type=budget_cpu_option, metavar="S",
+                       help="every run ends after S CPU seconds of its own process (machine-dependent: the summary "
+                            "says so); not with a check budget")
+    bench.add_argument("--budget-from-paper", action="store_true",
+                       help="every run ends after its generator's paper time limit in collision checks, at the "
+                            "checks per second of the paper's harness (docs/benchmark/README.md#paper-budgets); "
+                            "not with --budget-checks")
+    bench.add_argument("--no-solutions", action="store_true", help="do not save LA-RRT's best path per puzzle")
+    bench.add_argument("--dry-run", action="store_true", help="print the job count and time estimate only")
+    bench.add_argument("--report", type=path_option, metavar="DIR",
+                       help="run nothing: write DIR/results.html again from the finished benchmark in DIR "
+                            "(its benchmark.db)")
+    add_quiet_option(bench)
+    add_json_option(bench, "summary.json's content under 'summary', and the output's paths")
+    bench.set_defaults(func=run)
+
+
+def run(args) -> int:
+    if args.report is not None:
+        return benchmark_report(Path(args.report))
+    from solver.benchmark.runner import backstop_profile, get_profile, plan_benchmark, run_plan
+    from solver.planning.registry import select_planners
+
+    generators = None if args.generator == "all" else generator_names(args.generator)
+    try:
+        planners = select_planners(args.planners)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    profile = get_profile(args.profile, args.runs, args.time_limit)
+    budget_checks = args.budget_checks
+    if args.budget_from_paper:
+        from solver.benchmark.paper_budgets import paper_budgets
+
+        if args.budget_checks is not None:
+            raise UsageError("--budget-from-paper sets each generator's check budget; give no --budget-checks with it")
+        budget_checks = paper_budgets()
+    if args.budget_cpu is not None and budget_checks is not None:
+        raise UsageError("--budget-cpu gives every run a budget in CPU seconds; give no check budget with it")
+    if (budget_checks is not None or args.budget_cpu is not None) and args.time_limit is None:
+        # The budget ends a run; the clock, derived from the budget, only a hang (a tight one: --time-limit).
+        profile = backstop_profile(profile, budget_checks, args.budget_cpu)
+    puzzles = find_puzzle_folders(Path(args.puzzles), generators)
+    # Every puzzle is read and every output path checked here, before the first run.
+    until_first = args.until == "first"
+    plan = plan_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
+                          save_solutions=not args.no_solutions, until_first=until_first,
+                          budget_checks=budget_checks, budget_cpu=args.budget_cpu)
+    check_ray(args.ray)  # an unreachable cluster is bad input, refused before any line of progress
+    estimate = plan.estimate_seconds(overhead=1.0)
+    print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
+          f"{'at most ' if until_first else ''}about {estimate / 3600:.1f} h on {args.workers} workers",
+          file=sys.stderr)
+    if plan.done:
+        print(f"resuming: {len(plan.done)} of {len(plan.jobs)} runs already done (journal {plan.journal}; "
+              "delete it to run them again)", file=sys.stderr)
+    if args.dry_run:
+        return 0
+    with ray_connection(args.ray, args.workers):
+        result = run_plan(plan, progress=not args.quiet, ray=args.ray)
+    print((Path(args.out) / "summary.md").read_text(encoding="utf-8"))
+    print(f"database: {result.database}  figure: {Path(args.out) / 'fig4.png'}  "
+          f"results page: {Path(args.out) / 'results.html'}")
+    for line in result.unsaved_solutions:
+        print(f"phyrogen: warning: {line}", file=sys.stderr)
+    crashed = sum(1 for r in result.records if r.error)
+    args.json_result = {"command": "benchmark", "out": str(Path(args.out)), "database": str(result.database),
+                        "results_page": str(Path(args.out) / "results.html"), "crashed": crashed,
+                        "unsaved_solutions": list(result.unsaved_solutions),
+                        "summary": json.loads((Path(args.out) / "summary.json").read_text(encoding="utf-8"))}
+    return 1 if crashed or result.unsaved_solutions else 0
+
+
+def benchmark_report(folder: Path) -> int:
+    """``phyrogen benchmark --report DIR``: the results page of a finished benchmark, made again from
+    its database; a missing or broken database is bad input (exit 2, nothing written)."""
+    from solver.benchmark.results_page import write_results_page
+
+    print(f"results page: {write_results_page(folder)}")
+    return 0
+
+
+def _planners_help() -> str:
+    """``benchmark --planners`` help, from the planner registry (docs/adding-a-planner.md)."""
+    from solver.planning.registry import PLANNERS, planner_names
+
+    names = planner_names()
+    # argparse %-formats help texts: a title with "%" must not break --help.
+    from solver.planning.registry import GROUPS
+
+    listed = "; ".join(f"{name} ({PLANNERS[name].title})" for name in names).replace("%", "%%")
+    groups = "; ".join(f"{group}: {what}" for group, what in GROUPS.items()).replace("%", "%%")
+    return (f"all (default: every planner outside a group), a group ({groups}) or comma-separated names, "
+            f"in any mix: {listed}")
+
+
+MAX_RUNS = 10_000
+"""``benchmark --runs``: the paper's protocol takes 100 runs per planner and puzzle."""
+MAX_TIME_LIMIT = 24 * 3600.0
+"""``benchmark --time-limit`` in seconds: a day per run; the paper's longest limit is 600 s."""
+
+
+def runs_option(text: str) -> int:
+    return whole_number(text, 1, MAX_RUNS)
+
+
+def budget_cpu_option(text: str) -> float:
+    """``benchmark --budget-cpu``: CPU seconds, above 0 and at most a day."""
+    from solver.planning.anytime import MAX_BUDGET_CPU
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of CPU seconds, got {text!r}") from None
+    if not 0 < value <= MAX_BUDGET_CPU:  # NaN fails both comparisons
+        raise argparse.ArgumentTypeError(f"must be above 0 and at most {MAX_BUDGET_CPU:g} CPU seconds, got {text!r}")
+    return value
+
+
+def time_limit_option(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = None
+    # NaN fails both comparisons, and inf the upper one: neither is a time limit.
+    if value is None or not 0 < value <= MAX_TIME_LIMIT:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds above 0 and at most {MAX_TIME_LIMIT:g} "
+                                         f"(24 h), got {text!r}")
+    return value

@@ -1,0 +1,27 @@
+"""The checks a stage's request passes before any work, one function each for the Python API
+(``phyrogen/__init__.py``) and the command line (``phyrogen/commands/``)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+
+def check_generation(generator: str, params: Mapping[str, Any], seeds: Iterable[int]) -> None:
+    """Raise :class:`phyrogen_core.registry.ParameterError` (a ValueError) naming what is wrong with
+    ``generator``'s ``params`` or with its size at any of ``seeds``; the worker would only find it after
+    starting."""
+    from phyrogen_core.registry import get_generator
+
+    spec = get_generator(generator)
+    parsed = spec.parse_params(params)
+    for seed in seeds:
+        spec.check(seed, parsed)
+
+
+def certificate_problems(loaded) -> list[str]:
+    """Problems with a read puzzle's (:class:`phyrogen_core.export.LoadedPuzzle`) certificate: empty when it
+    is valid at fine resolution."""
+    from solver.planning.problem import verify_certificate
+
+    return verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)
