@@ -42,14 +42,35 @@ class Plugin:
 
 def _distribution(entry: metadata.EntryPoint) -> str:
     dist = getattr(entry, "dist", None)
-    return dist.metadata["Name"] if dist is not None else "?"
+    return dist.metadata["Name"] if dist is not None else OWN_DISTRIBUTION  # read from the checkout
+
+
+def _declared_in_checkout(group: str) -> list[metadata.EntryPoint]:
+    """PhyRoGen's own entries read from the ``pyproject.toml`` of the checkout this module lies in: for
+    a checkout put on ``sys.path`` without being installed (no package metadata), e.g. inside a
+    Blender that finds no environment; the same declarations, so the same built-ins."""
+    import tomllib
+    from pathlib import Path
+
+    pyproject = Path(__file__).resolve().parent.parent / "pyproject.toml"
+    try:
+        project = tomllib.loads(pyproject.read_text(encoding="utf-8"))["project"]
+    except (OSError, ValueError, KeyError):
+        return []
+    if project.get("name") != OWN_DISTRIBUTION:
+        return []
+    table = project.get("entry-points", {}).get(group, {})
+    return [metadata.EntryPoint(name, value, group) for name, value in table.items()]
 
 
 def entry_points(group: str) -> list[metadata.EntryPoint]:
     """The group's entry points: PhyRoGen's own first, then others, by package and name.
-    A name declared twice is kept once, the first; PhyRoGen's own are never shadowed."""
+    A name declared twice is kept once, the first; PhyRoGen's own are never shadowed. Without
+    PhyRoGen's package metadata, its own are read from its checkout's ``pyproject.toml``."""
     found = list(metadata.entry_points(group=group))
     own = sorted((e for e in found if _distribution(e) == OWN_DISTRIBUTION), key=lambda e: e.name)
+    if not own:
+        own = sorted(_declared_in_checkout(group), key=lambda e: e.name)
     others = sorted((e for e in found if _distribution(e) != OWN_DISTRIBUTION),
                     key=lambda e: (_distribution(e), e.name))
     seen: set[str] = set()
@@ -63,11 +84,11 @@ def entry_points(group: str) -> list[metadata.EntryPoint]:
 
 def load_group(group: str) -> list[Plugin]:
     """Import every entry point of ``group`` (see :func:`entry_points`); PluginError names the first
-    that fails. Raises PluginError, too, when PhyRoGen itself declares none: its package metadata is
-    missing (run ``pip install -e .``), and its built-ins would silently be absent."""
+    that fails. Raises PluginError, too, when PhyRoGen itself declares none (neither its package
+    metadata nor its checkout's ``pyproject.toml``): its built-ins would silently be absent."""
     entries = entry_points(group)
     if not any(_distribution(e) == OWN_DISTRIBUTION for e in entries):
-        raise PluginError(f"no {group!r} entry points of package {OWN_DISTRIBUTION!r} are installed: its built-ins "
+        raise PluginError(f"no {group!r} entry points of package {OWN_DISTRIBUTION!r} are found: its built-ins "
                           f"are declared there; install it (pip install -e . --no-deps)")
     plugins = []
     for entry in entries:
