@@ -15,6 +15,7 @@ is :class:`PluginError`: one line naming the entry and its package.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata
 
@@ -100,3 +101,26 @@ def load_group(group: str) -> list[Plugin]:
             raise PluginError(f"{group}: {plugin.where()} cannot be loaded: {type(exc).__name__}: {message}") from None
         plugins.append(Plugin(entry.name, entry.value, plugin.distribution, loaded))
     return plugins
+
+
+class GroupLoader:
+    """Loads a group's entry points the first time it is called (again after a failure, so that every
+    command reports it). ``registers(plugin)``: whether the loaded entry registered what it names;
+    else PluginError says ``registers no {kind} named ...`` and ``hint`` (with ``{name}``)."""
+
+    def __init__(self, group: str, kind: str, registers: Callable[[Plugin], bool], hint: str) -> None:
+        self.group, self.kind, self.registers, self.hint = group, kind, registers, hint
+        self.loaded = False
+
+    def __call__(self) -> None:
+        if self.loaded:
+            return
+        self.loaded = True  # before importing: the modules' decorators register meanwhile, and read the registry
+        try:
+            for plugin in load_group(self.group):
+                if not self.registers(plugin):
+                    raise PluginError(f"{self.group}: {plugin.where()} registers no {self.kind} named "
+                                      f"{plugin.name!r}; {self.hint.format(name=repr(plugin.name))}")
+        except PluginError:
+            self.loaded = False
+            raise

@@ -26,7 +26,7 @@ from numbers import Integral, Real
 from typing import Any
 
 from .maker import MakerInput
-from .plugins import GENERATOR_GROUP, PluginError, load_group
+from .plugins import GENERATOR_GROUP, GroupLoader, Plugin
 
 BENCHMARK_PROFILES = ("paper", "quick")
 """The benchmark profiles (``solver.benchmark.runner``) every generator gives a time limit for:
@@ -323,27 +323,16 @@ def register(name: str, title: str, params: type, *, time_limits: Mapping[str, f
     return wrap
 
 
-_loaded = False
+def _registers_generator(plugin: Plugin) -> bool:
+    spec = _current.all().get(plugin.name)
+    return spec is not None and spec.build is plugin.loaded
 
 
-def load_generator_plugins() -> None:
-    """Load every generator declared in the ``phyrogen.generators`` entry-point group, once: the
-    built-in six (declared in PhyRoGen's own ``pyproject.toml``) and any other package's
-    (:mod:`phyrogen_core.plugins`). PluginError names an entry that does not load or registers no
-    generator of its name."""
-    global _loaded
-    if _loaded:
-        return
-    _loaded = True  # before importing: the modules' @register calls land in the registry meanwhile
-    try:
-        for plugin in load_group(GENERATOR_GROUP):
-            spec = _current.all().get(plugin.name)
-            if spec is None or spec.build is not plugin.loaded:
-                raise PluginError(f"{GENERATOR_GROUP}: {plugin.where()} registers no generator named {plugin.name!r}; "
-                                  f"decorate the function it names with @register({plugin.name!r}, ...)")
-    except PluginError:
-        _loaded = False
-        raise
+load_generator_plugins = GroupLoader(GENERATOR_GROUP, "generator", _registers_generator,
+                                     "decorate the function it names with @register({name}, ...)")
+"""Load every generator declared in the ``phyrogen.generators`` entry-point group, once: the built-in
+six (declared in PhyRoGen's own ``pyproject.toml``) and any other package's (:mod:`phyrogen_core.plugins`).
+PluginError names an entry that does not load or registers no generator of its name."""
 
 
 def _load_builtin() -> None:

@@ -50,15 +50,22 @@ class LaRrtPush(_LaRrtBase):
     summary = "our LA-RRT with blocker pushes; fewest actions, by path defragmentation"
 
 
-@planner
-class RrtStar(Planner):
-    name, title, version, uses_ompl_rng = "rrt_star", "RRT*", "ompl-5", True
-    summary = "OMPL's RRT*; objects moved per edge"
+class _OmplBase(Planner):
+    """An OMPL planner of :mod:`solver.planning.ompl_planners`, by its plan function's name."""
+
+    function = "plan_rrt_star"
+    version, uses_ompl_rng = "ompl-5", True
 
     def plan(self, *args, **kwargs) -> PlanResult:
-        from solver.planning.ompl_planners import plan_rrt_star
+        from solver.planning import ompl_planners
 
-        return plan_rrt_star(*args, **kwargs)
+        return getattr(ompl_planners, self.function)(*args, **kwargs)
+
+
+@planner
+class RrtStar(_OmplBase):
+    name, title = "rrt_star", "RRT*"
+    summary = "OMPL's RRT*; objects moved per edge"
 
 
 @planner
@@ -75,14 +82,9 @@ class LbtRrt(Planner):
 
 
 @planner
-class BitStar(Planner):
-    name, title, version, uses_ompl_rng = "bit_star", "BIT*", "ompl-5", True
+class BitStar(_OmplBase):
+    name, title, function = "bit_star", "BIT*", "plan_bit_star"
     summary = "OMPL's BIT*; objects moved per edge"
-
-    def plan(self, *args, **kwargs) -> PlanResult:
-        from solver.planning.ompl_planners import plan_bit_star
-
-        return plan_bit_star(*args, **kwargs)
 
 
 # The ablations of ``la_rrt`` (docs/benchmark/README.md, "Ablations"): each switches one of its two

@@ -58,7 +58,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, ClassVar
 
-from phyrogen_core.plugins import PLANNER_GROUP, PluginError, load_group
+from phyrogen_core.plugins import PLANNER_GROUP, GroupLoader, Plugin
 from phyrogen_core.seeding import stable_seed
 
 if TYPE_CHECKING:
@@ -291,27 +291,17 @@ def registry_copy() -> Iterator[MutableMapping[str, PlannerSpec]]:
         PLANNERS.update(saved)
 
 
-_modules_loaded = False
+def _registers_planner(plugin: Plugin) -> bool:
+    spec = PLANNERS._specs.get(plugin.name)
+    return spec is not None and getattr(plugin.loaded, "spec", None) is spec
 
 
-def load_planner_modules() -> None:
-    """Load every planner declared in the ``phyrogen.planners`` entry-point group, once: the built-ins
-    (declared in PhyRoGen's own ``pyproject.toml``) first, then other packages' plug-ins
-    (:mod:`phyrogen_core.plugins`). PluginError (a ValueError) names an entry that does not load or
-    registers no planner of its name."""
-    global _modules_loaded
-    if _modules_loaded:
-        return
-    _modules_loaded = True  # before importing: the modules' @planner calls land in the registry meanwhile
-    try:
-        for plugin in load_group(PLANNER_GROUP):
-            spec = PLANNERS._specs.get(plugin.name)
-            if spec is None or getattr(plugin.loaded, "spec", None) is not spec:
-                raise PluginError(f"{PLANNER_GROUP}: {plugin.where()} registers no planner named {plugin.name!r}; "
-                                  f"name a Planner subclass decorated with @planner whose name is {plugin.name!r}")
-    except PluginError:
-        _modules_loaded = False
-        raise
+load_planner_modules = GroupLoader(PLANNER_GROUP, "planner", _registers_planner,
+                                   "name a Planner subclass decorated with @planner whose name is {name}")
+"""Load every planner declared in the ``phyrogen.planners`` entry-point group, once: the built-ins
+(declared in PhyRoGen's own ``pyproject.toml``) first, then other packages' plug-ins
+(:mod:`phyrogen_core.plugins`). PluginError (a ValueError) names an entry that does not load or
+registers no planner of its name."""
 
 
 def load_planner_source(name: str, source: tuple[str, str | None] | None) -> None:
