@@ -204,6 +204,14 @@ class JobOperator:
         return {"FINISHED"} if ok else {"CANCELLED"}
 
 
+def job_operator(operation: str, label: str, doc: str, undo: bool = False) -> type:
+    """The operator ``phyrogen.<operation>`` (class ``PHYROGEN_OT_<operation>``) that runs ``operation``'s
+    job; ``doc`` is its tooltip, ``undo`` whether its result in the scene can be undone."""
+    return type(f"PHYROGEN_OT_{operation}", (JobOperator, bpy.types.Operator),
+                {"__doc__": doc, "bl_idname": f"phyrogen.{operation}", "bl_label": label, "operation": operation,
+                 "bl_options": {"REGISTER", "UNDO"} if undo else {"REGISTER"}})
+
+
 def _show_status(context, text: str | None) -> None:
     if context.workspace is not None:
         context.workspace.status_text_set(text)

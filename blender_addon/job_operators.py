@@ -18,7 +18,7 @@ from phyrogen_core.command_result import (
 )
 from phyrogen_core.folder import PuzzleFolder
 
-from .job_control import OPERATIONS, JobOperator, Operation, first_run_note
+from .job_control import OPERATIONS, Operation, first_run_note, job_operator
 from .jobs import (
     Job,
     JobResult,
@@ -68,13 +68,9 @@ def frame_in_views(context, collection: bpy.types.Collection) -> int:
     return framed
 
 
-class PHYROGEN_OT_generate(JobOperator, bpy.types.Operator):  # noqa: N801 (Blender's naming)
-    """Generate and certify the puzzle (phyrogen generate, in a subprocess), then build it in the scene"""
-
-    bl_idname = "phyrogen.generate"
-    bl_label = "Generate"
-    bl_options = {"REGISTER", "UNDO"}
-    operation = "generate"
+PHYROGEN_OT_generate = job_operator(
+    "generate", "Generate",
+    """Generate and certify the puzzle (phyrogen generate, in a subprocess), then build it in the scene""", undo=True)
 
 
 def _start_generate(context) -> Job:
@@ -164,14 +160,10 @@ def generate_folder(generator: str, seed: int, params, out: Path) -> Path:
     return PuzzleFolder.at(out, generator, f"{generator}_{seed}").path
 
 
-class PHYROGEN_OT_replan(JobOperator, bpy.types.Operator):  # noqa: N801
+PHYROGEN_OT_replan = job_operator(
+    "replan", "Re-plan",
     """Export the puzzle as it is now (edited or not) and find a new certificate with OMPL's RRT-Connect
-    (phyrogen replan, in a subprocess); the scene is rebuilt from the re-planned folder"""
-
-    bl_idname = "phyrogen.replan"
-    bl_label = "Re-plan"
-    bl_options = {"REGISTER", "UNDO"}
-    operation = "replan"
+    (phyrogen replan, in a subprocess); the scene is rebuilt from the re-planned folder""", undo=True)
 
 
 def _start_replan(context) -> Job:
@@ -201,13 +193,10 @@ def _finish_replan(context, result: JobResult) -> tuple[str, ResultTable]:
             replan_table(replanned))
 
 
-class PHYROGEN_OT_benchmark(JobOperator, bpy.types.Operator):  # noqa: N801
+PHYROGEN_OT_benchmark = job_operator(
+    "benchmark", "Benchmark",
     """A quick benchmark of every planner on this puzzle (phyrogen benchmark --profile quick --until first,
-    in a subprocess) into <output>/benchmark/<puzzle>; its summary is shown in the panel"""
-
-    bl_idname = "phyrogen.benchmark"
-    bl_label = "Benchmark"
-    operation = "benchmark"
+    in a subprocess) into <output>/benchmark/<puzzle>; its summary is shown in the panel""")
 
 
 def benchmark_folder(settings, collection) -> Path:
@@ -231,13 +220,10 @@ def _finish_benchmark(context, result: JobResult) -> tuple[str, ResultTable]:
     return f"{current_collection(context).name}: quick benchmark in {made.out}", benchmark_table(made)
 
 
-class PHYROGEN_OT_manipulate(JobOperator, bpy.types.Operator):  # noqa: N801
+PHYROGEN_OT_manipulate = job_operator(
+    "manipulate", "Manipulate",
     """A KUKA iiwa executes the puzzle's best solution in PyBullet (phyrogen manipulate, DIRECT mode, in a
-    subprocess) into <output>/manipulation/<puzzle>: frames, video, report"""
-
-    bl_idname = "phyrogen.manipulate"
-    bl_label = "Manipulate"
-    operation = "manipulate"
+    subprocess) into <output>/manipulation/<puzzle>: frames, video, report""")
 
 
 def manipulation_root(settings) -> Path:
