@@ -1,4 +1,4 @@
-"""Imported once by the benchmark's server process (see :data:`solver.benchmark.runner._PRELOAD`).
+"""Imported once by the benchmark's server process (see :data:`solver.benchmark.jobs._PRELOAD`).
 
 Every run is a fresh process forked from that server. Loading the compiled collision kernels from
 numba's cache costs each such process most of a second of CPU before its clock starts (more than a

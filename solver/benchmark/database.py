@@ -3,7 +3,7 @@
 The database is the one OMPL's ``readBenchmarkLog`` built from our logs (Planner Arena's schema):
 ``experiments`` (one per puzzle, with its time limit), ``plannerConfigs`` (a planner's name and
 its common properties as text: ``until_first``, ``budget_checks``, ``version``), ``runs`` (one
-column per run property of :data:`solver.benchmark.runner.RUN_PROPERTIES`) and ``progress``.
+column per run property of :data:`solver.benchmark.ompl_log.RUN_PROPERTIES`) and ``progress``.
 Columns added to the run properties over time (``collision_checks``, ``checks_to_first_solution``,
 ``end_reason``) may be missing from an older database; they read as None.
 Anything else (a missing file, a file that is not SQLite, a database without those tables or
