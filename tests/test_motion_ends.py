@@ -14,7 +14,7 @@ import pytest
 
 import phyrogen
 from phyrogen.env import PuzzleVectorEnv
-from solver.collision import kernels
+from solver.collision import skipping_move
 
 # Fresh seeds no other test uses, one per generator; Move N Times at a small n.
 PUZZLES = (("simple_slider", 5113, {"n_objects": 4}), ("continuous_space", 5127, {}), ("grid_world", 5131, {}),
@@ -110,8 +110,8 @@ def test_negative_control_an_unproven_skip_is_caught(tasks):
     starts, ends = _motions(task, np.random.default_rng(5401), 600, 4.0)
     old_out, old_hit = model.motion_stops(starts, ends, task.steps, True)
     out, hits = np.empty_like(starts), np.empty(len(starts))
-    kernels.motion_ends(starts, ends, task.steps, True, out, hits, *model._arguments, model._pair_columns,
-                        np.zeros_like(model._shape_rho))
+    skipping_move.motion_ends(starts, ends, task.steps, True, out, hits, *model._arguments, model._pair_columns,
+                              np.zeros_like(model._shape_rho))
     differ = (old_out != out).any(axis=1) | ((old_hit >= 0) != (hits >= 0))
     assert differ.any()
     # The true bound gives no difference on the same moves.

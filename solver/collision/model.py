@@ -25,6 +25,7 @@ import numpy as np
 from phyrogen_core.chain import Joint, JointType, KinematicChain, Role, pose_matrix
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from solver.collision import kernels as _kernels
+from solver.collision import skipping_move as _skipping
 
 _FLOAT64 = np.dtype(np.float64)
 DEFAULT_TOLERANCE = 1e-6
@@ -297,12 +298,12 @@ class CollisionModel:
     def motion_ends(self, starts: np.ndarray, ends: np.ndarray, steps: np.ndarray, stop: bool) -> tuple[np.ndarray,
                                                                                                        np.ndarray]:
         """Where each move ends, exactly as :meth:`motion_stops` ends it, found faster: samples at which
-        every pair is proven apart are skipped (:func:`~solver.collision.kernels.motion_ends`). The
+        every pair is proven apart are skipped (:func:`~solver.collision.skipping_move.motion_ends`). The
         fractions are those of each move's first colliding sample (-1: free); only their signs agree
         with :meth:`motion_stops`'."""
         out = np.empty_like(starts)
         hits = np.empty(len(starts))
-        _kernels.motion_ends(starts, ends, steps, stop, out, hits, *self._arguments, self._pair_columns,
+        _skipping.motion_ends(starts, ends, steps, stop, out, hits, *self._arguments, self._pair_columns,
                              self._shape_rho)
         return out, hits
 
