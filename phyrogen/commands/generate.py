@@ -15,6 +15,9 @@ from phyrogen.progress import progress_bar, show_running
 from phyrogen.stage_checks import check_generation
 from phyrogen.usage import UsageError, generator_names, parse_overrides, parse_seeds
 
+CHECK_EVERY_SEED_UP_TO = 10_000
+"""Longer seed lists are checked up front at the ends of each range only (each job again in its worker)."""
+
 
 def add_parser(sub) -> None:
     gen = sub.add_parser("generate", help="generate certified puzzles")
@@ -33,45 +36,18 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from phyrogen_core.folder import OutputError, require_writable_dir
     from solver.pipelines.generation import Job, run_jobs
 
     seeds = parse_seeds(args.seeds)
     difficulty = difficulty_settings(args)
-    if args.suite is not None:
-        from phyrogen_core.suites import get_suite
-
-        if args.generator is not None or args.set:
-            raise UsageError("--suite names its generators and their parameters; give no --generator or --set with it")
-        suite = get_suite(args.suite)
-        names = [entry.generator for entry in suite]
-        overrides_of = {entry.generator: dict(entry.overrides) for entry in suite}
-    else:
-        names = generator_names("all" if args.generator is None else args.generator)  # '' is refused, not all
-        overrides = parse_overrides(args.set or [])
-        if overrides and len(names) > 1:
-            raise UsageError("--set applies to one generator; name it with --generator")
-        overrides_of = {name: overrides for name in names}
+    names, overrides_of = _requested(args)
     count = sum(len(r) for r in seeds)
     # Seed-dependent sizes (n = seed, n_objects = seed + 1) only grow with the seed, so a range's two ends
     # stand for it.
     checked = [seed for r in seeds for seed in (r if count <= CHECK_EVERY_SEED_UP_TO else (r[0], r[-1]))]
     for name in names:  # fail fast on bad parameters, before any work
         check_generation(name, overrides_of[name], checked)
-    out = require_writable_dir(args.out)  # an unusable --out is found before any puzzle is made
-    for name in names:
-        require_writable_dir(out / name)
-        for folder in _puzzle_folders_present(out / name, name, seeds):
-            # A link would take the puzzle elsewhere, a user's file there would be found only once the
-            # puzzle is made: both refused, not swapped away.
-            if folder.is_symlink() or not folder.is_dir():
-                what = "a symbolic link" if folder.is_symlink() else "a file, not a folder"
-                raise OutputError(f"puzzle folder {folder} is {what}; a stage writes only into real folders "
-                                  "(move it away or choose another --out)")
-            if args.mjcf:  # a user's mjcf/<name>.xml there is refused, not overwritten
-                from phyrogen_core.export.mjcf import check_mjcf_target
-
-                check_mjcf_target(folder, folder.name)
+    out = _check_output(args.out, names, seeds, args.mjcf)
     # Jobs are made as the workers take them and each row is printed as soon as it (and every
     # row before it) is done: a run of a hundred million seeds starts at once, in little memory.
     jobs = (Job(name, seed, overrides_of[name], mjcf=args.mjcf, difficulty=difficulty)
@@ -89,9 +65,7 @@ def run(args) -> int:
                        file=sys.stdout)
         for r in run_jobs(jobs, out, args.workers, on_running=on_running):
             if args.json:
-                rows.append({"generator": r.generator, "seed": r.seed, "objects": r.objects, "actions": r.actions,
-                             "seconds": round(r.seconds, 3), "folder": None if r.error else str(r.folder),
-                             "error": None if r.error is None else r.error.splitlines()[0]})
+                rows.append(_json_row(r))
             result = r.folder if r.error is None else "FAILED: " + r.error.splitlines()[0]
             progress.write(f"{r.generator:18s} {r.seed:4d} {r.objects:7d} {r.actions:7d} {r.seconds:8.2f}  {result}",
                            file=sys.stdout)
@@ -128,6 +102,46 @@ def _puzzle_folders_present(parent: Path, generator: str, seeds: tuple[range, ..
     return found
 
 
+def _requested(args) -> tuple[list[str], dict[str, dict]]:
+    """The generators asked for (by ``--generator`` or ``--suite``) and each one's parameter overrides."""
+    if args.suite is not None:
+        from phyrogen_core.suites import get_suite
 
-CHECK_EVERY_SEED_UP_TO = 10_000
-"""Longer seed lists are checked up front at the ends of each range only (each job again in its worker)."""
+        if args.generator is not None or args.set:
+            raise UsageError("--suite names its generators and their parameters; give no --generator or --set with it")
+        suite = get_suite(args.suite)
+        return [entry.generator for entry in suite], {entry.generator: dict(entry.overrides) for entry in suite}
+    names = generator_names("all" if args.generator is None else args.generator)  # '' is refused, not all
+    overrides = parse_overrides(args.set or [])
+    if overrides and len(names) > 1:
+        raise UsageError("--set applies to one generator; name it with --generator")
+    return names, {name: overrides for name in names}
+
+
+def _check_output(text: str, names: list[str], seeds: tuple[range, ...], mjcf: bool) -> Path:
+    """``--out``, checked writable with every generator's folder, and every puzzle folder of the request
+    already there a real folder (and without a user's MJCF file of the name with ``--mjcf``)."""
+    from phyrogen_core.folder import OutputError, require_writable_dir
+
+    out = require_writable_dir(text)  # an unusable --out is found before any puzzle is made
+    for name in names:
+        require_writable_dir(out / name)
+        for folder in _puzzle_folders_present(out / name, name, seeds):
+            # A link would take the puzzle elsewhere, a user's file there would be found only once the
+            # puzzle is made: both refused, not swapped away.
+            if folder.is_symlink() or not folder.is_dir():
+                what = "a symbolic link" if folder.is_symlink() else "a file, not a folder"
+                raise OutputError(f"puzzle folder {folder} is {what}; a stage writes only into real folders "
+                                  "(move it away or choose another --out)")
+            if mjcf:  # a user's mjcf/<name>.xml there is refused, not overwritten
+                from phyrogen_core.export.mjcf import check_mjcf_target
+
+                check_mjcf_target(folder, folder.name)
+    return out
+
+
+def _json_row(r) -> dict:
+    """A puzzle's row of ``--json``."""
+    return {"generator": r.generator, "seed": r.seed, "objects": r.objects, "actions": r.actions,
+            "seconds": round(r.seconds, 3), "folder": None if r.error else str(r.folder),
+            "error": None if r.error is None else r.error.splitlines()[0]}
