@@ -199,17 +199,24 @@ PHYROGEN_OT_benchmark = job_operator(
     in a subprocess) into <output>/benchmark/<puzzle>; its summary is shown in the panel""")
 
 
+def _written_puzzle(context) -> tuple[bpy.types.PropertyGroup, bpy.types.Collection, PuzzleFolder]:
+    """The settings, the scene's puzzle and its folder, which must hold the puzzle (Benchmark and Manipulate
+    run on the folder, not on the scene)."""
+    settings = context.scene.phyrogen
+    collection = current_collection(context)
+    folder = puzzle_folder(settings, collection)
+    if not folder.metadata.is_file():
+        raise ValueError(f"{folder.path} holds no puzzle; press Generate or Export URDF first")
+    return settings, collection, folder
+
+
 def benchmark_folder(settings, collection) -> Path:
     """Where the panel's Benchmark writes: ``<output>/benchmark/<puzzle>``."""
     return output_folder(settings) / "benchmark" / collection.name
 
 
 def _start_benchmark(context) -> Job:
-    settings = context.scene.phyrogen
-    collection = current_collection(context)
-    folder = puzzle_folder(settings, collection)
-    if not folder.metadata.is_file():
-        raise ValueError(f"{folder.path} holds no puzzle; press Generate or Export URDF first")
+    settings, collection, folder = _written_puzzle(context)
     return Job(f"Benchmark {collection.name}",
                phyrogen_command("benchmark", "--puzzles", str(folder.path), "--profile", "quick", "--until", "first",
                                 "--out", str(benchmark_folder(settings, collection))), note=first_run_note())
@@ -232,11 +239,7 @@ def manipulation_root(settings) -> Path:
 
 
 def _start_manipulate(context) -> Job:
-    settings = context.scene.phyrogen
-    collection = current_collection(context)
-    folder = puzzle_folder(settings, collection)
-    if not folder.metadata.is_file():
-        raise ValueError(f"{folder.path} holds no puzzle; press Generate or Export URDF first")
+    settings, collection, folder = _written_puzzle(context)
     return Job(f"Manipulate {collection.name}",
                phyrogen_command("manipulate", str(folder.path), "--out", str(manipulation_root(settings))),
                note=first_run_note())
