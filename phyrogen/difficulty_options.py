@@ -13,7 +13,8 @@ def add_difficulty_options(parser) -> None:
     parser.add_argument("--difficulty-runs", type=difficulty_runs_option, metavar="K",
                         help="runs per puzzle with --difficulty (default 8)")
     parser.add_argument("--difficulty-checks", type=budget_checks_option, metavar="N",
-                        help="collision checks per run with --difficulty (default 20000)")
+                        help="collision checks per run with --difficulty, a motion charged by its length "
+                             "(default 1000000)")
 
 
 def difficulty_runs_option(text: str) -> int:
