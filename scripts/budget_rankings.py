@@ -25,6 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from solver.benchmark.journal import JournalFormatError  # noqa: E402
 from solver.benchmark.runner import JOURNAL, RunRecord, read_journal  # noqa: E402
 from solver.benchmark.statistics import wilson_interval  # noqa: E402
 from solver.planning.registry import PLANNERS  # noqa: E402
@@ -43,7 +44,11 @@ def records(folders: Iterable[Path], runs: int | None = None) -> list[RunRecord]
         journal = Path(folder) / JOURNAL
         if not journal.is_file():
             raise SystemExit(f"error: {journal}: no benchmark journal")
-        out += [r for r in read_journal(journal).values() if r.error is None and (runs is None or r.run < runs)]
+        try:
+            read = read_journal(journal, strict=True)
+        except JournalFormatError as exc:
+            raise SystemExit(f"error: {exc}") from None
+        out += [r for r in read.values() if r.error is None and (runs is None or r.run < runs)]
     return out
 
 

@@ -249,7 +249,7 @@ def table_rows(bench: Path, sizes: dict[str, int]) -> tuple[list[str], float, li
     total_cpu = 0.0
     for generator, overrides, in_suite in measured_sizes(sizes):
         journal = bench / generator / "runs.jsonl"
-        records = list(read_journal(journal).values()) if journal.is_file() else []
+        records = list(read_journal(journal, strict=True).values()) if journal.is_file() else []
         sets = ", ".join(f"{k}={v}" for k, v in overrides.items()) + ("" if in_suite else " (not a hard size)")
         budget = paper_budget_checks(generator)
         for planner in ENTRIES:
@@ -291,7 +291,13 @@ def table_rows(bench: Path, sizes: dict[str, int]) -> tuple[list[str], float, li
 
 
 def cmd_table(args) -> int:
-    rows, total_cpu, warnings = table_rows(Path(args.bench), _sizes_option(args.sizes))
+    from solver.benchmark.journal import JournalFormatError
+
+    try:
+        rows, total_cpu, warnings = table_rows(Path(args.bench), _sizes_option(args.sizes))
+    except JournalFormatError as exc:
+        print(f"hard_suite.py: {exc}", file=sys.stderr)
+        return 2
     for line in warnings:
         print(f"WARNING: {line}", file=sys.stderr)
     print("\n".join(rows))

@@ -33,7 +33,7 @@ def merged_runs(journals: list[Path]) -> dict[tuple[str, str, int], tuple[dict, 
     """(puzzle, planner title, run) -> (key, record), later journals winning."""
     runs: dict[tuple[str, str, int], tuple[dict, object]] = {}
     for journal in journals:
-        for key_text, record in read_journal(journal).items():
+        for key_text, record in read_journal(journal, strict=True).items():
             key = json.loads(key_text)
             cell = (record.puzzle, record.planner, record.run)
             earlier = runs.get(cell)

@@ -9,7 +9,7 @@ import json
 import math
 import os
 import stat
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from phyrogen_core.folder import OutputError, PuzzleFolder, read_folder_file
@@ -68,11 +68,6 @@ def _finite_or_none(value):
     return value
 
 
-def journal_line(key: str, record: RunRecord) -> bytes:
-    data = {"key": json.loads(key), "record": {k: _finite_or_none(v) for k, v in asdict(record).items()}}
-    return (json.dumps(data, sort_keys=True, allow_nan=False) + "\n").encode()
-
-
 _RECORD_TYPES = {
     "planner": str, "puzzle": str, "run": int, "seed": int, "time_limit": float, "solved": bool, "status": str,
     "time": float, "first_solution_time": float | None, "action_cost": int | None, "length": float | None,
@@ -83,47 +78,154 @@ _ADDED_FIELDS = {"checks", "cpu_time", "first_solution_checks", "end"}
 """RunRecord fields added after journals were first written: a record without them reads as None."""
 
 
-def _fits(value: object, kind) -> bool:
+class JournalFormatError(ValueError):
+    """A journal line that is not a run's entry; the message, one line, names the field and why."""
+
+
+@dataclass(frozen=True)
+class JournalEntry:
+    """One line of the journal: a finished run's :class:`RunRecord` under its key (:func:`run_key`).
+
+    :meth:`from_line` is the one strict reader of the format: a line is one JSON object
+    ``{"key": {...}, "record": {...}}`` (strict JSON: no NaN or Infinity); the key names a registered
+    planner whose title, and the puzzle, run and seed, are the record's; the record has every field
+    of :class:`RunRecord` (those of :data:`_ADDED_FIELDS` may be missing in older lines: None), each
+    of its type, numbers finite, ``status`` one of OMPL's, ``end`` one of the end reasons; a progress
+    sample is ``[time, best cost or null (none yet), iterations]``."""
+
+    key: str
+    """The run's key as canonical JSON (sorted keys): equal keys, interchangeable runs."""
+    record: RunRecord
+
+    def to_line(self) -> bytes:
+        """The entry's journal line, newline included (infinite progress costs written as null)."""
+        data = {"key": json.loads(self.key),
+                "record": {k: _finite_or_none(v) for k, v in asdict(self.record).items()}}
+        return (json.dumps(data, sort_keys=True, allow_nan=False) + "\n").encode()
+
+    @classmethod
+    def from_line(cls, line: bytes | str) -> JournalEntry:
+        """The entry of one journal line; :class:`JournalFormatError` saying what is wrong otherwise."""
+        try:
+            data = json.loads(line, parse_constant=_refuse_constant)
+        except RecursionError:
+            raise JournalFormatError("not a journal line: JSON nested too deep") from None
+        except ValueError as exc:
+            raise JournalFormatError(f"not JSON: {exc}") from None
+        if not isinstance(data, dict):
+            raise JournalFormatError(f"expected an object with 'key' and 'record', got {_show(data)}")
+        for part in ("key", "record"):
+            if part not in data:
+                raise JournalFormatError(f"no {part!r}: a journal line is {{\"key\": ..., \"record\": ...}}")
+            if not isinstance(data[part], dict):
+                raise JournalFormatError(f"{part} must be an object, got {_show(data[part])}")
+        key, raw = data["key"], data["record"]
+        fields = set(RunRecord.__dataclass_fields__)
+        missing = sorted(fields - _ADDED_FIELDS - set(raw))
+        if missing:
+            raise JournalFormatError(f"record has no {missing[0]!r}")
+        unknown = sorted(set(raw) - fields)
+        if unknown:
+            raise JournalFormatError(f"record has unknown field {_show(unknown[0])}")
+        raw = {name: None for name in _ADDED_FIELDS} | raw
+        for name, kind in _RECORD_TYPES.items():
+            _check(f"record.{name}", raw[name], kind)
+        if raw["status"] not in STATUS_NAMES:
+            raise JournalFormatError(f"record.status {_show(raw['status'])} is none of OMPL's: {list(STATUS_NAMES)}")
+        if raw["end"] not in (None, *END_REASONS):
+            raise JournalFormatError(f"record.end {_show(raw['end'])} is none of {list(END_REASONS)}")
+        record = RunRecord(**{**raw, "progress": _progress(raw["progress"]), "path": _path(raw["path"]),
+                              "joint_order": _names(raw["joint_order"])})
+        planner = key.get("planner")
+        spec = PLANNERS.get(planner) if isinstance(planner, str) else None
+        if spec is None:
+            raise JournalFormatError(f"key.planner {_show(planner)} is no registered planner")
+        if (spec.title, key.get("puzzle"), key.get("run"), key.get("seed")) != (
+                record.planner, record.puzzle, record.run, record.seed):
+            raise JournalFormatError(f"the record's planner, puzzle, run and seed ({record.planner!r}, "
+                                     f"{record.puzzle!r}, {record.run}, {record.seed}) are not its key's")
+        return cls(json.dumps(key, sort_keys=True), record)
+
+
+def _refuse_constant(name: str):
+    raise JournalFormatError(f"{name} is not a finite number (strict JSON has none)")
+
+
+def _show(value: object, width: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
+def _check(where: str, value: object, kind) -> None:
     kinds = (kind,) if isinstance(kind, type) else kind.__args__
     if isinstance(value, bool) or value is None:
-        return type(value) in kinds
-    if isinstance(value, int):
-        return int in kinds or float in kinds  # JSON may write a whole float as an integer
-    return isinstance(value, kinds)
+        fits = type(value) in kinds
+    elif isinstance(value, int):
+        fits = int in kinds or float in kinds  # JSON may write a whole float as an integer
+    else:
+        fits = isinstance(value, kinds)
+    if not fits:
+        names = " or ".join("null" if k is type(None) else k.__name__ for k in kinds)
+        raise JournalFormatError(f"{where} = {_show(value)} must be {names}")
+    if isinstance(value, float) and not math.isfinite(value):  # 1e400 reads as infinity
+        raise JournalFormatError(f"{where} = {value!r} is not a finite number")
+
+
+def _number(where: str, value: object) -> float:
+    _check(where, value, float)
+    return float(value)
+
+
+def _progress(samples: object) -> tuple[tuple[float, float, int], ...]:
+    if not isinstance(samples, list):
+        raise JournalFormatError(f"record.progress = {_show(samples)} must be a list")
+    out = []
+    for i, sample in enumerate(samples):
+        where = f"record.progress[{i}]"
+        if not isinstance(sample, list) or len(sample) != 3:
+            raise JournalFormatError(f"{where} = {_show(sample)} must be [time, best cost or null, iterations]")
+        _check(where + "[2]", sample[2], int)
+        out.append((_number(where + "[0]", sample[0]),
+                    math.inf if sample[1] is None else _number(where + "[1]", sample[1]), sample[2]))
+    return tuple(out)
+
+
+def _path(states: object) -> tuple[tuple[float, ...], ...]:
+    if not isinstance(states, list) or not all(isinstance(state, list) for state in states):
+        raise JournalFormatError(f"record.path = {_show(states)} must be a list of states (lists of numbers)")
+    return tuple(tuple(_number(f"record.path[{i}][{j}]", v) for j, v in enumerate(state))
+                 for i, state in enumerate(states))
+
+
+def _names(names: object) -> tuple[str, ...]:
+    if not isinstance(names, list) or not all(isinstance(name, str) for name in names):
+        raise JournalFormatError(f"record.joint_order = {_show(names)} must be a list of joint names")
+    return tuple(names)
+
+
+def journal_line(key: str, record: RunRecord) -> bytes:
+    """The journal line of ``record`` under ``key`` (:meth:`JournalEntry.to_line`)."""
+    return JournalEntry(key, record).to_line()
 
 
 def parse_journal_line(line: bytes) -> tuple[str, RunRecord] | None:
-    """(key, record) of one journal line, or None when the line is torn, foreign or malformed."""
+    """(key, record) of one journal line, or None when the line is torn, foreign or malformed
+    (:meth:`JournalEntry.from_line` says why)."""
     try:
-        data = json.loads(line)
-        key, raw = data["key"], data["record"]
-        fields = set(RunRecord.__dataclass_fields__)
-        if not isinstance(key, dict) or not isinstance(raw, dict) or not fields - _ADDED_FIELDS <= set(raw) <= fields:
-            return None
-        raw = {name: None for name in _ADDED_FIELDS} | raw
-        if not all(_fits(raw[name], kind) for name, kind in _RECORD_TYPES.items()) \
-                or raw["status"] not in STATUS_NAMES or raw["end"] not in (None, *END_REASONS):
-            return None
-        progress = tuple((float(t), math.inf if c is None else float(c), int(i)) for t, c, i in raw["progress"])
-        path = tuple(tuple(float(v) for v in state) for state in raw["path"])
-        joint_order = tuple(raw["joint_order"])
-        if not all(isinstance(n, str) for n in joint_order):
-            return None
-        record = RunRecord(**{**raw, "progress": progress, "path": path, "joint_order": joint_order})
-        spec = PLANNERS.get(key.get("planner"))
-        if spec is None or (spec.title, key.get("puzzle"), key.get("run"), key.get("seed")) != (
-                record.planner, record.puzzle, record.run, record.seed):
-            return None
-        return json.dumps(key, sort_keys=True), record
-    except (ValueError, TypeError, KeyError, AttributeError, RecursionError):
+        entry = JournalEntry.from_line(line)
+    except JournalFormatError:
         return None
+    return entry.key, entry.record
 
 
-def read_journal(path: Path) -> dict[str, RunRecord]:
+def read_journal(path: Path, strict: bool = False) -> dict[str, RunRecord]:
     """The runs recorded in a journal, by key (the last one of a key wins); {} when there is none.
 
-    Lines that do not parse are skipped: a torn last line, left by a process killed mid-write,
-    costs that one run and nothing else.
+    Every line is read by :meth:`JournalEntry.from_line`. A last line without its newline is torn
+    (a process killed mid-write) and skipped. Another line that is no entry is skipped too when a
+    benchmark resumes (it costs that one run, run again), and with ``strict`` (a report or a merge
+    of finished benchmarks, which would otherwise silently count fewer runs) raises
+    :class:`JournalFormatError` ``"<path>: line <n>: ..."``.
     """
     path = Path(path)
     try:
@@ -139,10 +241,17 @@ def read_journal(path: Path) -> dict[str, RunRecord]:
     except OSError as exc:
         raise OutputError(f"journal {path} cannot be read: {exc.strerror or exc}") from None
     runs: dict[str, RunRecord] = {}
-    for line in raw.split(b"\n"):
-        parsed = parse_journal_line(line) if line.strip() else None
-        if parsed is not None:
-            runs[parsed[0]] = parsed[1]
+    lines = raw.split(b"\n")
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            entry = JournalEntry.from_line(line)
+        except JournalFormatError as exc:
+            if strict and number < len(lines):  # the last piece has no newline: torn, not malformed
+                raise JournalFormatError(f"{path}: line {number}: {exc}") from None
+            continue
+        runs[entry.key] = entry.record
     return runs
 
 
