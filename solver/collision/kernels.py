@@ -12,6 +12,10 @@ import math
 import numpy as np
 from numba import njit
 
+from solver.collision.jit_cache import refresh_stale_jit_cache
+
+refresh_stale_jit_cache()  # before anything compiled here or in the files that call it is loaded from the cache
+
 
 @njit(cache=True, nogil=True)
 def _poses(q, kin_int, kin_float, x, y, c, s, yaws, full):

@@ -4,8 +4,8 @@ skip the samples at which a pair is proven apart.
 Compiled like :mod:`solver.collision.kernels` (whose pose and pair tests it calls, the inline ones compiled
 into it), apart from it because the skipping is a job of its own: the same states as
 :func:`~solver.collision.kernels.motion_stops`, bit for bit, with fewer pair tests.
-numba's cache follows each function's own file only: after an edit of ``kernels.py``, delete the cached
-``skipping_move.*`` entries (``__pycache__`` or ``NUMBA_CACHE_DIR``) as for any module calling its kernels.
+numba's cache follows each function's own file only; :mod:`solver.collision.jit_cache` drops this file's
+cached entries too when ``kernels.py`` changes.
 Functions named below without a module are :mod:`solver.collision.kernels`'s.
 """
 
