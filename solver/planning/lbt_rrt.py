@@ -38,10 +38,10 @@ from solver.planning.anytime import (
     Offer,
     PlanResult,
     count_checks,
-    planning_steps,
 )
 from solver.planning.goal_sampling import GoalSampler, default_goal_seed
 from solver.planning.problem import Problem, in_goal, problem_factors
+from solver.planning.tree_run import TreeRun
 
 
 @dataclass(frozen=True)
@@ -63,18 +63,14 @@ class LbtRrtSettings:
             raise ValueError(f"goal_bias must be in [0, 1], got {self.goal_bias!r}")
 
 
-class LbtRrt:
+class LbtRrt(TreeRun):
     """One LBT-RRT run on ``problem``."""
 
     def __init__(self, problem: Problem, rng: np.random.Generator, settings: LbtRrtSettings | None = None,
                  goals: GoalSampler | None = None):
-        self.problem = problem
-        self.settings = settings or LbtRrtSettings()
-        self.rng = rng
         # The benchmark passes the run's shared sampler; on its own, one seeded from ``rng``.
-        self.goals = goals if goals is not None else GoalSampler(problem, int(rng.integers(1, 2**31 - 1)))
-        self.model = problem.model
-        self.steps = planning_steps(problem, self.settings.resolution)
+        goals = goals if goals is not None else GoalSampler(problem, int(rng.integers(1, 2**31 - 1)))
+        super().__init__(problem, rng, settings or LbtRrtSettings(), goals)
         dimension = len(problem.start)
         self.membership = factor_membership(problem_factors(problem), dimension)
         self.range = self.settings.range_fraction * float(np.linalg.norm(problem.upper - problem.lower))
