@@ -43,7 +43,7 @@ class Plugin:
 
 def _distribution(entry: metadata.EntryPoint) -> str:
     dist = getattr(entry, "dist", None)
-    return dist.metadata["Name"] if dist is not None else OWN_DISTRIBUTION  # read from the checkout
+    return dist.name if dist is not None else OWN_DISTRIBUTION  # None: read from the checkout
 
 
 def _declared_in_checkout(group: str) -> list[metadata.EntryPoint]:
