@@ -168,8 +168,15 @@ def copy_addon(package: Path, addons: Path) -> Path:
     return target
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a bad argument is one line on stderr and exit 2 (the project's contract), not the usage too."""
+
+    def error(self, message: str):
+        self.exit(2, f"install_phobos: error: {message}\n")
+
+
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="install_phobos.py", description=__doc__.split("\n\n")[0])
+    parser = _Parser(prog="install_phobos.py", description=__doc__.split("\n\n")[0])
     parser.add_argument("--blender", default="blender", help="the Blender binary (default: blender on PATH)")
     parser.add_argument("--phobos", required=True, type=Path,
                         help="Phobos's source: a checkout folder, or a .zip / .tar.gz of one")

@@ -31,8 +31,15 @@ sys.path.insert(0, str(ROOT))
 ARMS = ("fixed", "vector", "curriculum")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a bad argument is one line on stderr and exit 2 (the project's contract), not the usage too."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def parse(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(prog="scripts/train.py", description=__doc__.split("\n\n")[0])
+    p = _Parser(prog="scripts/train.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", required=True, help="folder for results.json, table.md and curves.png")
     p.add_argument("--generator", default="grid_world")
     p.add_argument("--knob", default="n_objects", help="the generator's size parameter")
@@ -60,6 +67,12 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
             p.error(f"{flag} must be >= 1, got {value}")
     if min(args.train_sizes) < 1 or args.steps > 10_000_000:
         p.error("--train-sizes must be >= 1 and --steps at most 10,000,000")
+    from phyrogen_core.registry import all_generators
+
+    if args.generator not in all_generators():
+        p.error(f"unknown generator {args.generator!r}; valid: {', '.join(all_generators())}")
+    if not args.out:
+        p.error("--out is empty: name a folder")
     if Path(args.out).exists() and not Path(args.out).is_dir():
         p.error(f"--out {args.out!r} is a file")
     return args
