@@ -13,6 +13,12 @@ called, so ``import phyrogen`` needs neither Blender nor PyBullet::
     assert phyrogen.check(folder) == []                     # problems with its certificate
     for puzzle_folder in phyrogen.find_puzzles("output"): ...
 
+Every job is also a stage: one function ``run(request) -> result`` over the typed,
+versioned records of :mod:`phyrogen_core.stage_records` (``phyrogen.stages``)::
+
+    result = phyrogen.run(phyrogen.CheckRequest("output/grid_world/grid_world_7"))
+    result.valid, result.problems, result.to_json()
+
 Generation runs in worker processes that never run the caller's script
 again, so these calls work at the top level of a plain ``python script.py``
 as well as under an ``if __name__ == "__main__":`` guard
@@ -34,12 +40,14 @@ from . import startup  # noqa: F401
 from pathlib import Path
 from typing import Any
 
-from phyrogen.stage_checks import certificate_problems, check_generation
+from phyrogen.stage_checks import check_generation
+from phyrogen.stages import STAGES, run
 from phyrogen_core import __version__
 from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
+from phyrogen_core.stage_records.check import CheckRequest, CheckResult
 
-__all__ = ["PuzzleFolder", "__version__", "check", "find_puzzles", "generate", "generate_into", "generators",
-           "load"]
+__all__ = ["STAGES", "CheckRequest", "CheckResult", "PuzzleFolder", "__version__", "check", "find_puzzles",
+           "generate", "generate_into", "generators", "load", "run"]
 
 
 def generators() -> dict:
@@ -80,8 +88,9 @@ def load(folder: str | Path):
 
 
 def check(folder: str | Path) -> list[str]:
-    """Problems with a puzzle folder's certificate (empty when it is valid at fine resolution)."""
-    return certificate_problems(load(folder))
+    """Problems with a puzzle folder's certificate (empty when it is valid at fine resolution): the check
+    stage's (:func:`phyrogen.stages.check.run`)."""
+    return list(run(CheckRequest(str(folder))).problems)
 
 
 def find_puzzles(root: str | Path, generators: list[str] | None = None) -> list[PuzzleFolder]:

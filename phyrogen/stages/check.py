@@ -1,0 +1,15 @@
+"""The check stage: a puzzle folder's certificate checked again at fine resolution."""
+
+from __future__ import annotations
+
+from phyrogen.stage_checks import certificate_problems
+from phyrogen_core.stage_records.check import CheckRequest, CheckResult
+
+
+def run(request: CheckRequest) -> CheckResult:
+    from phyrogen_core.export import read_puzzle_dir
+
+    loaded = read_puzzle_dir(request.folder)
+    # An edited puzzle (the Blender panel's Export) keeps its old certificate, marked as not verified for it.
+    return CheckResult(loaded.name, request.folder, len(loaded.certificate), not loaded.record.certificate_verified,
+                       tuple(certificate_problems(loaded)))
