@@ -7,6 +7,8 @@ import contextlib
 import json
 import sys
 
+from phyrogen_core.stage_records.base import StageResult
+
 
 def add_json_option(parser: argparse.ArgumentParser, what: str) -> None:
     parser.add_argument("--json", action="store_true",
@@ -16,10 +18,14 @@ def add_json_option(parser: argparse.ArgumentParser, what: str) -> None:
 
 def run_for_json(args) -> int:
     """``--json``: the command's own stdout goes to stderr, then its result (``args.json_result``, set by the
-    command) is printed as one JSON object. Bad input raises before, so its stdout stays empty."""
+    command: the stage's result record, whose reader reads this text back) is printed as one JSON object.
+    Bad input raises before, so its stdout stays empty."""
     args.json_result = None
     with contextlib.redirect_stdout(sys.stderr):
         code = args.func(args)
-    if args.json_result is not None:
-        print(json.dumps({**args.json_result, "exit_code": code}, sort_keys=True))
+    result = args.json_result
+    if isinstance(result, StageResult):
+        print(result.to_json())
+    elif result is not None:
+        print(json.dumps({**result, "exit_code": code}, sort_keys=True))
     return code

@@ -25,3 +25,14 @@ def certificate_problems(loaded) -> list[str]:
     from solver.planning.problem import verify_certificate
 
     return verify_certificate(loaded.chain, loaded.certificate, loaded.goal, start=loaded.start)
+
+
+def check_workers(workers: int) -> None:
+    """Refuse a number of worker processes that ``--workers`` would refuse (the command line's type has
+    refused it before; a request built in Python meets it here)."""
+    from phyrogen.options import WORKERS_PER_CORE, max_workers
+    from phyrogen.usage import UsageError
+
+    if not 1 <= workers <= max_workers():
+        raise UsageError(f"workers must be a whole number in 1..{max_workers()} ({WORKERS_PER_CORE} per usable "
+                         f"core), got {workers}")

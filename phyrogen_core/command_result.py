@@ -20,52 +20,29 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TypeVar
 
+from .stage_records.base import RecordError
+from .stage_records.generate import GeneratedPuzzle, GenerateResult
+from .stage_records.replan import ReplanResult
+
+__all__ = ["BenchmarkCell", "BenchmarkResult", "CommandResultError", "GenerateResult", "GeneratedPuzzle",
+           "ManipulateResult", "ManipulationOutcome", "ReplanResult", "read_benchmark_result",
+           "read_generate_result", "read_manipulate_result", "read_replan_result"]
+
 _T = TypeVar("_T")
 
 
-class CommandResultError(ValueError):
-    """A command's ``--json`` result that its reader refuses; the message is one line."""
+CommandResultError = RecordError
+"""A command's ``--json`` result that its reader refuses; the message is one line."""
 
 
-@dataclass(frozen=True)
-class GeneratedPuzzle:
-    """One puzzle of ``phyrogen generate --json`` (its ``puzzles`` rows)."""
-
-    generator: str
-    seed: int
-    objects: int
-    actions: int
-    """Actions of the (defragmented) certificate."""
-    seconds: float
-    folder: str | None
-    """None when the puzzle failed."""
-    error: str | None
-    """The first line of what went wrong; None when the puzzle was made."""
+def read_generate_result(text: str) -> GenerateResult:
+    """The record of ``phyrogen generate --json``'s stdout; :class:`CommandResultError` when it is not one."""
+    return GenerateResult.from_json(text)
 
 
-@dataclass(frozen=True)
-class GenerateResult:
-    """``phyrogen generate --json``."""
-
-    puzzles: tuple[GeneratedPuzzle, ...]
-    ok: int
-    failed: int
-    exit_code: int
-
-
-@dataclass(frozen=True)
-class ReplanResult:
-    """``phyrogen replan --json``; ``planner``, ``queries``, ``states`` and ``dependencies`` are those of the
-    new certificate, None when none was found (``solved`` false)."""
-
-    puzzle: str
-    folder: str
-    solved: bool
-    exit_code: int
-    planner: str | None = None
-    queries: int | None = None
-    states: int | None = None
-    dependencies: int | None = None
+def read_replan_result(text: str) -> ReplanResult:
+    """The record of ``phyrogen replan --json``'s stdout; :class:`CommandResultError` when it is not one."""
+    return ReplanResult.from_json(text)
 
 
 @dataclass(frozen=True)
@@ -120,29 +97,6 @@ class ManipulateResult:
 # -- the readers -----------------------------------------------------------------------------------
 
 
-def read_generate_result(text: str) -> GenerateResult:
-    """The record of ``phyrogen generate --json``'s stdout; :class:`CommandResultError` when it is not one."""
-    data = _result(text, "generate")
-    label = "generate --json result"
-    puzzles = tuple(_record(row, f"{label}: puzzles[{index}]", _generated_puzzle)
-                    for index, row in enumerate(_field(data, "puzzles", list, label)))
-    return GenerateResult(puzzles, _count(data, "ok", label), _count(data, "failed", label),
-                          _field(data, "exit_code", int, label))
-
-
-def read_replan_result(text: str) -> ReplanResult:
-    """The record of ``phyrogen replan --json``'s stdout; :class:`CommandResultError` when it is not one."""
-    data = _result(text, "replan")
-    label = "replan --json result"
-    solved = _field(data, "solved", bool, label)
-    found = {}
-    if solved:
-        found = {"planner": _field(data, "planner", str, label), "queries": _count(data, "queries", label),
-                 "states": _count(data, "states", label), "dependencies": _count(data, "dependencies", label)}
-    return ReplanResult(_field(data, "puzzle", str, label), _field(data, "folder", str, label), solved,
-                        _field(data, "exit_code", int, label), **found)
-
-
 def read_benchmark_result(text: str) -> BenchmarkResult:
     """The record of ``phyrogen benchmark --json``'s stdout; :class:`CommandResultError` when it is not one."""
     data = _result(text, "benchmark")
@@ -162,13 +116,6 @@ def read_manipulate_result(text: str) -> ManipulateResult:
     reports = tuple(_record(report, f"{label}: reports[{index}]", _manipulation_outcome)
                     for index, report in enumerate(_field(data, "reports", list, label)))
     return ManipulateResult(_field(data, "out", str, label), reports, _field(data, "exit_code", int, label))
-
-
-def _generated_puzzle(row: Mapping, label: str) -> GeneratedPuzzle:
-    return GeneratedPuzzle(_field(row, "generator", str, label), _field(row, "seed", int, label),
-                           _count(row, "objects", label), _count(row, "actions", label),
-                           _field(row, "seconds", float, label), _optional(row, "folder", str, label),
-                           _optional(row, "error", str, label))
 
 
 def _benchmark_cell(cell: Mapping, label: str) -> BenchmarkCell:

@@ -21,10 +21,10 @@ from phyrogen_core.command_result import (
     read_replan_result,
 )
 
-GENERATE = {"command": "generate", "exit_code": 0, "failed": 0, "ok": 1, "wall_seconds": 4.2,
+GENERATE = {"command": "generate", "version": 1, "exit_code": 0, "failed": 0, "ok": 1, "wall_seconds": 4.2,
             "puzzles": [{"actions": 5, "error": None, "folder": "/tmp/out/grid_world/grid_world_31",
                          "generator": "grid_world", "objects": 4, "seconds": 3.917, "seed": 31}]}
-REPLAN = {"budget": 2000000, "command": "replan", "dependencies": 3, "exit_code": 0,
+REPLAN = {"budget": 2000000, "command": "replan", "version": 1, "dependencies": 3, "exit_code": 0,
           "folder": "/tmp/out/rooms/rooms_7", "notices": [], "planner": "RRT-Connect", "puzzle": "rooms_7",
           "queries": 1234, "seed": 0, "solved": True, "states": 17}
 CELL = {"puzzle": "rooms_7", "planner": "LA-RRT (ours)", "runs": 3, "clock_ended": 0, "complete": True,
@@ -67,9 +67,11 @@ def test_each_result_of_the_commands_shape_is_read_into_its_record():
     # A failed generation and an unsolved re-plan are results too (their rows say so).
     failed = copy.deepcopy(GENERATE)
     failed["puzzles"][0].update(folder=None, error="ParameterError: gap too large")
+    failed.update(ok=0, failed=1, exit_code=1)
     assert read_generate_result(json.dumps(failed)).puzzles[0].error.startswith("ParameterError")
-    unsolved = {key: REPLAN[key] for key in ("command", "puzzle", "folder", "solved", "budget", "seed", "exit_code")}
-    assert read_replan_result(json.dumps({**unsolved, "solved": False, "exit_code": 1})).states is None
+    unsolved = {**REPLAN, "solved": False, "exit_code": 1, "planner": None, "queries": None, "states": None,
+                "dependencies": None}
+    assert read_replan_result(json.dumps(unsolved)).states is None
 
 
 def _without(data: dict, path: tuple) -> dict:
@@ -101,7 +103,7 @@ MALFORMED = [
     ("generate", json.dumps(_with(GENERATE, ("failed",), -1)), "'failed' is -1"),
     ("replan", json.dumps(_without(REPLAN, ("states",))), "missing key 'states'"),
     ("replan", json.dumps(_with(REPLAN, ("solved",), 1)), "'solved': expected true or false"),
-    ("replan", json.dumps(_with(REPLAN, ("planner",), None)), "'planner': expected a string, got null"),
+    ("replan", json.dumps(_with(REPLAN, ("planner",), None)), "'planner': expected a value, got null"),
     ("benchmark", json.dumps(_without(BENCHMARK, ("summary", "cells", 1, "runs"))), "cells[1]: missing key 'runs'"),
     ("benchmark", json.dumps(_with(BENCHMARK, ("summary", "cells", 0, "time_to_first", "median"), "fast")),
      "time_to_first: 'median': expected a number"),

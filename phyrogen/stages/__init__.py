@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import importlib
 
-STAGES = {"check": "CheckRequest"}
+STAGES = {"check": "CheckRequest", "generate": "GenerateRequest", "replan": "ReplanRequest"}
 """Each stage's module (``phyrogen.stages.<name>``) and its request record's name."""
 
 

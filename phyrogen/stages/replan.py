@@ -1,0 +1,27 @@
+"""The replan stage: a new certificate for a puzzle folder as it is now (RRT-Connect, else LA-RRT)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from phyrogen_core.stage_records.replan import ReplanRequest, ReplanResult
+
+PLANNER_TITLES = {"rrt_connect": "RRT-Connect", "la_rrt_push": "LA-RRT+push"}
+
+
+def run(request: ReplanRequest) -> ReplanResult:
+    """Find a new certificate and store it in the folder's puzzle.json; not solved within the budget, the
+    folder is left as it was."""
+    from phyrogen_core.export import read_puzzle_dir
+    from solver.pipelines.replanning import REPLAN_BUDGET, check_replan_folder, replan, write_replanned
+
+    folder = Path(request.folder)
+    loaded = read_puzzle_dir(folder)  # bad input is found before any work
+    check_replan_folder(folder, loaded.name)
+    found = replan(loaded, REPLAN_BUDGET if request.budget is None else request.budget, request.seed)
+    if not found.solved:
+        return ReplanResult(loaded.name, str(folder), False, found.budget, request.seed, None, None, None, None, ())
+    notices: list[str] = []
+    write_replanned(folder, loaded, found, notices)
+    return ReplanResult(loaded.name, str(folder), True, found.budget, request.seed, PLANNER_TITLES[found.planner],
+                        found.queries, len(found.certificate), len(found.dependencies), tuple(notices))
