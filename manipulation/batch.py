@@ -99,9 +99,6 @@ def check_inputs(folders: Sequence[Path], out_root: Path, table: Path | None = N
                                         f"(phyrogen check): {problems[0]}")
         for solution in candidate_solutions(Path(folder), loaded, runs.get(Path(folder), ())):
             scene_placement(loaded, solution.path, settings)
-        if settings.short_benchmark is not None and not runs.get(Path(folder)):
-            # The short benchmark writes the puzzle's best solution where the benchmark stage does.
-            require_stage_folder(Path(folder) / "solutions", "solutions folder", root=Path(folder))
         target = out_root / loaded.name
         if os.path.lexists(target) and not target.is_symlink() and not target.is_dir():
             raise OutputError(f"{target} is not a folder; the outputs of puzzle {target.name} go there")

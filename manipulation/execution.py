@@ -52,7 +52,7 @@ from .reaching import seed_reaching
 from .robot import ARM_REST
 from .scene import Contact, open_worlds, temporary_folder, write_scene_files
 from .solution import BenchmarkRun, Solution, candidate_solutions, solution_problems
-from .source import ensure_benchmark_solution
+from .source import solved_runs
 from .transforms import inverse, matrix
 
 PENETRATION_TOLERANCE = 0.002
@@ -202,8 +202,8 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = DEFAULT_SETTINGS,
                    runs: Sequence[BenchmarkRun] = ()) -> tuple[ManipulationReport, Recording, SceneSetup]:
     """Execute the puzzle in ``folder``; returns the report, the recording and the scene setup.
 
-    A puzzle with no best solution and no ``runs`` gets one first from
-    ``settings.short_benchmark`` (:func:`~manipulation.source.ensure_benchmark_solution`).
+    A puzzle with no best solution and no ``runs`` gets its ``runs`` first from
+    ``settings.short_benchmark``, solved in memory (:func:`~manipulation.source.solved_runs`).
     The solutions of :func:`~manipulation.solution.candidate_solutions` (with the
     benchmark journal's ``runs``) are tried in order, each from the puzzle's start,
     until one succeeds; the recording and scene are those of the last one tried.
@@ -223,8 +223,7 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = DEFAULT_SETTINGS,
         return report, Recording(), _unplaced_setup(loaded, scale, settings)
     started = time.perf_counter()
     if settings.short_benchmark is not None and not runs:
-        ensure_benchmark_solution(folder, settings.short_benchmark)
-        loaded = read_puzzle_dir(folder)
+        runs = solved_runs(folder, loaded, settings.short_benchmark)
     benchmark_seconds = time.perf_counter() - started
     attempts: list[AttemptReport] = []
     recording, setup = Recording(), _unplaced_setup(loaded, scale, settings)  # when every solution is refused

@@ -1,22 +1,26 @@
-"""Where the executed solution comes from by default: the benchmark's lowest-cost LA-RRT solution.
+"""Where the executed solution comes from by default: the lowest-cost LA-RRT solution.
 
-The paper executes the lowest-cost LA-RRT solution. A puzzle folder that holds none
-(``solutions/la_rrt_best.json``, which ``phyrogen benchmark`` writes) gets one from a short
-benchmark run here first: the paper's LA-RRT, a few seeded runs, each ended by a budget of
-collision checks (not seconds), so the same puzzle gets the same solution on any machine. The
-benchmark writes the file as it always does (the benchmark stage's own file in the folder); its
-journal and logs go to a temporary folder. If no run solves the puzzle within the budget, the
-certificate runs, as before (:func:`~manipulation.solution.candidate_solutions`).
+The paper executes the benchmark's lowest-cost LA-RRT solution. A puzzle folder that holds none
+(``solutions/la_rrt_best.json``, which ``phyrogen benchmark`` writes) gets its paths here from the
+solve stage (:func:`solver.planning.solve.solve`), in memory: the paper's LA-RRT, a few seeded runs,
+each ended by a budget of collision checks (not seconds), so the same puzzle gets the same paths on
+any machine; each run is seeded as the benchmark's run of the same index, so it finds the path that
+run would. Nothing is written into the puzzle folder (``solutions/`` is the benchmark's alone). The
+solved runs are tried as a benchmark's runs are (:func:`~manipulation.solution.candidate_solutions`:
+those of the least action cost, shortest first, then the certificate), each checked at 2 mm before
+physics (:func:`~manipulation.solution.solution_problems`).
 """
 
 from __future__ import annotations
 
-import tempfile
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from phyrogen_core.folder import PuzzleFolder
+from phyrogen_core.export import LoadedPuzzle
 from phyrogen_core.folder_layout import BEST_SOLUTION
+
+from .solution import BenchmarkRun
 
 
 @dataclass(frozen=True)
@@ -30,20 +34,15 @@ class ShortBenchmark:
     motion counted once; in states that left the paper's LA-RRT without a solution or with a costly one
     on most paper puzzles (seeds 1-2 of the six generators: 12 of 36 runs unsolved, costs up to 31
     actions), where 2,000,000 solves every run but Lockbox Random's at the least cost found before."""
-    workers: int = 1
 
 
-def ensure_benchmark_solution(folder: Path, benchmark: ShortBenchmark) -> bool:
-    """Run ``benchmark`` on the puzzle in ``folder`` unless it holds a best solution already;
-    whether one exists afterwards."""
-    from solver.benchmark.runner import get_profile, run_benchmark
+def solved_runs(folder: Path, loaded: LoadedPuzzle, benchmark: ShortBenchmark) -> tuple[BenchmarkRun, ...]:
+    """The solved runs of ``benchmark`` on ``loaded`` (the puzzle in ``folder``), run by run in this
+    process; none when the folder holds a best solution already (the benchmark's, which is tried)."""
+    from solver.planning.solve import solve
 
-    folder = Path(folder)
-    if (folder / BEST_SOLUTION).exists():
-        return True
-    puzzle = PuzzleFolder.open(folder)
-    profile = get_profile("quick", runs=benchmark.runs)
-    with tempfile.TemporaryDirectory(prefix="phyrogen_short_benchmark_") as out:
-        run_benchmark([puzzle], list(benchmark.planners), profile, Path(out), workers=benchmark.workers,
-                      plots=False, progress=False, budget_checks=benchmark.budget_checks)
-    return (folder / BEST_SOLUTION).exists()
+    if os.path.lexists(Path(folder) / BEST_SOLUTION):
+        return ()
+    solved = (solve(loaded, planner, benchmark.budget_checks, run)
+              for run in range(benchmark.runs) for planner in benchmark.planners)
+    return tuple(BenchmarkRun(s.title, s.run, s.joint_order, s.path) for s in solved if s.solved)

@@ -28,7 +28,7 @@ def no_simulation(monkeypatch):
         raise AssertionError("a simulation (or the short benchmark) started")
 
     monkeypatch.setattr(execution, "execute_solution", started)
-    monkeypatch.setattr(execution, "ensure_benchmark_solution", started)
+    monkeypatch.setattr(execution, "solved_runs", started)
 
 
 @pytest.mark.parametrize(("scale", "why"), [(2.0, "wide"), (0.06, "tall")])

@@ -225,7 +225,7 @@ def test_a_bad_solution_file_is_refused_before_physics_with_its_reason(folder, m
         return attempt, execution.Recording(), None
 
     monkeypatch.setattr(execution, "execute_solution", fake)
-    monkeypatch.setattr(execution, "ensure_benchmark_solution", lambda *args: None)
+    monkeypatch.setattr(execution, "solved_runs", lambda *args: ())
     report, _, _ = execution.execute_puzzle(folder)
     assert tried == ["certificate"]  # the bad file never reached physics
     refused = report.attempts[0]
@@ -251,6 +251,6 @@ def test_a_good_solution_file_passes_the_check_and_reaches_physics(folder, monke
     monkeypatch.setattr(execution, "execute_solution",
                         lambda loaded, solution, *args, **kwargs: (tried.append(solution.label),
                                                                    _failing(execution, solution))[1])
-    monkeypatch.setattr(execution, "ensure_benchmark_solution", lambda *args: None)
+    monkeypatch.setattr(execution, "solved_runs", lambda *args: ())
     execution.execute_puzzle(folder)
     assert tried == ["benchmark best: LA-RRT run 3", "certificate"]

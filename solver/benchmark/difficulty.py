@@ -29,7 +29,7 @@ from phyrogen_core.chain import KinematicChain
 from phyrogen_core.difficulty import Difficulty
 from phyrogen_core.puzzle import Goal
 from solver.benchmark.statistics import wilson_interval
-from solver.planning.anytime import PlanResult, check_budget_checks
+from solver.planning.anytime import BACKSTOP_SECONDS, PlanResult, backstop_seconds, check_budget_checks
 from solver.planning.goal_sampling import goal_seed
 from solver.planning.registry import get_planner, run_seed
 
@@ -44,8 +44,6 @@ most about 10 CPU s a run, on Lockbox Random), and large enough that the paper's
 (BIT* 23 of 24 runs on seeds 1-2 of the six generators, where 20,000, the default while a motion counted
 once, left 17 of the 24 unsolved); the hard suite's budgets are the paper's (:mod:`phyrogen_core.suites`)."""
 MAX_RUNS = 10_000
-BACKSTOP_SECONDS = 600.0
-"""A run's wall-clock backstop, at the least; it grows with the budget (:func:`backstop_seconds`)."""
 
 
 class DifficultyError(RuntimeError):
@@ -67,19 +65,9 @@ class DifficultySettings:
         get_planner(self.planner)  # an unknown name is refused here, naming the valid ones
 
 
-BACKSTOP_CHECKS_PER_SECOND = 100.0
-"""The wall-clock backstop's rate: checks (motions by their length) a wall second. Planners spend
-0.7-6.3 million a CPU second (docs/benchmark/README.md, "Charging the work"): thousands of times
-this, so only a run that stops checking (a hang) meets its backstop, even on a crowded core."""
 BACKSTOP_CPU_FACTOR = 20.0
 """The wall-clock backstop of a run budgeted in CPU seconds: this many times its budget (a process
 given a twentieth of a core still spends its budget first), and at least :data:`BACKSTOP_SECONDS`."""
-
-
-def backstop_seconds(budget_checks: int) -> float:
-    """The wall-clock backstop of a run of ``budget_checks`` checks: :data:`BACKSTOP_CHECKS_PER_SECOND`,
-    far below any planner's rate on any puzzle measured, and at least :data:`BACKSTOP_SECONDS`."""
-    return max(BACKSTOP_SECONDS, budget_checks / BACKSTOP_CHECKS_PER_SECOND)
 
 
 def cpu_backstop_seconds(budget_cpu: float) -> float:
@@ -90,16 +78,12 @@ def cpu_backstop_seconds(budget_cpu: float) -> float:
 def difficulty_run(chain: KinematicChain, goal: Goal, name: str, run: int, settings: DifficultySettings) -> PlanResult:
     """Run ``run`` of the measurement on the puzzle ``name`` (seeded as the benchmark's run ``run``)."""
     from solver.planning.problem import problem_for_chain
+    from solver.planning.solve import seeded_plan
 
-    spec = get_planner(settings.planner)
-    seed = run_seed(settings.planner, name, run)
-    if spec.uses_ompl_rng:
-        from solver.planning.ompl_setup import seed_ompl
-
-        seed_ompl(seed)
     problem = problem_for_chain(chain, goal)
-    return spec.plan(problem, backstop_seconds(settings.budget_checks), seed, 1.0, True, goal_seed(name, run),
-                     settings.budget_checks)
+    return seeded_plan(get_planner(settings.planner), problem, run_seed(settings.planner, name, run),
+                       goal_seed(name, run), backstop_seconds(settings.budget_checks), 1.0, True,
+                       settings.budget_checks)
 
 
 def summarize(results: list[PlanResult], settings: DifficultySettings) -> Difficulty:

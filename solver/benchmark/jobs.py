@@ -65,17 +65,14 @@ def _run_job(job: RunJob) -> RunRecord:
     try:
         load_planner_source(job.planner, job.planner_source)
         spec = get_planner(job.planner)
-        if spec.uses_ompl_rng:
-            from solver.planning.ompl_setup import seed_ompl
-
-            seed_ompl(job.seed)
         from phyrogen_core.export import read_puzzle_dir
         from solver.planning.problem import chain_path, problem_for_chain
+        from solver.planning.solve import seeded_plan
 
         loaded = read_puzzle_dir(job.puzzle.path)
         problem = problem_for_chain(loaded.chain, loaded.goal)
-        result = spec.plan(problem, job.time_limit, job.seed, job.progress_interval, job.until_first, job.goal_seed,
-                           job.budget_checks, job.budget_cpu)
+        result = seeded_plan(spec, problem, job.seed, job.goal_seed, job.time_limit, job.progress_interval,
+                             job.until_first, job.budget_checks, job.budget_cpu)
         path = chain_path(problem, result.path) if result.solved else ()
         return RunRecord(
             spec.title, job.puzzle.name, job.run, job.seed, job.time_limit, result.solved, result.status,

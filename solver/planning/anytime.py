@@ -107,6 +107,21 @@ def check_budget_cpu(budget: object) -> None:
                          f"got {budget!r}")
 
 
+BACKSTOP_SECONDS = 600.0
+"""A budgeted run's wall-clock backstop, at the least; it grows with the budget (:func:`backstop_seconds`)."""
+
+BACKSTOP_CHECKS_PER_SECOND = 100.0
+"""The wall-clock backstop's rate: checks (motions by their length) a wall second. Planners spend
+0.7-6.3 million a CPU second (docs/benchmark/README.md, "Charging the work"): thousands of times
+this, so only a run that stops checking (a hang) meets its backstop, even on a crowded core."""
+
+
+def backstop_seconds(budget_checks: int) -> float:
+    """The wall-clock backstop of a run of ``budget_checks`` checks: :data:`BACKSTOP_CHECKS_PER_SECOND`,
+    far below any planner's rate on any puzzle measured, and at least :data:`BACKSTOP_SECONDS`."""
+    return max(BACKSTOP_SECONDS, budget_checks / BACKSTOP_CHECKS_PER_SECOND)
+
+
 def motion_length(start, end, steps) -> int:
     """The states a motion check tests when the motion is free: the resolution steps of its longest
     joint move, at least 1 (how :func:`solver.collision.kernels.motion_collision` samples it)."""
