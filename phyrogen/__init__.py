@@ -45,12 +45,14 @@ from phyrogen.stages import STAGES, run
 from phyrogen_core import __version__
 from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
 from phyrogen_core.stage_records.check import CheckRequest, CheckResult
+from phyrogen_core.stage_records.export import ExportRequest, ExportResult
 from phyrogen_core.stage_records.generate import GenerateRequest, GenerateResult
+from phyrogen_core.stage_records.import_urdf import ImportRequest, ImportResult
 from phyrogen_core.stage_records.replan import ReplanRequest, ReplanResult
 
-__all__ = ["STAGES", "CheckRequest", "CheckResult", "GenerateRequest", "GenerateResult", "PuzzleFolder",
-           "ReplanRequest", "ReplanResult", "__version__", "check", "find_puzzles", "generate", "generate_into",
-           "generators", "load", "run"]
+__all__ = ["STAGES", "CheckRequest", "CheckResult", "ExportRequest", "ExportResult", "GenerateRequest",
+           "GenerateResult", "ImportRequest", "ImportResult", "PuzzleFolder", "ReplanRequest", "ReplanResult",
+           "__version__", "check", "find_puzzles", "generate", "generate_into", "generators", "load", "run"]
 
 
 def generators() -> dict:

@@ -7,6 +7,8 @@ import math
 import sys
 
 from phyrogen.options import benchmark_seed_option, path_option, whole_number
+from phyrogen.stages import import_urdf
+from phyrogen_core.stage_records.import_urdf import ImportRequest
 
 
 def add_parser(sub) -> None:
@@ -29,31 +31,20 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from phyrogen_core.export import write_puzzle
-    from phyrogen_core.folder import require_writable_dir
-    from phyrogen_core.urdf_import import import_urdf
-    from solver.pipelines.importing import IMPORT_BUDGET, certify_imported, versions
-
-    out = require_writable_dir(args.out)  # an unusable --out is found before any work
-    imported = import_urdf(args.urdf, target=args.target, goal=args.goal, name=args.name)
-    for note in imported.notes:
-        print(f"phyrogen: note: {note}", file=sys.stderr)
-    puzzle = imported.puzzle
-    result = certify_imported(puzzle, IMPORT_BUDGET if args.budget is None else args.budget, args.seed)
-    if result.puzzle is None:
-        print(f"phyrogen: error: {puzzle.name}: not solved by LA-RRT within {result.budget} collision queries "
-              f"(seed {args.seed}); nothing written (a larger --budget may solve it, or the goal is wrong)",
+    request = ImportRequest(args.urdf, args.out, args.name, args.target,
+                            None if args.goal is None else tuple(args.goal), args.budget, args.seed)
+    result = import_urdf.run(request, on_note=lambda note: print(f"phyrogen: note: {note}", file=sys.stderr))
+    if not result.solved:
+        print(f"phyrogen: error: {result.puzzle}: not solved by LA-RRT within {result.budget} collision queries "
+              f"(seed {result.seed}); nothing written (a larger --budget may solve it, or the goal is wrong)",
               file=sys.stderr)
-        return 1
-    notices: list[str] = []
-    folder = write_puzzle(result.puzzle, out, versions(), notices)
-    for notice in notices:
+        return result.exit_code
+    for notice in result.notices:
         print(f"phyrogen: note: {notice}", file=sys.stderr)
-    static = len(imported.objects) - imported.movable
-    print(f"{folder}: {imported.movable} movable and {static} static objects, {len(puzzle.joint_order)} joints, "
-          f"goal from the {imported.goal_source} (target {puzzle.goal.target}); certified by LA-RRT in "
-          f"{result.queries} collision queries: {len(result.puzzle.certificate)} states, {result.actions} actions")
-    return 0
+    print(f"{result.folder}: {result.movable} movable and {result.static} static objects, {result.joints} joints, "
+          f"goal from the {result.goal_source} (target {result.target}); certified by LA-RRT in "
+          f"{result.queries} collision queries: {result.states} states, {result.actions} actions")
+    return result.exit_code
 
 
 def goal_values_option(text: str) -> list[float]:

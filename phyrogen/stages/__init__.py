@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import importlib
 
-STAGES = {"check": "CheckRequest", "generate": "GenerateRequest", "replan": "ReplanRequest"}
+STAGES = {"check": "CheckRequest", "generate": "GenerateRequest", "replan": "ReplanRequest",
+          "export": "ExportRequest", "import_urdf": "ImportRequest"}
 """Each stage's module (``phyrogen.stages.<name>``) and its request record's name."""
 
 
