@@ -204,11 +204,17 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     judge) and a seed from ``second_seed`` (default :func:`question_seed`); it never draws from
     ``rng``, so where it solves nothing the first judge's runs are what they were without it.
 
-    ``proof(shrink)``, when given, is asked before the second judge: True (a geometric proof that
-    the puzzle is unsolvable at that shrink, :class:`~solver.validation.blocking.BlockingProver`)
-    settles the rung without the second judge. The second judge could only have failed there, and
-    it draws from no generator the Maker uses, so the verdict, the margin and everything the Maker
-    does after it are what they were without the proof.
+    ``proof(shrink)``, when given (with a second judge), is asked at the top rung *before* the first
+    judge, and at a lower rung before the second judge: True (a geometric proof that the puzzle is
+    unsolvable at that shrink, :class:`~solver.validation.blocking.BlockingProver`) settles the rung
+    without a search. Both judges could only have failed there, so the verdict and the margin are
+    what they were without the proof. At the top rung it spares the first judge's whole failing
+    search (most of a Grid World puzzle's time), which would have drawn from ``rng`` (the validator's
+    stream, not the Maker's): a later search of the validator that draws from it (RRT-Connect where
+    no certificate extends, the certificate's repair) then draws other numbers than without the
+    proof, and can find another certificate or accept another candidate; every object stays
+    necessary with the same margin (docs/performance.md says how often puzzles changed). Below the
+    top rung the proof is asked only after the first judge failed, so it changes no draw.
     """
     queries = second_checks = 0
     attempt = None
@@ -220,10 +226,14 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
         # Reaching the required rung means the puzzle was solved at every rung above it: the
         # objects block by a sliver at most, and a verdict there needs a longer search.
         scale = MARGINAL_BUDGET_SCALE if level == levels[-1] and len(levels) > 1 else 1
+        asked = level == levels[0] and second_budget and proof is not None  # the top rung: before the first judge
+        if asked and proof(level * margin):
+            attempts.append(Attempt(tuple(fixed), level * margin, False, judge=GEOMETRY))
+            return Necessity(True, level * margin, queries, None, tuple(attempts), second_checks)
         attempt = attempt_fixed(chain, goal, fixed, level * margin, budget * scale, rng)
         attempts.append(attempt)
         queries += attempt.queries
-        if not attempt.solved and second_budget and proof is not None and proof(level * margin):
+        if not attempt.solved and second_budget and not asked and proof is not None and proof(level * margin):
             attempt = Attempt(tuple(fixed), level * margin, False, judge=GEOMETRY)
             attempts.append(attempt)
         elif not attempt.solved and second_budget:
