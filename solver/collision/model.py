@@ -47,6 +47,8 @@ class _Outline:
     radius: float  # bounding radius (circle radius for circles)
     z_low: float
     z_high: float
+    normals: np.ndarray | None = None  # (k, 2) outward unit edge normals, None for circles
+    extent: np.ndarray | None = None  # (k,) the outline's projection on each of its normals peaks here
 
     @property
     def is_circle(self) -> bool:
@@ -60,8 +62,44 @@ def _planar(matrix: np.ndarray, what: str) -> tuple[float, float, float, float]:
     return float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3]), math.atan2(r[1, 0], r[0, 0])
 
 
+_SHAPES: dict[tuple, list[tuple]] = {}
+"""Outlines of a collision geometry at a link height, by (shape, origin, height): a puzzle's models
+(one per judge question, candidate and certificate check) are built from the same few shapes many
+times. What is kept is exactly what :func:`_outlines_of_geometry` computes, so no model changes."""
+_SHAPES_KEPT = 4096
+
+
 def _outlines_of_geometry(geometry, link_index: int, obj: str, frame: np.ndarray) -> list[_Outline]:
     """Outlines of one collision geometry; ``frame`` is the link frame's z-pose at rest (4x4)."""
+    key = (geometry.shape, geometry.origin, float(frame[2, 3]))
+    found = _SHAPES.get(key)
+    if found is None:
+        if len(_SHAPES) >= _SHAPES_KEPT:
+            _SHAPES.clear()
+        found = _SHAPES[key] = [(*(_read_only(v) for v in (o.vertices, o.center)), o.radius, o.z_low, o.z_high,
+                                 *(_read_only(v) for v in _edge_normals(o.vertices)))
+                                for o in _computed_outlines(geometry, link_index, obj, frame)]
+    return [_Outline(link_index, obj, *shape) for shape in found]
+
+
+def _edge_normals(v: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """A polygon's outward unit edge normals and its extent along each (None, None for a circle)."""
+    if v is None:
+        return None, None
+    edges = np.roll(v, -1, axis=0) - v
+    nrm = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    # A convex polygon's projection on its own outward normal peaks at that edge's line.
+    return nrm, (v @ nrm.T).max(axis=0)
+
+
+def _read_only(array: np.ndarray | None) -> np.ndarray | None:
+    if array is not None:
+        array.flags.writeable = False  # shared by every model built from the shape
+    return array
+
+
+def _computed_outlines(geometry, link_index: int, obj: str, frame: np.ndarray) -> list[_Outline]:
     # Outline vertices are expressed in the link frame (x/y), the z interval in the world.
     z = _planar(frame @ pose_matrix(geometry.origin), f"collision geometry of link #{link_index}")[2]
     rel = pose_matrix(geometry.origin)
@@ -110,7 +148,8 @@ class CollisionModel:
         self._link_index = {name: i for i, name in enumerate(self._links)}
         self._joint_steps = self._compile_kinematics()
         self._moving = self._moving_links()
-        rest = chain.link_transforms({**{j: 0.0 for j in chain.joint_order}, **locked})
+        rest = self._rest = chain.link_transforms({**{j: 0.0 for j in chain.joint_order}, **locked})
+        self._reach: np.ndarray | None = None
         outlines: list[_Outline] = []
         for name in self._links:
             link = chain.link(name)
@@ -182,13 +221,9 @@ class CollisionModel:
             if o.is_circle:
                 continue
             v = o.vertices
-            edges = np.roll(v, -1, axis=0) - v
-            nrm = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
-            nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
             verts[i, : len(v)] = v
-            normals[i, : len(v)] = nrm
-            # A convex polygon's projection on its own outward normal peaks at that edge's line.
-            extent[i, : len(v)] = (v @ nrm.T).max(axis=0)
+            normals[i, : len(v)] = o.normals
+            extent[i, : len(v)] = o.extent
         self._shape_verts, self._shape_normals, self._shape_extent = verts, normals, extent
         pairs = []
         for i, a in enumerate(outlines):
@@ -337,7 +372,12 @@ class CollisionModel:
         the joint axis of any collision vertex it carries. Motion checks use it
         to turn a resolution in metres into per-joint steps.
         """
-        rest = self.chain.link_transforms({**{j: 0.0 for j in self.chain.joint_order}, **self.locked})
+        if self._reach is None:
+            self._reach = self._joint_reach()
+        return self._reach.copy()
+
+    def _joint_reach(self) -> np.ndarray:
+        rest = self._rest
         reach = np.ones(len(self.joint_order))
         descendants = self._descendants()
         for index, name in enumerate(self.joint_order):

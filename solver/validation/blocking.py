@@ -117,8 +117,24 @@ def _outline(vertices: np.ndarray, z_low: float, z_high: float) -> _Outline | No
                     phase)
 
 
+_OUTLINES: dict[tuple, tuple[_Outline, ...]] = {}
+"""Outlines by (collision geometries, frame height): a puzzle's objects repeat a few shapes, and a
+dataset worker's puzzles repeat them again. Exactly what :func:`_outlines` computes."""
+_OUTLINES_KEPT = 4096
+
+
 def _outlines(obj: PuzzleObject) -> tuple[_Outline, ...]:
     """The object's box and prism shapes as outlines in its frame; others are left out."""
+    key = (obj.collisions, obj.pose.xyz[2])
+    found = _OUTLINES.get(key)
+    if found is None:
+        if len(_OUTLINES) >= _OUTLINES_KEPT:
+            _OUTLINES.clear()
+        found = _OUTLINES[key] = _computed_outlines(obj)
+    return found
+
+
+def _computed_outlines(obj: PuzzleObject) -> tuple[_Outline, ...]:
     out = []
     for geometry in obj.collisions:
         origin = geometry.origin

@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from phyrogen_core.chain import pose_matrix
+from phyrogen_core.chain import KinematicChain, pose_matrix
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from phyrogen_core.maker import Necessary, SolveResult
 from phyrogen_core.objects import PuzzleObject, build_chain
@@ -30,10 +30,11 @@ from solver.planning.problem import (
     DEFAULT_RESOLUTION,
     FINE_RESOLUTION,
     Problem,
+    UnreachableGoalError,
     chain_path,
     in_goal,
     path_is_valid,
-    problem_for_objects,
+    problem_for_chain,
     verify_certificate,
 )
 from solver.validation.blocking import BlockingProver
@@ -97,10 +98,27 @@ class OmplValidator:
         self.second_judge_budget = SECOND_JUDGE_BUDGET  # 0: the first judge alone (tests' controls)
         self.verdicts: list[Necessity] = []  # every necessity verdict, in the Maker's order
         self.prover: BlockingProver | None = BlockingProver()  # None: the judges alone (tests' controls)
+        self._chains: dict[tuple[int, ...], tuple[tuple[PuzzleObject, ...], KinematicChain]] = {}
+
+    def _chain(self, objects: tuple[PuzzleObject, ...]) -> KinematicChain:
+        """``build_chain(objects)``, built once per puzzle state: the Maker asks the judges, the solve and
+        the extension about the same objects (keyed by identity, the objects kept with their chain)."""
+        key = tuple(map(id, objects))
+        found = self._chains.get(key)
+        if found is None:
+            found = self._chains[key] = (objects, build_chain(objects))
+        return found[1]
+
+    def _problem(self, objects: tuple[PuzzleObject, ...], goal: Goal) -> Problem | None:
+        """:func:`~solver.planning.problem.problem_for_objects` on the chain of :meth:`_chain`."""
+        try:
+            return problem_for_chain(self._chain(objects), goal)
+        except UnreachableGoalError:
+            return None
 
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult:
         objects = tuple(objects)
-        problem = problem_for_objects(objects, goal)
+        problem = self._problem(objects, goal)
         if problem is None:
             return SolveResult(False)
         budget = int(self.budget * budget_scale)
@@ -145,7 +163,7 @@ class OmplValidator:
         prefix = self._solved_prefix(objects)
         if prefix is None:
             return None
-        old_order = build_chain(objects[:prefix]).joint_order
+        old_order = self._chain(objects[:prefix]).joint_order
         start = dict(zip(problem.model.chain.joint_order, chain_path(problem, [problem.start])[0], strict=True))
         rows = [dict(zip(old_order, state, strict=True)) for state in self._solved[objects[:prefix]]]
         return tuple(tuple(row.get(j, start[j]) for j in problem.model.chain.joint_order) for row in rows)
@@ -397,7 +415,7 @@ class OmplValidator:
         objects = tuple(objects)
         prover = self.prover
         proof = None if prover is None else (lambda shrink: prover.proves(objects, goal, fixed, shrink))
-        verdict = judge(build_chain(objects), goal, fixed, margin, int(JUDGE_BUDGET * budget_scale), self.rng,
+        verdict = judge(self._chain(objects), goal, fixed, margin, int(JUDGE_BUDGET * budget_scale), self.rng,
                         second_budget=second, proof=proof)
         self.checks += verdict.queries + verdict.second_checks
         self.verdicts.append(verdict)
@@ -409,8 +427,8 @@ class OmplValidator:
         prefix = self._solved_prefix(objects)
         if prefix is None:
             return None
-        old_chain = build_chain(objects[:prefix])
-        chain = build_chain(objects)
+        old_chain = self._chain(objects[:prefix])
+        chain = self._chain(objects)
         new_joints = [j for j in chain.joint_order if j not in old_chain.joint_order]
         if len(new_joints) > 1:
             return None  # a grid over several new joints is not worth it; RRT-Connect decides
@@ -436,11 +454,11 @@ class OmplValidator:
         """A certificate that holds at :data:`FINE_RESOLUTION`: ``path`` itself when it does,
         else a path planned again at that resolution (a path planned coarsely can clip a
         corner between two checked states). Returns None when none is found."""
-        chain = build_chain(objects)
+        chain = self._chain(tuple(objects))
         if not verify_certificate(chain, path, goal):
             return tuple(path)
         # Most coarse paths clip a corner late or not at all: re-plan from the last fine-valid state first.
-        problem = problem_for_objects(objects, goal)
+        problem = self._problem(tuple(objects), goal)
         if problem is not None and self.routed:
             repaired = self._replan_routed(tuple(objects), goal, problem, path, FINE_RESOLUTION)
             if repaired is not None and not verify_certificate(chain, repaired, goal):
