@@ -15,7 +15,7 @@ Prints per generator: puzzles, CPU seconds per puzzle, puzzles per CPU second an
 two cores for each tree, the ratio (this tree / baseline), the median ``generation_seconds`` of
 the manifest (a worker's wall time per puzzle), whether the manifests agree on the columns both
 have, apart from those that may differ (timing, content hash: a ``puzzle.json`` format change
-moves it), and the machine's load.
+moves it), how many puzzle folders are byte-identical (the same content hash), and the machine's load.
 """
 
 from __future__ import annotations
@@ -89,15 +89,17 @@ def run_dataset(tree: Path, generator: str, first: int, count: int, settings: li
     return cpu, wall
 
 
-def manifest(root: Path) -> tuple[list[dict], list[float], int]:
-    """(rows without the compared-away columns, generation seconds of the made puzzles, failures)."""
+def manifest(root: Path) -> tuple[list[dict], list[float], int, list]:
+    """(rows without the compared-away columns, generation seconds of the made puzzles, failures,
+    content hashes)."""
     import pyarrow.parquet as pq
 
     table = pq.read_table(root / "manifest.parquet")
     seconds = [s for s, ok in zip(table.column("generation_seconds").to_pylist(),
                                   table.column("status").to_pylist(), strict=True) if ok == "ok" and s is not None]
     failed = table.column("status").to_pylist().count("failed")
-    return table.drop_columns(list(COMPARED_AWAY)).to_pylist(), seconds, failed
+    hashes = table.column("content_hash").to_pylist()
+    return table.drop_columns(list(COMPARED_AWAY)).to_pylist(), seconds, failed, hashes
 
 
 def main() -> int:
@@ -142,7 +144,7 @@ def main() -> int:
                 count, settings = PLAN[generator]
                 count = max(1, round(count * args.scale))
                 taken: dict[str, tuple[float, float]] = {}
-                made: dict[str, tuple[list[dict], list[float], int]] = {}
+                made: dict[str, tuple[list[dict], list[float], int, list]] = {}
                 for _ in range(args.repeat):
                     for name, tree in trees.items():
                         out = scratch / f"{generator}-{name.replace(' ', '-')}"
@@ -163,17 +165,19 @@ def main() -> int:
           f"load average {'/'.join(f'{v:.2f}' for v in load)} at the start\n")
     print("| generator | puzzles | baseline CPU s / puzzle | this tree CPU s / puzzle | baseline puzzles / CPU s "
           "| this tree puzzles / CPU s | ratio | this tree per hour on 2 cores | median generation_seconds "
-          "(baseline, this tree) | failed | same puzzles |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|")
+          "(baseline, this tree) | failed | same puzzles | byte-identical folders |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|---|")
     for generator, count, taken, made in rows:
         (base_cpu, _), (this_cpu, _) = (taken[n] for n in trees)
         medians = ", ".join(f"{statistics.median(made[n][1]):.3f} s" if made[n][1] else "-" for n in trees)
         common = set(made["baseline"][0][0]) & set(made["this tree"][0][0]) if count else set()
         same = [{k: r[k] for k in common} for r in made["baseline"][0]] == \
             [{k: r[k] for k in common} for r in made["this tree"][0]]
+        identical = sum(a == b for a, b in zip(made["baseline"][3], made["this tree"][3], strict=True))
         print(f"| {generator} | {count} | {base_cpu / count:.4f} | {this_cpu / count:.4f} | {count / base_cpu:.2f} "
               f"| {count / this_cpu:.2f} | {base_cpu / this_cpu:.2f}x | {2 * 3600 * count / this_cpu:,.0f} "
-              f"| {medians} | {made['baseline'][2]}, {made['this tree'][2]} | {'yes' if same else 'NO'} |")
+              f"| {medians} | {made['baseline'][2]}, {made['this tree'][2]} | {'yes' if same else 'NO'} "
+              f"| {identical}/{count} |")
     print(f"\n{whole.describe()}")
     return 0
 
