@@ -13,10 +13,11 @@ import traceback
 from phyrogen import signals
 from phyrogen.commands import COMMANDS
 from phyrogen.commands.benchmark import MAX_RUNS, MAX_TIME_LIMIT
-from phyrogen.commands.manipulate import MIN_SCENE_SCALE, benchmark_runs
+from phyrogen.commands.manipulate import MIN_SCENE_SCALE
 from phyrogen.json_output import run_for_json
 from phyrogen.options import MAX_BENCHMARK_SEED, max_workers
 from phyrogen.signals import Interrupted
+from phyrogen.stages.manipulate import benchmark_runs
 from phyrogen.usage import EXIT_BAD_INPUT, UsageError, parse_overrides, parse_seeds
 from phyrogen_core.registry import ParameterError
 

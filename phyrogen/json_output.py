@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import sys
 
 from phyrogen_core.stage_records.base import StageResult
@@ -23,9 +22,7 @@ def run_for_json(args) -> int:
     args.json_result = None
     with contextlib.redirect_stdout(sys.stderr):
         code = args.func(args)
-    result = args.json_result
-    if isinstance(result, StageResult):
+    result: StageResult | None = args.json_result
+    if result is not None:
         print(result.to_json())
-    elif result is not None:
-        print(json.dumps({**result, "exit_code": code}, sort_keys=True))
     return code

@@ -32,12 +32,12 @@ CELL = {"puzzle": "rooms_7", "planner": "LA-RRT (ours)", "runs": 3, "clock_ended
         "rate_low": 0.2, "rate_high": 0.94, "interval": "wilson", "solved_all": False, "solved_any": True,
         "time_to_first": {"median": 0.42, "low": 0.1, "high": None, "samples": 3},
         "checks_to_first": None, "final_cost": None}
-BENCHMARK = {"command": "benchmark", "crashed": 0, "database": "/tmp/b/benchmark.db", "exit_code": 0,
+BENCHMARK = {"command": "benchmark", "version": 1, "crashed": 0, "database": "/tmp/b/benchmark.db", "exit_code": 0,
              "out": "/tmp/b", "results_page": "/tmp/b/results.html", "unsaved_solutions": [],
              "summary": {"format": "phyrogen-benchmark-summary", "version": 2, "complete": True,
                          "machine_dependent": False,
                          "cells": [CELL, {**CELL, "planner": "BIT*", "successes": 0, "time_to_first": None}]}}
-MANIPULATE = {"command": "manipulate", "exit_code": 0, "out": "/tmp/m",
+MANIPULATE = {"command": "manipulate", "version": 1, "exit_code": 1, "out": "/tmp/m",
               "reports": [{"puzzle": "rooms_7", "generator": "rooms", "seed": 7, "scale": 0.5,
                            "solution": "certificate", "solutions_tried": 1, "actions": 4, "regrasps": 1,
                            "planning_seconds": 1.5, "execution_seconds": 20, "simulated_seconds": 30.0,

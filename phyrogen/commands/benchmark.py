@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -18,9 +17,9 @@ from phyrogen.options import (
     path_option,
     whole_number,
 )
-from phyrogen.ray_options import add_ray_option, check_ray, ray_connection
-from phyrogen.usage import UsageError, generator_names
-from phyrogen_core.folder import find_puzzle_folders
+from phyrogen.ray_options import add_ray_option
+from phyrogen.stages import benchmark
+from phyrogen_core.stage_records.benchmark import BenchmarkRequest
 
 
 def add_parser(sub) -> None:
@@ -69,56 +68,28 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     if args.report is not None:
         return benchmark_report(Path(args.report))
-    from solver.benchmark.runner import backstop_profile, get_profile, plan_benchmark, run_plan
-    from solver.planning.registry import select_planners
-
-    generators = None if args.generator == "all" else generator_names(args.generator)
-    try:
-        planners = select_planners(args.planners)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    profile = get_profile(args.profile, args.runs, args.time_limit)
-    budget_checks = args.budget_checks
-    if args.budget_from_paper:
-        from solver.benchmark.paper_budgets import paper_budgets
-
-        if args.budget_checks is not None:
-            raise UsageError("--budget-from-paper sets each generator's check budget; give no --budget-checks with it")
-        budget_checks = paper_budgets()
-    if args.budget_cpu is not None and budget_checks is not None:
-        raise UsageError("--budget-cpu gives every run a budget in CPU seconds; give no check budget with it")
-    if (budget_checks is not None or args.budget_cpu is not None) and args.time_limit is None:
-        # The budget ends a run; the clock, derived from the budget, only a hang (a tight one: --time-limit).
-        profile = backstop_profile(profile, budget_checks, args.budget_cpu)
-    puzzles = find_puzzle_folders(Path(args.puzzles), generators)
-    # Every puzzle is read and every output path checked here, before the first run.
-    until_first = args.until == "first"
-    plan = plan_benchmark(puzzles, planners, profile, Path(args.out), args.workers, args.seed,
-                          save_solutions=not args.no_solutions, until_first=until_first,
-                          budget_checks=budget_checks, budget_cpu=args.budget_cpu)
-    check_ray(args.ray)  # an unreachable cluster is bad input, refused before any line of progress
-    estimate = plan.estimate_seconds(overhead=1.0)
-    print(f"{len(puzzles)} puzzles x {len(planners)} planners x {profile.runs} runs, profile {profile.name}: "
-          f"{'at most ' if until_first else ''}about {estimate / 3600:.1f} h on {args.workers} workers",
-          file=sys.stderr)
-    if plan.done:
-        print(f"resuming: {len(plan.done)} of {len(plan.jobs)} runs already done (journal {plan.journal}; "
-              "delete it to run them again)", file=sys.stderr)
+    request = BenchmarkRequest(args.puzzles, args.generator, args.planners, args.profile, args.runs, args.time_limit,
+                               args.seed, args.out, args.workers, args.ray, args.until, args.budget_checks,
+                               args.budget_cpu, args.budget_from_paper, not args.no_solutions, not args.quiet)
     if args.dry_run:
+        _show_plan(benchmark.plan(request))
         return 0
-    with ray_connection(args.ray, args.workers):
-        result = run_plan(plan, progress=not args.quiet, ray=args.ray)
-    print((Path(args.out) / "summary.md").read_text(encoding="utf-8"))
-    print(f"database: {result.database}  figure: {Path(args.out) / 'fig4.png'}  "
-          f"results page: {Path(args.out) / 'results.html'}")
+    result = benchmark.run(request, on_plan=_show_plan)
+    print((Path(result.out) / "summary.md").read_text(encoding="utf-8"))
+    print(f"database: {result.database}  figure: {Path(result.out) / 'fig4.png'}  results page: {result.results_page}")
     for line in result.unsaved_solutions:
         print(f"phyrogen: warning: {line}", file=sys.stderr)
-    crashed = sum(1 for r in result.records if r.error)
-    args.json_result = {"command": "benchmark", "out": str(Path(args.out)), "database": str(result.database),
-                        "results_page": str(Path(args.out) / "results.html"), "crashed": crashed,
-                        "unsaved_solutions": list(result.unsaved_solutions),
-                        "summary": json.loads((Path(args.out) / "summary.json").read_text(encoding="utf-8"))}
-    return 1 if crashed or result.unsaved_solutions else 0
+    args.json_result = result
+    return result.exit_code
+
+
+def _show_plan(plan) -> None:
+    print(f"{plan.puzzles} puzzles x {plan.planners} planners x {plan.runs} runs, profile {plan.profile}: "
+          f"{'at most ' if plan.until_first else ''}about {plan.estimate_seconds / 3600:.1f} h on {plan.workers} "
+          "workers", file=sys.stderr)
+    if plan.done:
+        print(f"resuming: {plan.done} of {plan.jobs} runs already done (journal {plan.journal}; "
+              "delete it to run them again)", file=sys.stderr)
 
 
 def benchmark_report(folder: Path) -> int:

@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import json
 import math
-import os
-from pathlib import Path
 
 from phyrogen.json_output import add_json_option
 from phyrogen.options import add_quiet_option, path_option
-from phyrogen_core.folder import PuzzleFolder, find_in_paths
+from phyrogen.stages import manipulate
+from phyrogen_core.stage_records.manipulate import ManipulateRequest
 
 
 def add_parser(sub) -> None:
@@ -37,19 +34,10 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from manipulation.batch import manipulate_folders
-
-    folders = [f.path if isinstance(f, PuzzleFolder) else f for f in find_in_paths(args.puzzle_dirs)]
-    runs = benchmark_runs(Path(args.benchmark), folders) if args.benchmark else None
-    from manipulation.execution import ExecutionSettings
-
-    reports = manipulate_folders(folders, Path(args.out), video=not args.no_video,
-                                 table=Path(args.table) if args.table else None, gui=args.gui, quiet=args.quiet,
-                                 settings=ExecutionSettings(scale=args.scale), runs=runs)
-    args.json_result = {"command": "manipulate", "out": str(Path(args.out)),
-                        "reports": [{**dataclasses.asdict(r), "folder": str(Path(args.out) / r.puzzle)}
-                                    for r in reports]}
-    return 0 if all(r.success for r in reports) else 1
+    request = ManipulateRequest(tuple(args.puzzle_dirs), args.out, not args.no_video, args.table, args.scale, args.gui,
+                                not args.quiet, args.benchmark)
+    args.json_result = manipulate.run(request)
+    return args.json_result.exit_code
 
 
 MAX_SCENE_SCALE = 2.0
@@ -67,29 +55,3 @@ def scene_scale_option(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a number from {MIN_SCENE_SCALE:g} to {MAX_SCENE_SCALE:g} (scene "
                                          f"metres per puzzle metre), got {text!r}")
     return value
-
-
-def benchmark_runs(benchmark: Path, folders: list[Path]) -> dict[Path, list]:
-    """Per puzzle folder, the solved LA-RRT runs of ``benchmark``'s journal on that very puzzle (its
-    name and the digest of its files), for the manipulation stage. Glue here, at the top: the
-    journal's reader lives in the solver beside OMPL, which manipulation may not import."""
-    from manipulation.solution import BenchmarkRun
-    from phyrogen_core.export import read_puzzle_dir
-    from phyrogen_core.folder import OutputError
-    from solver.benchmark.runner import JOURNAL, puzzle_digest, read_journal
-    from solver.planning.registry import LA_RRT_PLANNERS
-
-    journal = benchmark / JOURNAL
-    if not os.path.lexists(journal):
-        raise OutputError(f"benchmark folder {benchmark} has no {JOURNAL}; name the folder a benchmark wrote "
-                          "(its --out)")
-    records = [(json.loads(key), record) for key, record in read_journal(journal).items()]
-    out: dict[Path, list] = {}
-    for folder in folders:
-        name = read_puzzle_dir(folder).name
-        digest = puzzle_digest(PuzzleFolder(Path(folder), name))
-        out[Path(folder)] = [BenchmarkRun(r.planner, r.run, tuple(r.joint_order), tuple(r.path))
-                             for key, r in records
-                             if key.get("planner") in LA_RRT_PLANNERS and r.solved and len(r.path) >= 2
-                             and r.puzzle == name and key.get("puzzle_sha256") == digest]
-    return out

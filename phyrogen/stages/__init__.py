@@ -13,7 +13,8 @@ from __future__ import annotations
 import importlib
 
 STAGES = {"check": "CheckRequest", "generate": "GenerateRequest", "replan": "ReplanRequest",
-          "export": "ExportRequest", "import_urdf": "ImportRequest"}
+          "export": "ExportRequest", "import_urdf": "ImportRequest", "benchmark": "BenchmarkRequest",
+          "manipulate": "ManipulateRequest"}
 """Each stage's module (``phyrogen.stages.<name>``) and its request record's name."""
 
 

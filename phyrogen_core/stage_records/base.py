@@ -48,7 +48,7 @@ class Record:
         _LABEL.set(None)  # a nested record made in a check below labels itself
         hints = _hints(type(self))
         for field in fields(self):
-            value = _read(getattr(self, field.name), hints[field.name], label, field.name)
+            value = read_value(getattr(self, field.name), hints[field.name], label, field.name)
             object.__setattr__(self, field.name, value)  # normalised: a list read as a tuple, 3 as 3.0
         problem = self.problem()
         if problem:
@@ -75,7 +75,7 @@ class Record:
         if unknown:
             raise RecordError(f"{label}: unknown key {unknown[0]!r} (the record's keys: {', '.join(names)})")
         hints = _hints(cls)
-        values = {name: _read(data[name], hints[name], label, name) for name in names}
+        values = {name: read_value(data[name], hints[name], label, name) for name in names}
         token = _LABEL.set(label)
         try:
             return cls(**values)
@@ -175,7 +175,7 @@ class StageResult(StageRecord):
     def _from_body(cls, data: dict, label: str):
         if "exit_code" not in data:
             raise RecordError(f"{label}: missing key 'exit_code'")
-        code = _read(data.pop("exit_code"), int, label, "exit_code")
+        code = read_value(data.pop("exit_code"), int, label, "exit_code")
         record = super()._from_body(data, label)
         if code != record.exit_code:
             raise RecordError(f"{label}: 'exit_code' is {code}, but the result is one of exit code {record.exit_code}")
@@ -190,7 +190,7 @@ def _hints(cls: type) -> dict[str, Any]:
     return typing.get_type_hints(cls)
 
 
-def _read(value: Any, hint: Any, where: str, name: str) -> Any:
+def read_value(value: Any, hint: Any, where: str, name: str) -> Any:
     """``value`` as a field of type ``hint``; :class:`RecordError` ``"<where>: '<name>': ..."`` when it is not."""
     label = f"{where}: {name!r}"
     origin = typing.get_origin(hint)
@@ -198,12 +198,12 @@ def _read(value: Any, hint: Any, where: str, name: str) -> Any:
         if value is None:
             return None
         (inner,) = [arg for arg in typing.get_args(hint) if arg is not type(None)]
-        return _read(value, inner, where, name)
+        return read_value(value, inner, where, name)
     if origin is tuple:
         if not isinstance(value, list | tuple):
             raise RecordError(f"{label}: expected a list, got {_kind(value)}")
         item = typing.get_args(hint)[0]
-        return tuple(_read(v, item, where, f"{name}[{i}]") for i, v in enumerate(value))
+        return tuple(read_value(v, item, where, f"{name}[{i}]") for i, v in enumerate(value))
     if origin is Literal:
         choices = typing.get_args(hint)
         if value not in choices or not isinstance(value, str):
@@ -219,7 +219,7 @@ def _read(value: Any, hint: Any, where: str, name: str) -> Any:
         _check_json(value, label)
         return copy.deepcopy(value)
     if hint is Count:
-        value = _read(value, int, where, name)
+        value = read_value(value, int, where, name)
         if value < 0:
             raise RecordError(f"{label} is {value}, expected a count (0 or more)")
         return value
