@@ -31,7 +31,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from solver.parallel.ray_pool import LOCAL, ray_instance  # noqa: E402
-from solver.pipelines.dataset import TIMING_COLUMNS, build_dataset, local_backend, make_request, ray_backend  # noqa: E402
+from solver.pipelines.dataset import (  # noqa: E402
+    TIMING_COLUMNS,
+    build_dataset,
+    local_backend,
+    make_request,
+    manifest_rows,
+    ray_backend,
+)
 
 # Puzzles per generator at --scale 1 (about 20-40 s per backend on 2 cores), and the settings that
 # keep sizes where the paper ties them to the seed.
@@ -45,10 +52,9 @@ PLAN = {
 }
 
 
-def manifest_without_timing(root: Path):
-    import pyarrow.parquet as pq
-
-    return pq.read_table(root / "manifest.parquet").drop_columns(list(TIMING_COLUMNS)).to_pylist()
+def manifest_without_timing(root: Path) -> list[dict]:
+    rows, _ = manifest_rows(root)
+    return [{k: v for k, v in row.to_dict().items() if k not in TIMING_COLUMNS} for row in rows]
 
 
 def main() -> int:

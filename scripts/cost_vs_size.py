@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from solver.pipelines.dataset import build_dataset, local_backend, make_request, read_manifest  # noqa: E402
+from solver.pipelines.dataset import build_dataset, local_backend, make_request, manifest_rows  # noqa: E402
 
 SWEEPS = {  # generator: (size parameter, smallest, largest, other settings)
     "simple_slider": ("n_objects", 1, 12, []),
@@ -48,12 +48,12 @@ def measure(generator: str, seeds_per_size: int, workers: int, scratch: Path) ->
     root = scratch / generator
     build_dataset(request, root, workers, backend=functools.partial(local_backend, batch_size=1))
     costs: dict[int, list[tuple[float, int]]] = {}
-    for row in read_manifest(root)[0].to_pylist():
-        size = int(json.loads(row["parameters"])[knob])
-        if row["status"] != "ok":
-            print(f"  {generator} seed {row['seed']} ({knob} {size}) failed: {row['error'].splitlines()[0]}")
+    for row in manifest_rows(root)[0]:
+        size = int(json.loads(row.parameters)[knob])
+        if not row.ok:
+            print(f"  {generator} seed {row.seed} ({knob} {size}) failed: {row.error.splitlines()[0]}")
             continue
-        costs.setdefault(size, []).append((row["generation_seconds"], row["validation_checks"]))
+        costs.setdefault(size, []).append((row.generation_seconds, row.validation_checks))
     shutil.rmtree(root)
     return costs
 

@@ -165,9 +165,8 @@ def test_an_older_file_reads_with_the_kind_unknown_and_writes_back_as_it_was(tmp
 
 def test_the_dataset_manifest_says_how_each_puzzles_blockers_were_shown_needed(tmp_path):
     pytest.importorskip("pyarrow")
-    import pyarrow.parquet as pq
-
     from phyrogen.cli import main
+    from solver.pipelines.dataset import manifest_rows
 
     root = tmp_path / "dataset"
     # Seeds 7421-7422 with three boxes, 7423 with one (the target alone: no blocker, no verdict).
@@ -176,9 +175,8 @@ def test_the_dataset_manifest_says_how_each_puzzles_blockers_were_shown_needed(t
     alone = tmp_path / "alone"
     assert main(["dataset", "--generator", "grid_world", "--seeds", "7423", "--set", "n_objects=1",
                  "--quiet", "--out", str(alone)]) == 0
-    rows = pq.read_table(root / "manifest.parquet").to_pylist()
-    assert [r["necessity"] for r in rows] == [BY_GEOMETRY, BY_GEOMETRY]
-    assert [r["necessity"] for r in pq.read_table(alone / "manifest.parquet").to_pylist()] == [None]
+    assert [r.necessity for r in manifest_rows(root)[0]] == [BY_GEOMETRY, BY_GEOMETRY]
+    assert [r.necessity for r in manifest_rows(alone)[0]] == [None]
 
 
 def test_a_puzzle_counts_as_its_weakest_verdict():

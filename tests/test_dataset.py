@@ -33,6 +33,7 @@ from solver.pipelines.dataset import (  # noqa: E402
     content_hash,
     local_backend,
     make_request,
+    manifest_rows,
 )
 from solver.pipelines.dataset.build import write_record  # noqa: E402
 from solver.pipelines.dataset.manifest import canonical_description  # noqa: E402
@@ -57,6 +58,13 @@ def files(root: Path) -> dict[str, bytes]:
 
 def manifest(root: Path):
     return pq.read_table(root / "manifest.parquet").drop_columns(list(TIMING_COLUMNS))
+
+
+def manifest_dicts(root: Path) -> list[dict]:
+    """The rows of a finished dataset's manifest, read by its strict reader."""
+    rows, complete = manifest_rows(root)
+    assert complete
+    return [row.to_dict() for row in rows]
 
 
 def assert_same_dataset(root: Path, reference: Path) -> None:
@@ -158,8 +166,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(argv, tmp_path, capsys)
 
 # -- making a dataset ----------------------------------------------------------------------
 def test_a_dataset_has_every_seed_once_in_valid_folders(reference):
-    table = pq.read_table(reference / "manifest.parquet")
-    rows = table.to_pylist()
+    rows = manifest_dicts(reference)
     assert [r["seed"] for r in rows] == list(range(SEEDS[0], SEEDS[1] + 1))
     assert [r["index"] for r in rows] == list(range(len(rows)))
     assert {r["status"] for r in rows} == {"ok"} and {r["error"] for r in rows} == {None}
@@ -230,7 +237,7 @@ def test_an_interrupted_dataset_resumes_without_making_anything_twice(reference,
     made: list[int] = []
     with pytest.raises(KeyboardInterrupt):
         build_dataset(request, root, 2, backend=recording(local_backend, first, stop_after=7),
-                      on_row=lambda row, now: made.append(row["index"]) if now else None)
+                      on_row=lambda row, now: made.append(row.index) if now else None)
     assert len(made) == 7
     parts = sorted((root / "parts").glob("*.parquet"))  # batches of 8 make at least one shard of 5 complete
     assert parts and all(set(request.shard_entries(int(p.stem.split("-")[1]))) <= set(made) for p in parts)
@@ -276,7 +283,7 @@ def test_failed_seeds_are_rows_and_are_not_retried(tmp_path):
     result = build_dataset(request, tmp_path / "d", 2, backend=recording(local_backend, log))
     assert (result.ok, result.failed) == (4, 2)
     assert not {i for i in log if request.entry(i).seed in failing}  # a recorded failure is not retried
-    rows = pq.read_table(tmp_path / "d" / "manifest.parquet").to_pylist()
+    rows = manifest_dicts(tmp_path / "d")
     assert [r["seed"] for r in rows] == list(range(9120, 9126))
     for row in rows:
         if row["seed"] in failing:
@@ -396,7 +403,7 @@ def test_the_canonical_hash_ignores_names_and_order_and_sees_geometry(reference)
     changed = KinematicChain(chain.links, (*chain.joints[:k], moved, *chain.joints[k + 1:]), chain.root, chain.name)
     assert canonical_hash(changed, start, loaded.goal.values) != original
     assert canonical_hash(chain, start, {k: v + 0.5 for k, v in loaded.goal.values.items()}) != original
-    rows = pq.read_table(reference / "manifest.parquet").to_pylist()
+    rows = manifest_dicts(reference)
     assert rows[1]["canonical_hash"] == original
     assert len({r["canonical_hash"] for r in rows}) == len({r["content_hash"] for r in rows})
 

@@ -212,7 +212,8 @@ def test_bad_difficulty_and_suite_options_are_refused_before_any_work(tmp_path, 
 
 
 def test_dataset_difficulty_columns_are_null_unless_asked(tmp_path):
-    import pyarrow.parquet as pq
+    pytest.importorskip("pyarrow")
+    from solver.pipelines.dataset import manifest_rows
 
     common = ["dataset", "--generator", "simple_slider", "--set", "n_objects=1", "--seeds",
               f"{CLI_SEED}-{CLI_SEED + 1}", "--workers", "1", "--quiet"]
@@ -222,11 +223,10 @@ def test_dataset_difficulty_columns_are_null_unless_asked(tmp_path):
     assert plain.returncode == 0 == measured.returncode, plain.stderr + measured.stderr
     columns = ["difficulty_runs", "difficulty_budget_checks", "difficulty_success_rate", "difficulty_success_low",
                "difficulty_success_high", "difficulty_median_checks"]
-    rows = {kind: pq.read_table(tmp_path / kind / "manifest.parquet", columns=columns).to_pylist()
-            for kind in ("plain", "measured")}
-    assert all(value is None for row in rows["plain"] for value in row.values())
-    assert all(row["difficulty_runs"] == 2 and row["difficulty_budget_checks"] == 5000
-               and row["difficulty_success_low"] <= row["difficulty_success_rate"] <= row["difficulty_success_high"]
+    rows = {kind: manifest_rows(tmp_path / kind)[0] for kind in ("plain", "measured")}
+    assert all(getattr(row, column) is None for row in rows["plain"] for column in columns)
+    assert all(row.difficulty_runs == 2 and row.difficulty_budget_checks == 5000
+               and row.difficulty_success_low <= row.difficulty_success_rate <= row.difficulty_success_high
                for row in rows["measured"])
     assert "difficulty" not in json.loads((tmp_path / "plain" / "dataset.json").read_text())
     # Resuming a dataset with another difficulty request is refused: its rows would mix two measurements.

@@ -38,7 +38,11 @@ def dataset_files(root: Path) -> dict[str, bytes]:
 
 
 def manifest_rows(root: Path) -> list[dict]:
-    return pq.read_table(root / "manifest.parquet").drop_columns(list(TIMING_COLUMNS)).to_pylist()
+    from solver.pipelines.dataset import manifest_rows as read_rows
+
+    rows, complete = read_rows(root)
+    assert complete
+    return [{k: v for k, v in row.to_dict().items() if k not in TIMING_COLUMNS} for row in rows]
 
 
 def ray_processes(session_of: int) -> list[str]:

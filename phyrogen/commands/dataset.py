@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from phyrogen.difficulty_options import add_difficulty_options, difficulty_settings
 from phyrogen.options import add_quiet_option, add_workers_option, path_option, whole_number
@@ -12,6 +13,9 @@ from phyrogen.progress import progress_bar, show_running
 from phyrogen.ray_options import add_ray_option, check_ray, ray_connection
 from phyrogen.usage import UsageError, generator_names, parse_seeds
 from phyrogen_core.registry import MAX_SEED
+
+if TYPE_CHECKING:
+    from solver.pipelines.dataset.manifest_row import ManifestRow
 
 
 def add_parser(sub) -> None:
@@ -84,14 +88,14 @@ def run(args) -> int:
     def on_running(running: list) -> None:
         show_running(progress, [task.name for task in running])
 
-    def show_row(row: dict, made_now: bool) -> None:
-        if made_now and row["status"] != "ok":
-            progress.write(f"{row['generator']} {row['seed']}: FAILED: {row['error'].splitlines()[0]}",
+    def show_row(row: ManifestRow, made_now: bool) -> None:
+        if made_now and not row.ok:
+            progress.write(f"{row.generator} {row.seed}: FAILED: {row.error.splitlines()[0]}",
                            file=sys.stdout)
         progress.update(1)
 
     def show_shard(shard: int, rows: list) -> None:
-        ok = sum(row["status"] == "ok" for row in rows)
+        ok = sum(row.ok for row in rows)
         progress.write(f"{shard_name(shard)}: {ok}/{len(rows)} puzzles ok; rows in parts/{shard_name(shard)}.parquet",
                        file=sys.stdout)
         sys.stdout.flush()

@@ -71,6 +71,7 @@ from solver.pipelines.dataset.manifest import (
     write_manifest,
     write_part,
 )
+from solver.pipelines.dataset.manifest_row import ManifestRow
 from solver.pipelines.dataset.request import DatasetError, DatasetRequest, Entry, request_difference
 from solver.pipelines.generation import _PRELOAD as GENERATION_PRELOAD
 from solver.pipelines.generation import LOOKAHEAD, generate_here, versions
@@ -287,7 +288,7 @@ class BuildResult:
 @dataclass
 class _Shard:
     index: int
-    rows: dict[int, dict[str, Any]] = field(default_factory=dict)
+    rows: dict[int, ManifestRow] = field(default_factory=dict)
     waiting: set[int] = field(default_factory=set)
 
 
@@ -345,9 +346,9 @@ def _check_puzzle_folders(request: DatasetRequest, root: Path) -> None:
 
 def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *,
                   backend: Backend = local_backend,
-                  on_row: Callable[[dict[str, Any], bool], None] | None = None,
+                  on_row: Callable[[ManifestRow, bool], None] | None = None,
                   on_skip: Callable[[int], None] | None = None,
-                  on_shard: Callable[[int, list[dict[str, Any]]], None] | None = None,
+                  on_shard: Callable[[int, list[ManifestRow]], None] | None = None,
                   on_running: Callable[[list[EntryTask]], None] | None = None) -> BuildResult:
     """Make (or finish) the dataset ``request`` in ``root`` and return what was done.
 
@@ -439,7 +440,7 @@ def _folder(root: Path, shard: int, entry: Entry) -> Path:
 
 
 def _scan_shard(request: DatasetRequest, root: Path, shard: int,
-                on_row: Callable[[dict[str, Any], bool], None] | None) -> tuple[_Shard, list[EntryTask]]:
+                on_row: Callable[[ManifestRow, bool], None] | None) -> tuple[_Shard, list[EntryTask]]:
     """What of an incomplete shard is done (rows) and what is left to do (tasks)."""
     shard_dir = _clean_shard(request, root, shard)
     state = _Shard(shard)

@@ -26,6 +26,7 @@ from phyrogen_core.chain import KinematicChain, Role
 from phyrogen_core.dependencies import DependencyShape
 from phyrogen_core.folder import Stage, atomic_file, read_folder_file, stage_entries
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder, Pose, Shape
+from solver.pipelines.dataset.manifest_row import ManifestRow
 from solver.pipelines.dataset.request import Entry
 
 MANIFEST_FILE = "manifest.parquet"
@@ -97,14 +98,14 @@ def base_row(entry: Entry, shard: int, record: Mapping[str, Any] | None) -> dict
     }
 
 
-def failed_row(entry: Entry, shard: int, error: str, record: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def failed_row(entry: Entry, shard: int, error: str, record: Mapping[str, Any] | None = None) -> ManifestRow:
     row = base_row(entry, shard, record)
     row["error"] = error
-    return row
+    return ManifestRow(**row)
 
 
 def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
-               record: Mapping[str, Any] | None = None) -> dict[str, Any]:
+               record: Mapping[str, Any] | None = None) -> ManifestRow:
     """The row of a puzzle folder, read strictly (:func:`~phyrogen_core.export.read_puzzle_dir`).
 
     Raises :class:`~phyrogen_core.folder.PuzzleFormatError` (a ValueError) when the folder is not a
@@ -145,7 +146,7 @@ def puzzle_row(entry: Entry, shard: int, root: Path, folder: Path,
                     "difficulty_success_rate": measured.success_rate, "difficulty_success_low": measured.success_low,
                     "difficulty_success_high": measured.success_high,
                     "difficulty_median_checks": measured.median_checks_to_first})
-    return row
+    return ManifestRow(**row)
 
 
 # -- hashes --------------------------------------------------------------------------
@@ -234,14 +235,14 @@ def part_path(root: Path, shard: int) -> Path:
     return Path(root) / PARTS_FOLDER / f"{shard_name(shard)}.parquet"
 
 
-def write_part(path: Path, rows: Sequence[Mapping[str, Any]]) -> Path:
+def write_part(path: Path, rows: Sequence[ManifestRow]) -> Path:
     """One shard's rows (in index order) as a Parquet file, written atomically."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     from phyrogen_core.folder import write_file_atomic
 
-    table = pa.Table.from_pylist(sorted(rows, key=lambda r: r["index"]), schema=schema())
+    table = pa.Table.from_pylist([r.to_dict() for r in sorted(rows, key=lambda r: r.index)], schema=schema())
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
     return write_file_atomic(path, sink.getvalue().to_pybytes())
@@ -274,17 +275,70 @@ def write_manifest(root: Path, parts: Sequence[Path]) -> Path:
     return final
 
 
-def read_manifest(root: Path, columns: Sequence[str] | None = None):
-    """The manifest of the dataset at ``root`` as an Arrow table, and whether it is complete: the
+def manifest_files(root: Path) -> tuple[list[Path], bool]:
+    """The files that hold the manifest of the dataset at ``root``, and whether it is complete: the
     merged ``manifest.parquet`` when the dataset is finished, else the parts written so far."""
+    root = Path(root)
+    if (root / MANIFEST_FILE).is_file():
+        return [root / MANIFEST_FILE], True
+    return sorted((root / PARTS_FOLDER).glob("shard-*.parquet")), False
+
+
+def read_manifest(root: Path, columns: Sequence[str] | None = None):
+    """The manifest of the dataset at ``root`` as an Arrow table (``columns``, default all), and whether
+    it is complete (:func:`manifest_files`). Each file must be Parquet with exactly the manifest's
+    columns and types (:func:`schema`); :class:`~phyrogen_core.errors.PuzzleFormatError` names the
+    file and the first difference otherwise. Its values are checked row by row by :func:`manifest_rows`."""
     import pyarrow as pa
+
+    files, complete = manifest_files(root)
+    cols = None if columns is None else list(columns)
+    if not files:
+        return schema().empty_table() if cols is None else schema().empty_table().select(cols), False
+    return pa.concat_tables([_read_file(path, cols) for path in files]), complete
+
+
+def manifest_rows(root: Path) -> tuple[tuple[ManifestRow, ...], bool]:
+    """The manifest of the dataset at ``root`` as its typed rows, in file order, and whether it is
+    complete: the one strict reader of a manifest's rows. :class:`~phyrogen_core.errors.PuzzleFormatError`,
+    one line naming the file and the row (0-based, within the file), when a file or a row is not one
+    ``phyrogen dataset`` writes (:class:`~solver.pipelines.dataset.manifest_row.ManifestRow`)."""
+    from phyrogen_core.errors import PuzzleFormatError
+    from phyrogen_core.stage_records.base import RecordError
+
+    files, complete = manifest_files(root)
+    rows: list[ManifestRow] = []
+    for path in files:
+        for number, data in enumerate(_read_file(path, None).to_pylist()):
+            try:
+                rows.append(ManifestRow.from_dict(data, f"{path}: row {number}"))
+            except RecordError as exc:
+                raise PuzzleFormatError(str(exc)) from None
+    return tuple(rows), complete
+
+
+def _read_file(path: Path, columns: list[str] | None):
+    """One manifest file (the merged manifest or a part), its schema the manifest's."""
     import pyarrow.parquet as pq
 
-    root = Path(root)
-    cols = None if columns is None else list(columns)
-    if (root / MANIFEST_FILE).is_file():
-        return pq.read_table(root / MANIFEST_FILE, columns=cols), True
-    parts = sorted((root / PARTS_FOLDER).glob("shard-*.parquet"))
-    if not parts:
-        return schema().empty_table() if cols is None else schema().empty_table().select(cols), False
-    return pa.concat_tables([pq.read_table(p, columns=cols) for p in parts]), False
+    from phyrogen_core.errors import PuzzleFormatError
+
+    try:
+        found = pq.read_schema(path)
+    except (OSError, ValueError) as exc:  # pyarrow's ArrowInvalid is a ValueError
+        raise PuzzleFormatError(f"{path}: not a Parquet manifest ({str(exc).splitlines()[0]})") from None
+    wanted = schema()
+    if found != wanted:
+        missing = [f.name for f in wanted if f.name not in found.names]
+        unknown = [name for name in found.names if name not in wanted.names]
+        if missing or unknown:
+            what = f"no column {missing[0]!r}" if missing else f"an unknown column {unknown[0]!r}"
+        else:
+            other = next((f for f in wanted if found.field(f.name).type != f.type), None)
+            what = (f"column {other.name!r} of type {found.field(other.name).type}, not {other.type}" if other
+                    else "its columns in another order")
+        raise PuzzleFormatError(f"{path}: not a manifest phyrogen dataset writes: {what}")
+    try:
+        return pq.read_table(path, columns=columns)
+    except (OSError, ValueError) as exc:
+        raise PuzzleFormatError(f"{path}: unreadable Parquet ({str(exc).splitlines()[0]})") from None
