@@ -44,6 +44,7 @@ from phyrogen.stage_checks import check_generation
 from phyrogen.stages import STAGES, run
 from phyrogen_core import __version__
 from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
+from phyrogen_core.stage_records.audit import AuditRequest, AuditResult
 from phyrogen_core.stage_records.benchmark import BenchmarkRequest, BenchmarkResult
 from phyrogen_core.stage_records.check import CheckRequest, CheckResult
 from phyrogen_core.stage_records.export import ExportRequest, ExportResult
@@ -52,10 +53,11 @@ from phyrogen_core.stage_records.import_urdf import ImportRequest, ImportResult
 from phyrogen_core.stage_records.manipulate import ManipulateRequest, ManipulateResult
 from phyrogen_core.stage_records.replan import ReplanRequest, ReplanResult
 
-__all__ = ["STAGES", "BenchmarkRequest", "BenchmarkResult", "CheckRequest", "CheckResult", "ExportRequest",
-           "ExportResult", "GenerateRequest", "GenerateResult", "ImportRequest", "ImportResult", "ManipulateRequest",
-           "ManipulateResult", "PuzzleFolder", "ReplanRequest", "ReplanResult", "__version__", "check",
-           "find_puzzles", "generate", "generate_into", "generators", "load", "run"]
+__all__ = ["STAGES", "AuditRequest", "AuditResult", "BenchmarkRequest", "BenchmarkResult", "CheckRequest",
+           "CheckResult", "ExportRequest", "ExportResult", "GenerateRequest", "GenerateResult", "ImportRequest",
+           "ImportResult", "ManipulateRequest", "ManipulateResult", "PuzzleFolder", "RenderRequest", "RenderResult",
+           "ReplanRequest", "ReplanResult", "__version__", "check", "find_puzzles", "generate", "generate_into",
+           "generators", "load", "run"]
 
 
 def generators() -> dict:

@@ -4,78 +4,62 @@ superfluous with a large budget."""
 from __future__ import annotations
 
 import sys
-import time
-from pathlib import Path
 
 from phyrogen.options import add_quiet_option, add_workers_option, path_option, whole_number
-from phyrogen_core.folder import find_puzzle_folders
+from phyrogen.stages import audit
+from phyrogen_core.stage_records.audit import AuditRequest
 
 
 def add_parser(sub) -> None:
-    audit = sub.add_parser("audit", help="re-check exported puzzles: certificate replayed in PyBullet, every "
-                                         "object tried as superfluous with a large budget")
-    audit.add_argument("dir", type=path_option, metavar="DIR",
-                       help="a puzzle folder, or a folder of generated puzzles (all of them)")
-    audit.add_argument("--budget", type=audit_budget_option,
-                       help="collision queries per attempt with an object fixed (default 100000, 25 x the Maker's "
-                            "judge budget; at most 10000000); the second judge gets as many collision checks")
-    audit.add_argument("--out", type=path_option, default="output/audit",
-                       help="folder for audit.json (found paths included) and audit.md; replaces only files an "
-                            "earlier audit wrote (default: output/audit)")
-    add_workers_option(audit)
-    add_quiet_option(audit)
-    audit.set_defaults(func=run)
+    parser = sub.add_parser("audit", help="re-check exported puzzles: certificate replayed in PyBullet, every "
+                                          "object tried as superfluous with a large budget")
+    parser.add_argument("dir", type=path_option, metavar="DIR",
+                        help="a puzzle folder, or a folder of generated puzzles (all of them)")
+    parser.add_argument("--budget", type=audit_budget_option,
+                        help="collision queries per attempt with an object fixed (default 100000, 25 x the Maker's "
+                             "judge budget; at most 10000000); the second judge gets as many collision checks")
+    parser.add_argument("--out", type=path_option, default="output/audit",
+                        help="folder for audit.json (found paths included) and audit.md; replaces only files an "
+                             "earlier audit wrote (default: output/audit)")
+    add_workers_option(parser)
+    add_quiet_option(parser)
+    parser.set_defaults(func=run)
 
 
 def run(args) -> int:
     from tqdm import tqdm
 
-    from manipulation.replay import PyBulletReferee
-    from solver.pipelines.audit import (
-        DEFAULT_BUDGET,
-        TABLE_HEADER,
-        AuditSettings,
-        check_report_folder,
-        plan_audit,
-        run_audit,
-        second_budget,
-        table_row,
-        task_count,
-        write_reports,
-    )
+    from solver.pipelines.audit import TABLE_HEADER
 
-    budget = DEFAULT_BUDGET if args.budget is None else args.budget
-    # Every puzzle is read and the report folder checked before the first attempt starts.
-    puzzles = plan_audit(find_puzzle_folders(Path(args.dir)))
-    out = check_report_folder(args.out)
-    referee = PyBulletReferee()
-    settings = AuditSettings(budget, referee.name, referee.resolution, referee.tolerance)
-    if not args.quiet:
-        print(f"auditing {len(puzzles)} puzzles: two judges per object, LA-RRT with pushes ({budget} collision "
-              f"queries) and the paper's LA-RRT ({second_budget(budget)} checks, goal sampling included); "
-              f"certificates replayed in "
-              f"{referee.name} every {referee.resolution * 1000:g} mm, penetration threshold "
-              f"{referee.tolerance * 1000:g} mm", file=sys.stderr)
-    progress = tqdm(total=task_count(puzzles), unit="check", disable=args.quiet, file=sys.stderr)
-    audits = []
-    started = time.perf_counter()
-    try:
+    progress = None
+
+    def on_start(plan) -> None:
+        nonlocal progress
+        if not args.quiet:
+            print(f"auditing {plan.puzzles} puzzles: two judges per object, LA-RRT with pushes ({plan.budget} "
+                  f"collision queries) and the paper's LA-RRT ({plan.second_budget} checks, goal sampling included); "
+                  f"certificates replayed in {plan.referee} every {plan.resolution * 1000:g} mm, penetration "
+                  f"threshold {plan.tolerance * 1000:g} mm", file=sys.stderr)
+        progress = tqdm(total=plan.tasks, unit="check", disable=args.quiet, file=sys.stderr)
         progress.write(TABLE_HEADER, file=sys.stdout)
-        for audit in run_audit(puzzles, referee, budget, args.workers, on_task_done=lambda: progress.update(1)):
-            progress.write(table_row(audit), file=sys.stdout)
-            sys.stdout.flush()
-            audits.append(audit)
+
+    def on_puzzle(_, row: str) -> None:
+        progress.write(row, file=sys.stdout)
+        sys.stdout.flush()
+
+    try:
+        result = audit.run(AuditRequest(args.dir, args.budget, args.out, args.workers), on_start=on_start,
+                           on_task_done=lambda: progress.update(1), on_puzzle=on_puzzle)
     finally:
-        progress.close()
-        if audits:  # interrupted, the report still holds the puzzles finished, marked incomplete
-            reports = write_reports(out, audits, settings, total=len(puzzles))
-    for audit in audits:
-        for line in audit.failures():
-            print("  " + line.splitlines()[0])
-    failed = sum(not a.ok for a in audits)
-    print(f"{len(audits) - failed}/{len(audits)} puzzles pass the audit in {time.perf_counter() - started:.1f} s "
-          f"wall time with {args.workers} workers; report: {reports[0]}, {reports[1]}")
-    return 1 if failed else 0
+        if progress is not None:
+            progress.close()
+    for puzzle in result.puzzles:
+        for line in puzzle.failures:
+            print("  " + line)
+    passed = sum(p.ok for p in result.puzzles)
+    print(f"{passed}/{len(result.puzzles)} puzzles pass the audit in {result.wall_seconds:.1f} s wall time with "
+          f"{args.workers} workers; report: {result.report_json}, {result.report_markdown}")
+    return result.exit_code
 
 
 def audit_budget_option(text: str) -> int:

@@ -3,7 +3,8 @@ frozen, typed, versioned records of :mod:`phyrogen_core.stage_records`.
 
 The command line's modules (``phyrogen.commands``) turn arguments into a request and a result into text
 or ``--json``; the Python API (``phyrogen.run``) takes a request and returns the result. A stage checks
-its whole request before any work: bad input raises a :class:`ValueError` of one line naming the value.
+its whole request before any work: bad input raises a :class:`ValueError` (or :class:`FileNotFoundError`)
+of one line naming the value or the file, which the command line answers with exit code 2.
 Some take optional keyword callbacks that report work as it goes (a row per puzzle, the puzzles running),
 for a progress display; the result is the same without them.
 """
@@ -14,7 +15,7 @@ import importlib
 
 STAGES = {"check": "CheckRequest", "generate": "GenerateRequest", "replan": "ReplanRequest",
           "export": "ExportRequest", "import_urdf": "ImportRequest", "benchmark": "BenchmarkRequest",
-          "manipulate": "ManipulateRequest"}
+          "manipulate": "ManipulateRequest", "audit": "AuditRequest"}
 """Each stage's module (``phyrogen.stages.<name>``) and its request record's name."""
 
 
