@@ -25,7 +25,7 @@ the results page and the tests compute every number the same way.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -80,14 +80,7 @@ def normal_quantile(p: float) -> float:
     """The standard normal distribution's ``p``-quantile, by bisection on ``math.erf`` (to 1e-15)."""
     if not 0 < p < 1:
         raise ValueError(f"a quantile needs 0 < p < 1, got {p!r}")
-    low, high = -40.0, 40.0
-    for _ in range(200):
-        middle = 0.5 * (low + high)
-        if 0.5 * (1.0 + math.erf(middle / math.sqrt(2.0))) < p:
-            low = middle
-        else:
-            high = middle
-    return 0.5 * (low + high)
+    return _bisect(lambda x: 0.5 * (1.0 + math.erf(x / math.sqrt(2.0))), p, -40.0, 40.0, 200)
 
 
 def wilson_interval(successes: int, runs: int, confidence: float = CONFIDENCE) -> Proportion:
@@ -143,10 +136,15 @@ def beta_quantile(p: float, a: float, b: float) -> float:
     """The beta(a, b) distribution's ``p``-quantile, by bisection on :func:`regularized_incomplete_beta`."""
     if not 0 <= p <= 1:
         raise ValueError(f"a quantile needs 0 <= p <= 1, got {p!r}")
-    low, high = 0.0, 1.0
-    for _ in range(100):  # 2**-100: well below a float's resolution near any quantile we need
+    # 100 halvings, 2**-100: well below a float's resolution near any quantile we need.
+    return _bisect(lambda x: regularized_incomplete_beta(a, b, x), p, 0.0, 1.0, 100)
+
+
+def _bisect(cdf: Callable[[float], float], p: float, low: float, high: float, steps: int) -> float:
+    """The ``p``-quantile of a distribution, its increasing ``cdf`` bisected ``steps`` times on [low, high]."""
+    for _ in range(steps):
         middle = 0.5 * (low + high)
-        if regularized_incomplete_beta(a, b, middle) < p:
+        if cdf(middle) < p:
             low = middle
         else:
             high = middle
