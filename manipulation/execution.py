@@ -3,8 +3,8 @@
 For each action: pick the grasp point on the moving object, solve IK there
 (with a look-ahead so the grasp is not singular a moment later) for a base on
 floor it can drive to, plan the robot's motion (BIT*, or tuck the arm, drive
-over the free floor and untuck), drive there, grasp (a fixed constraint), and pull
-the object along its path by Jacobian control. When the monitor stops the
+over the free floor and untuck), drive there, close the fingers (the object then
+follows by their friction alone), and pull the object along its path by Jacobian control. When the monitor stops the
 motion (joint flip, low manipulability, joint limit) the robot releases,
 regrasps where it is well-conditioned for the object's next positions, and
 goes on. At the end the target must be at its goal and the robot must never
@@ -112,13 +112,14 @@ class _Run(GraspApproach):
                 # The tool's pose on the link as the fingers hold it (closing may have nudged the object).
                 tool_at_link = inverse(self.link_world(grasp.link, self.sim.puzzle_state())) @ matrix(
                     *self.sim.tool_pose())
-                self.attach(link_index, tool_at_link)
+                self.hold(link_index)
                 result = follow(self.sim, trajectory, partial(self.tool_pose, grasp.link, tool_at_link), t,
                                 self.settings.follow, self.on_step, object_done, self.sim.puzzle_state,
                                 lambda up_to: self.sim.clearance(up_to, self.planned), self.sim.touches_itself,
                                 lambda: self.grip is not None,
                                 lambda now: setattr(self, "plan_state", trajectory.state_at(now)))
-                stop = result.stop.value
+                # A grip that ended names its cause (a slip, with how far; a finger off the handle).
+                stop = self.lost if result.stop is Stop.LOST_GRIP and self.lost else result.stop.value
                 stopped_at = result.time
             else:
                 stop, stopped_at = "the fingers did not close on the handle", t
@@ -228,7 +229,7 @@ def execute_puzzle(folder: Path, settings: ExecutionSettings = DEFAULT_SETTINGS,
     attempts: list[AttemptReport] = []
     recording, setup = Recording(), _unplaced_setup(loaded, scale, settings)  # when every solution is refused
     for solution in candidate_solutions(folder, loaded, runs):
-        problems = solution_problems(loaded, solution)
+        problems = solution_problems(loaded, solution) if settings.check_solutions else []
         if problems:
             # Refused before physics: a path our own model refutes is no test of the robot.
             attempts.append(AttemptReport(solution.label, scale, 0, 0, 0.0, 0.0, 0.0, False, False, 0.0,

@@ -50,6 +50,10 @@ class ExecutionSettings:
     short_benchmark: ShortBenchmark | None = ShortBenchmark()
     """Run this benchmark first on a puzzle with no best solution and no benchmark runs given
     (:mod:`manipulation.source`); None: execute the certificate then."""
+    check_solutions: bool = True
+    """Whether every solution is checked at 2 mm (as ``phyrogen check`` checks a certificate) before
+    physics, a refuted one refused (False: each goes to the simulation as it is; the negative controls
+    that must fail in physics, docs/manipulation/README.md#solution-source)."""
     puzzle_self_collision: bool = True
     """Whether the puzzle's objects and walls collide with each other (False: the scene as it was
     before they did, where an invalid path executed; kept as a negative control)."""

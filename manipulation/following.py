@@ -4,7 +4,7 @@ Each simulation step the tool's desired pose comes from the object's path
 (where the grasped link will be, times the grasp offset); the joint velocity
 is the weighted damped least-squares answer to feed-forward twist plus a
 proportional correction, and the joint motors track it. The puzzle joints
-are never set: the object moves because the grasp constraint pulls it.
+are never set: the object moves because the pads' friction pulls it.
 
 A monitor watches for joint flips (an arm joint jumping), low arm
 manipulability, arm joints at their limits, the puzzle coming too close and
@@ -58,7 +58,15 @@ class FollowSettings:
     """Metres: a robot link this close to the puzzle stops the motion (the moving object or a
     wall may come at the arm or the base on the way)."""
     hold_steps: int = 60
-    """Steps the robot holds still, still grasping, before a release (so the object stops moving)."""
+    """Steps the robot holds still, still grasping, before a release after a stop other than done (so
+    the object stops moving)."""
+    done_steps: int = 48
+    """Steps (0.2 s) the object must stay at its final state, the follower still tracking it, before
+    the action is done and the fingers let go."""
+    ramp: float = 0.25
+    """Seconds over which the object's path speeds up from rest and slows down to rest (at 0.25 m/s:
+    1 m/s^2 at the grasp point, the acceleration scripts/grip_feasibility.py bounds the parts by); a
+    follow resumed mid-path speeds up over the same time."""
 
 
 class Stop(StrEnum):
@@ -109,7 +117,28 @@ def time_trajectory(states: np.ndarray, grasp_positions: np.ndarray, revolute_co
         distance = float(np.linalg.norm(grasp_positions[k] - grasp_positions[k - 1]))
         turn = float(np.max(np.abs(states[k, revolute_columns] - states[k - 1, revolute_columns]), initial=0.0))
         times.append(times[-1] + max(distance / settings.linear_speed, turn / settings.angular_speed, TIME_STEP))
-    return Trajectory(np.array(times), np.asarray(states, dtype=float))
+    return Trajectory(ramped(np.array(times), settings.ramp), np.asarray(states, dtype=float))
+
+
+def ramped(times: np.ndarray, ramp: float) -> np.ndarray:
+    """Time stamps of a path timed at constant speed, re-timed so that its speed rises linearly from
+    rest over the first ``ramp`` seconds and falls to rest over the last (shorter ramps for a path
+    shorter than ``ramp``). The pads hold a handle by friction alone: stopping a heavy part at once
+    asks them for its momentum in one step."""
+    total = float(times[-1])
+    tau = min(ramp, total)
+    if tau <= 0:
+        return times
+    out = np.empty_like(times)
+    for k, t in enumerate(times):
+        if t <= tau / 2:
+            out[k] = np.sqrt(2 * tau * t)
+        elif t <= total - tau / 2:
+            out[k] = t + tau / 2
+        else:
+            d = min(t - (total - tau / 2), tau / 2)
+            out[k] = total + tau - np.sqrt(max(tau * tau - 2 * tau * d, 0.0))
+    return out
 
 
 def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndarray], np.ndarray],
@@ -150,12 +179,16 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
     stop_distance = min(settings.clearance, 0.5 * clearance_now(settings.clearance))
     lower, upper = world.lower[arm], world.upper[arm]
     target = q
+    ramp_steps = max(1, round(settings.ramp / TIME_STEP))
+    done_for = 0
     while t < end:
-        t_next = t + TIME_STEP
+        # Resumed mid-path, the object speeds up from rest (path time runs slow at first).
+        dt = TIME_STEP * min(1.0, (steps + 1) / ramp_steps)
+        t_next = t + dt
         on_time(t_next)
         bias += settings.integral_gain * TIME_STEP * (trajectory.state_at(t) - object_state())
         desired = tool_pose_at(trajectory.state_at(t_next) + bias)
-        ahead = tool_pose_at(trajectory.state_at(t_next + TIME_STEP) + bias)
+        ahead = tool_pose_at(trajectory.state_at(t_next + dt) + bias)
         actual = matrix(*world.tool_pose())
         feed_forward = np.concatenate([(ahead[:3, 3] - desired[:3, 3]) / TIME_STEP,
                                        rotation_error(ahead[:3, :3], desired[:3, :3]) / TIME_STEP])
@@ -185,7 +218,13 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
         elif not holding():
             stop = Stop.LOST_GRIP
         elif t >= trajectory.duration and object_done():
-            stop = Stop.DONE
+            done_for += 1
+            if done_for >= settings.done_steps:
+                # Let go as it stands, still under control: a hold at a frozen command let the arm
+                # relax off a handle held by friction (0.2 mm on a Lockbox slide, its whole tolerance).
+                return FollowResult(Stop.DONE, t, steps)
+        else:
+            done_for = 0
         q = q_new
         if stop is not None:
             # Held at the last command, not at the measured state: the loaded arm sags off its command

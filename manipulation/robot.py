@@ -41,8 +41,9 @@ class GripperSpec:
 
     stroke: float = 0.085
     """Opening between the finger pads, fully open (2F-85: 85 mm)."""
-    grip_force: float = 100.0
-    """Newtons each finger closes with (2F-85: 20-235 N, set per grasp)."""
+    grip_force: float = 235.0
+    """Newtons each finger closes with: the 2F-85's largest (20-235 N, set per grasp), so the pads
+    hold ``2 x pad_friction x 235 N`` = 470 N along the handle by friction."""
     closing_speed: float = 0.15
     """Metres per second of each finger (2F-85: 20-150 mm/s)."""
     mass: float = 0.925

@@ -1,15 +1,16 @@
 """One execution's state, its physics step and the gripper: what every part of a run shares.
 
 :class:`RunState` holds both worlds (the simulation and the planning world), the clocks, counters
-and the recording, checks every physics step (:meth:`RunState.on_step`: the grip rule, penetration,
-unplanned contacts), and closes, opens and binds the gripper. Reaching a grasp
+and the recording, checks every physics step (:meth:`RunState.on_step`: the grip, penetration, unplanned contacts),
+and closes and opens the gripper, whose fingers hold an object by their friction alone: the handle is
+watched in the fingers and a slip is named. Reaching a grasp
 (:mod:`manipulation.grasp_approach`) and following an action (:mod:`manipulation.execution`)
 build on it.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pybullet as pb
@@ -21,7 +22,7 @@ from .execution_records import ExecutionError, ExecutionSettings, Recording, Unp
 from .following import TIME_STEP, command
 from .placement import Placement, link_pose
 from .scene import PUZZLE_CONTACT_TOLERANCE, TRACKING_TOLERANCE, World
-from .transforms import inverse, matrix, quaternion
+from .transforms import inverse, matrix, rotation_error
 
 CLOSE_STEPS = 240
 """Physics steps (1 s) the fingers may take to close on a handle (full stroke at full speed: 0.28 s)."""
@@ -35,8 +36,30 @@ OPEN_STALL_STEPS = 24
 let it go (see :meth:`RunState.open_gripper`)."""
 FINGER_TOUCH = 1e-3
 """Metres: a finger whose contact with the handle is closer than this touches it."""
-GRIP_CONSTRAINT_FORCE = 5000.0
-"""Newtons the grasp constraint may pull with (while both fingers hold the handle)."""
+LOST_STEPS = 12
+"""Physics steps (0.05 s) a finger may go without contact on the held handle before the grip is lost."""
+SLIP_DISTANCE = 0.005
+"""Metres the grasp point may move on the handle (tool point in the handle's frame, from where the
+fingers closed) before the grasp counts as slipped."""
+SLIP_ANGLE = 0.05
+"""Radians the handle may turn in the fingers before the grasp counts as slipped."""
+OPEN_SLOW_SPEED = 0.02
+"""Metres per second the fingers open at until both have left the handle (the 2F-85's slowest
+speed): at full speed the last pad to leave a light handle kicked it off its goal."""
+
+
+OPEN_SLOW_STEPS = 72
+"""Physics steps (0.3 s, 6 mm of each finger) the slow opening lasts at most: a handle pressed on one
+pad follows it as it opens."""
+
+
+@dataclass(frozen=True)
+class Grip:
+    """An object held by the fingers' friction: the handle's link and where the tool held it as the
+    fingers closed (the tool's pose in the link's frame)."""
+
+    link: int
+    tool_at_link: np.ndarray
 
 
 class RunState:
@@ -63,14 +86,19 @@ class RunState:
         """Where the path has the puzzle now (scene units): the state the grasp is pulled toward."""
         self.phase = "holding"
         """What the robot is doing (for reports): driving, closing, following, opening or holding."""
-        self.grip: tuple[int, int] | None = None
-        """(constraint, puzzle link) while both fingers hold the link; None otherwise."""
+        self.grip: Grip | None = None
+        """The held handle while both fingers hold it and it has not slipped; None otherwise."""
+        self.lost: str | None = None
+        self.off_handle = 0
+        """Physics steps in a row a finger has not touched the held handle."""
+        """Why the last grip ended while following (a slip, a finger off the handle); None while held."""
 
     def on_step(self) -> None:
         self.steps += 1
-        if self.grip is not None and not self.fingers_hold(self.grip[1]):
-            # The rule: the object is bound to the tool only while both fingers touch it.
-            self.release_constraint()
+        if self.grip is not None and self.phase == "following":
+            self.lost = self.grip_lost(self.grip)
+            if self.lost is not None:
+                self.grip = None
         self.max_penetration = max(self.max_penetration, self.sim.penetration(self.planned))
         if self.steps % self.settings.record_every == 0:
             self.record()
@@ -101,11 +129,15 @@ class RunState:
         return self.link_world(link, state) @ tool_at_link
 
     # -- the gripper ---------------------------------------------------------
-    def fingers_hold(self, link_index: int) -> bool:
-        """Whether both fingers touch the puzzle link (a contact of the last physics step)."""
-        return all(any(p[8] < FINGER_TOUCH for p in pb.getContactPoints(
+    def fingers_touching(self, link_index: int) -> list[bool]:
+        """Per finger, whether it touches the puzzle link (a contact of the last physics step)."""
+        return [any(p[8] < FINGER_TOUCH for p in pb.getContactPoints(
             self.sim.robot, self.sim.puzzle, finger, link_index, physicsClientId=self.sim.client))
-            for finger in self.sim.finger_joints)
+            for finger in self.sim.finger_joints]
+
+    def fingers_hold(self, link_index: int) -> bool:
+        """Whether both fingers touch the puzzle link."""
+        return all(self.fingers_touching(link_index))
 
     def close_gripper(self, link_index: int) -> bool:
         """Close the fingers on the link with the gripper's force, the arm held still; whether both
@@ -127,35 +159,65 @@ class RunState:
         self.phase = "holding"
         return False
 
-    def command_fingers(self, target: float) -> None:
+    def command_fingers(self, target: float, speed: float | None = None) -> None:
         g = self.settings.robot.gripper
         for finger in self.sim.finger_joints:
             pb.setJointMotorControl2(self.sim.robot, finger, pb.POSITION_CONTROL, targetPosition=target,
-                                     force=g.grip_force, maxVelocity=g.closing_speed,
+                                     force=g.grip_force, maxVelocity=g.closing_speed if speed is None else speed,
                                      physicsClientId=self.sim.client)
 
+    def grip_lost(self, grip: Grip) -> str | None:
+        """Why the fingers no longer hold the handle (a finger off it, or the handle slipped in them
+        beyond :data:`SLIP_DISTANCE` or :data:`SLIP_ANGLE`), or None while they do."""
+        if self.fingers_hold(grip.link):
+            self.off_handle = 0
+        else:
+            # A pad's contact may drop out of a step's manifold while it still presses: a finger has
+            # left the handle once it has had no contact for LOST_STEPS steps in a row.
+            self.off_handle += 1
+            if self.off_handle >= LOST_STEPS:
+                return "lost grip: a finger left the handle"
+        position, orientation = pb.getLinkState(self.sim.puzzle, grip.link, computeForwardKinematics=True,
+                                                physicsClientId=self.sim.client)[4:6]
+        now = inverse(matrix(position, orientation)) @ matrix(*self.sim.tool_pose())
+        moved = float(np.linalg.norm(now[:3, 3] - grip.tool_at_link[:3, 3]))
+        turn = rotation_error(now[:3, :3], grip.tool_at_link[:3, :3])
+        turned = float(np.linalg.norm(turn))
+        if moved > SLIP_DISTANCE or turned > SLIP_ANGLE:
+            axis = np.round(grip.tool_at_link[:3, :3].T @ turn / max(turned, 1e-12), 2).tolist()
+            return (f"slipped: the handle moved {moved * 1000:.1f} mm and turned {turned * 1000:.0f} mrad in the "
+                    f"fingers (axis {axis} in the tool's frame)")
+        return None
+
+    def hold(self, link_index: int) -> Grip:
+        """The fingers have closed on the link: from now on it is held by their friction alone,
+        watched for a slip from the pose the tool has on it now."""
+        position, orientation = pb.getLinkState(self.sim.puzzle, link_index, computeForwardKinematics=True,
+                                                physicsClientId=self.sim.client)[4:6]
+        self.grip = Grip(link_index, inverse(matrix(position, orientation)) @ matrix(*self.sim.tool_pose()))
+        self.lost = None
+        self.off_handle = 0
+        return self.grip
+
     def open_gripper(self) -> None:
-        """Release: the fingers open; the constraint goes the step the first of them leaves the
-        handle (:meth:`on_step`), or once they stall on it. (Removed before the fingers moved, the
-        squeezed handle sprang out of them: a 0.9 kg Move N Times target left its goal tolerance at
-        every release.) ExecutionError if they are not open after :data:`OPEN_STEPS`."""
-        self.command_fingers(0.0)
+        """Release: the fingers open, slowly (:data:`OPEN_SLOW_SPEED`) until neither touches the
+        handle, then at full speed. ExecutionError if they are not open after :data:`OPEN_STEPS`."""
+        handles = {link for _, link in self.planned}
+        self.grip = None
         self.phase = "opening"
         q = self.sim.robot_state()
         g = self.settings.robot.gripper
+        slow = bool(handles)
+        self.command_fingers(0.0, OPEN_SLOW_SPEED if slow else g.closing_speed)
         for step in range(OPEN_STEPS):
             if np.max(self.sim.finger_state()) < 1e-3:
                 break
-            if step >= OPEN_STALL_STEPS and self.grip is not None and self.finger_speed() < 0.2 * g.closing_speed:
-                # A finger can stall on the handle it held: the handle, bound to the tool, cannot
-                # give way, and PyBullet's contact then pushed the finger back in with the finger's
-                # own force (86-90 N against 100 N, on Move N Times 83103 and 84204: the fingers
-                # stayed closed and the robot drove off with them). Let go; they open at once.
-                self.release_constraint()
+            if slow and (step >= OPEN_SLOW_STEPS or not any(any(self.fingers_touching(link)) for link in handles)):
+                slow = False
+                self.command_fingers(0.0)
             command(self.sim, q)
             pb.stepSimulation(physicsClientId=self.sim.client)
             self.on_step()
-        self.release_constraint()
         opening = self.sim.finger_state()
         if np.max(opening) >= 1e-3:
             # Every plan assumes open fingers: driving with them closed would sweep them into the puzzle.
@@ -167,23 +229,3 @@ class RunState:
     def finger_speed(self) -> float:
         return max(abs(s[1]) for s in pb.getJointStates(self.sim.robot, self.sim.finger_joints,
                                                          physicsClientId=self.sim.client))
-
-    def release_constraint(self) -> None:
-        if self.grip is not None:
-            pb.removeConstraint(self.grip[0], physicsClientId=self.sim.client)
-            self.grip = None
-
-    def attach(self, link_index: int, tool_at_link: np.ndarray) -> int:
-        """A fixed constraint between the tool and the link, at their current relative pose: made
-        only once both fingers hold the link, removed as soon as either lets go (:meth:`on_step`)."""
-        c = self.sim.client
-        com = pb.getLinkState(self.sim.puzzle, link_index, computeForwardKinematics=True, physicsClientId=c)
-        link_frame = matrix(com[4], com[5])
-        com_frame = matrix(com[0], com[1])
-        tool_in_com = inverse(com_frame) @ link_frame @ tool_at_link
-        constraint = pb.createConstraint(self.sim.robot, self.sim.tool, self.sim.puzzle, link_index,
-                                         pb.JOINT_FIXED, (0, 0, 0), (0, 0, 0), tuple(tool_in_com[:3, 3]),
-                                         (0, 0, 0, 1), quaternion(tool_in_com), physicsClientId=c)
-        pb.changeConstraint(constraint, maxForce=GRIP_CONSTRAINT_FORCE, physicsClientId=c)
-        self.grip = (constraint, link_index)
-        return constraint

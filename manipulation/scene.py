@@ -2,7 +2,7 @@
 
 Two worlds are used per run: the *simulation*, where everything moves by
 physics only (the robot by its joint motors, puzzle objects only when the
-robot pulls them through a grasp constraint), and a *planning* copy, where
+robot's fingers hold them by friction), and a *planning* copy, where
 IK and collision queries may set joint values freely without disturbing the
 simulation.
 
@@ -26,7 +26,7 @@ import pybullet as pb
 from phyrogen_core.chain import KinematicChain
 from phyrogen_core.export.urdf import chain_to_urdf
 
-from .physics import PuzzleMaterial, joint_friction
+from .physics import PuzzleMaterial, joint_damping, joint_friction
 from .placement import Placement
 from .robot import ARM_JOINTS, BASE_LINK, FINGER_JOINTS, ROBOT_JOINTS, TOOL_LINK, RobotSpec, mobile_iiwa_urdf
 
@@ -51,6 +51,11 @@ an object is pulled along it (the grasp tracks the path within about a millimetr
 
 PROBE_HEIGHT = 2.0
 """Metres: height of the floor probe (:meth:`World.floor_clear`), above the tucked robot."""
+PUZZLE_FRICTION = 0.5
+"""The puzzle's links' own friction coefficient (PyBullet's default for a URDF link)."""
+PAD_FRICTION_ANCHOR = True
+"""Whether the finger pads' contacts keep friction anchors (PyBullet's ``frictionAnchor``): a pad
+that sticks to a handle then holds its contact point instead of creeping under a steady pull."""
 SELF_COLLISION_SKIP = 2
 """Robot links this close along the chain touch by construction; their contacts are ignored."""
 
@@ -148,13 +153,16 @@ class World:
         self._finger_dof = [movable.index(j) for j in self.finger_joints]
         self.finger_closed = float(pb.getJointInfo(self.robot, self.finger_joints[0], physicsClientId=c)[9])
         for link in self.finger_joints:
-            pb.changeDynamics(self.robot, link, lateralFriction=spec.gripper.pad_friction, physicsClientId=c)
-        friction = joint_friction(chain, material)
+            # PyBullet's contact friction is the product of the two bodies' coefficients: the pad's is
+            # set so that pad on puzzle gives the pad's stated friction.
+            pb.changeDynamics(self.robot, link, lateralFriction=spec.gripper.pad_friction / PUZZLE_FRICTION,
+                              frictionAnchor=PAD_FRICTION_ANCHOR, physicsClientId=c)
+        friction, damping = joint_friction(chain, material), joint_damping(chain, material)
         for name, j in zip(chain.joint_order, self.puzzle_joints, strict=True):
             # Coulomb friction as PyBullet models it: a motor holding zero velocity with that force.
             pb.setJointMotorControl2(self.puzzle, j, pb.VELOCITY_CONTROL, targetVelocity=0.0,
                                      force=friction[name], physicsClientId=c)
-            pb.changeDynamics(self.puzzle, j, jointDamping=material.joint_damping, physicsClientId=c)
+            pb.changeDynamics(self.puzzle, j, jointDamping=damping[name], physicsClientId=c)
         _ignore_near_links(self.robot, c)
         self.puzzle_link_name = {index: name for name, index in self.puzzle_link.items()}
         self.robot_link_name = {index: name for name, index in self.robot_link.items()}
