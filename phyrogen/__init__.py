@@ -51,6 +51,7 @@ from phyrogen_core.stage_records.export import ExportRequest, ExportResult
 from phyrogen_core.stage_records.generate import GenerateRequest, GenerateResult
 from phyrogen_core.stage_records.import_urdf import ImportRequest, ImportResult
 from phyrogen_core.stage_records.manipulate import ManipulateRequest, ManipulateResult
+from phyrogen_core.stage_records.render import RenderRequest, RenderResult
 from phyrogen_core.stage_records.replan import ReplanRequest, ReplanResult
 
 __all__ = ["STAGES", "AuditRequest", "AuditResult", "BenchmarkRequest", "BenchmarkResult", "CheckRequest",
