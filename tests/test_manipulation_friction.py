@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bad_paths_support import straight_through, swapped
 
 from phyrogen_core.folder_layout import BEST_SOLUTION
 
@@ -99,32 +100,7 @@ def puzzle_folder(request, tmp_path_factory):
     return write_puzzle(generate_puzzle(generator, seed, params), tmp_path_factory.mktemp(generator))
 
 
-def _straight_through(loaded):
-    """The target straight from start to goal, through its blockers."""
-    start = np.asarray(loaded.certificate[0], dtype=float)
-    end = start.copy()
-    for name, value in loaded.goal.values.items():
-        end[loaded.joint_order.index(name)] = value
-    return np.vstack([start, end])
-
-
-def _swapped(loaded):
-    """The certificate with its first two actions in each other's place."""
-    from phyrogen_core.actions import split_actions
-
-    certificate = np.asarray(loaded.certificate, dtype=float)
-    factors = {n: c for n, c in loaded.chain.factors.items() if n != "goal"}
-    actions = split_actions(certificate, factors)
-    state, path = certificate[0].copy(), [certificate[0].copy()]
-    for action in [actions[1], actions[0], *actions[2:]]:
-        for row in action.states[1:]:
-            state = state.copy()
-            state[list(action.columns)] = row[list(action.columns)]
-            path.append(state)
-    return np.asarray(path)
-
-
-@pytest.mark.parametrize("bad", [_straight_through, _swapped])
+@pytest.mark.parametrize("bad", [straight_through, swapped])
 def test_a_refuted_solution_file_fails_in_physics_too(puzzle_folder, tmp_path, monkeypatch, bad):
     """The bad path as the puzzle's best solution file: refused by the check before physics (the
     default), and, with the check off, executed and failed by the simulation itself. Only the file

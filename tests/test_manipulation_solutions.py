@@ -7,6 +7,7 @@ import shutil
 
 import numpy as np
 import pytest
+from bad_paths_support import straight_through, swapped
 
 from manipulation.solution import BenchmarkRun, candidate_solutions
 from phyrogen_core.actions import count_actions
@@ -173,31 +174,6 @@ def _with_midpoint(path):
     return np.vstack([path[:1], (path[0] + path[1]) / 2, path[1:]])
 
 
-def _straight_through(loaded):
-    """The target straight from start to goal, through its blockers."""
-    start = np.asarray(loaded.certificate[0], dtype=float)
-    end = start.copy()
-    for name, value in loaded.goal.values.items():
-        end[loaded.joint_order.index(name)] = value
-    return np.vstack([start, end])
-
-
-def _swapped(loaded):
-    """The certificate with its first two actions in each other's place (the target first)."""
-    from phyrogen_core.actions import split_actions
-
-    certificate = np.asarray(loaded.certificate, dtype=float)
-    actions = split_actions(certificate, _factors(loaded))
-    assert len(actions) >= 2
-    state, path = certificate[0].copy(), [certificate[0].copy()]
-    for action in [actions[1], actions[0], *actions[2:]]:
-        for row in action.states[1:]:
-            state = state.copy()
-            state[list(action.columns)] = row[list(action.columns)]
-            path.append(state)
-    return np.asarray(path)
-
-
 def _write_best(folder, loaded, path):
     (folder / BEST_SOLUTION).parent.mkdir(exist_ok=True)
     data = {"planner": "LA-RRT", "run": 3, "joint_order": list(loaded.joint_order), "path": np.asarray(path).tolist()}
@@ -205,8 +181,8 @@ def _write_best(folder, loaded, path):
 
 
 @pytest.mark.parametrize(("bad", "reason"), [
-    (_straight_through, "path collides at"),
-    (_swapped, "path collides at"),
+    (straight_through, "path collides at"),
+    (swapped, "path collides at"),
     (lambda loaded: np.asarray(loaded.certificate)[1:], "path does not begin at the start state"),
     (lambda loaded: np.asarray(loaded.certificate)[:-1], "path does not end in the goal"),
 ])
@@ -243,7 +219,7 @@ def test_a_good_solution_file_passes_the_check_and_reaches_physics(folder, monke
     loaded = read_puzzle_dir(folder)
     _write_best(folder, loaded, _with_midpoint(loaded.certificate))
     assert solution_problems(loaded, load_solution(folder, loaded.joint_order, loaded.certificate)) == []
-    for bad in (_straight_through, _swapped):  # and the bad paths are refuted by the check itself
+    for bad in (straight_through, swapped):  # and the bad paths are refuted by the check itself
         _write_best(folder, loaded, bad(loaded))
         assert solution_problems(loaded, load_solution(folder, loaded.joint_order, loaded.certificate))
     _write_best(folder, loaded, _with_midpoint(loaded.certificate))
