@@ -56,6 +56,39 @@ STOP_GRACE_SECONDS = 5.0
 _server_ready = False  # a worker has started: the server has finished importing its preload
 
 
+class Lookahead:
+    """The items of a pool's run read ahead of the ones it holds (running or finished but not yet
+    returned), at most ``limit`` in all; among those read, the highest ``priority`` starts first,
+    then the oldest. Both pools schedule through it (:mod:`solver.parallel.ray_pool` too)."""
+
+    def __init__(self, items: Iterable[Any], limit: int, priority: Callable[[Any], float] | None):
+        self._source = iter(items)
+        self._limit = limit
+        self._priority = priority
+        self._heap: list[tuple[float, int, Any]] = []
+        self._read = 0
+        self._exhausted = False
+
+    def fill(self, held: int) -> None:
+        """Read items until those waiting and the ``held`` ones reach the limit, or the items end."""
+        while not self._exhausted and len(self._heap) + held < self._limit:
+            try:
+                item = next(self._source)
+            except StopIteration:
+                self._exhausted = True
+                return
+            heapq.heappush(self._heap, (-self._priority(item) if self._priority else 0.0, self._read, item))
+            self._read += 1
+
+    def pop(self) -> tuple[int, Any]:
+        """The next item to start, with its position among the items."""
+        _, index, item = heapq.heappop(self._heap)
+        return index, item
+
+    def __len__(self) -> int:
+        return len(self._heap)
+
+
 class WorkerLostError(RuntimeError):
     """A worker process ended without sending its task's result."""
 
@@ -127,25 +160,15 @@ class FreshProcessPool:
 
     def _results(self, func, items, *, ordered: bool, lookahead: int = 0, priority=None, on_lost=None,
                  heartbeat=None) -> Iterator[Any]:
-        source = iter(items)
-        limit = max(lookahead, self.workers)
-        waiting: list[tuple[float, int, Any]] = []  # a heap: highest priority, then oldest first
+        waiting = Lookahead(items, max(lookahead, self.workers), priority)
         running: dict[_Task, int] = {}
         finished: dict[int, tuple[bool, Any]] = {}
-        read = emitted = 0
-        exhausted = False
+        emitted = 0
         try:
             while True:
-                while not exhausted and len(waiting) + len(running) + len(finished) < limit:
-                    try:
-                        item = next(source)
-                    except StopIteration:
-                        exhausted = True
-                        break
-                    heapq.heappush(waiting, (-priority(item) if priority else 0.0, read, item))
-                    read += 1
+                waiting.fill(len(running) + len(finished))
                 while waiting and len(running) < self.workers:
-                    _, index, item = heapq.heappop(waiting)
+                    index, item = waiting.pop()
                     running[self._start(func, item)] = index
                 if not running:
                     return

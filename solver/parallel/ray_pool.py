@@ -29,7 +29,6 @@ environment).
 from __future__ import annotations
 
 import contextlib
-import heapq
 import importlib
 import logging
 import os
@@ -40,7 +39,7 @@ import uuid
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
-from solver.parallel.pool import WorkerLostError
+from solver.parallel.pool import Lookahead, WorkerLostError
 
 LOCAL = "local"
 """The ``ray`` value (``--ray`` with no address) that starts a Ray instance on this machine."""
@@ -227,23 +226,12 @@ class RayPool:
 
         lost = (exceptions.WorkerCrashedError, exceptions.NodeDiedError, exceptions.ObjectLostError,
                 exceptions.TaskCancelledError, exceptions.RayActorError)
-        source = iter(items)
-        limit = max(lookahead, self.workers)
-        waiting: list[tuple[float, int, Any]] = []
-        read = 0
-        exhausted = False
+        waiting = Lookahead(items, max(lookahead, self.workers), priority)
         try:
             while True:
-                while not exhausted and len(waiting) + len(self._pending) < limit:
-                    try:
-                        item = next(source)
-                    except StopIteration:
-                        exhausted = True
-                        break
-                    heapq.heappush(waiting, (-priority(item) if priority else 0.0, read, item))
-                    read += 1
+                waiting.fill(len(self._pending))
                 while waiting and len(self._pending) < self.workers:
-                    _, _, item = heapq.heappop(waiting)
+                    _, item = waiting.pop()
                     self._pending[self._remote.remote(func, item, self._preload)] = item
                 if not self._pending:
                     return

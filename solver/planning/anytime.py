@@ -107,6 +107,17 @@ def check_budget_cpu(budget: object) -> None:
                          f"got {budget!r}")
 
 
+def check_run_limits(time_limit: float, budget_checks: int | None, budget_cpu: float | None) -> None:
+    """Raise ValueError unless a run's limits are a positive time limit and at most one budget, each
+    valid (:func:`check_budget_checks`, :func:`check_budget_cpu`)."""
+    if not time_limit > 0:
+        raise ValueError(f"time limit must be a positive number of seconds, got {time_limit!r}")
+    check_budget_checks(budget_checks)
+    check_budget_cpu(budget_cpu)
+    if budget_checks is not None and budget_cpu is not None:
+        raise ValueError("a run has one budget: in checks or in CPU seconds, not both")
+
+
 BACKSTOP_SECONDS = 600.0
 """A budgeted run's wall-clock backstop, at the least; it grows with the budget (:func:`backstop_seconds`)."""
 
@@ -214,12 +225,7 @@ class AnytimeRecorder:
 
     def __init__(self, planner: str, problem: Problem, time_limit: float, progress_interval: float,
                  budget_checks: int | None = None, budget_cpu: float | None = None):
-        if not time_limit > 0:
-            raise ValueError(f"time limit must be a positive number of seconds, got {time_limit!r}")
-        check_budget_checks(budget_checks)
-        check_budget_cpu(budget_cpu)
-        if budget_checks is not None and budget_cpu is not None:
-            raise ValueError("a run has one budget: in checks or in CPU seconds, not both")
+        check_run_limits(time_limit, budget_checks, budget_cpu)
         self.budget_cpu = None if budget_cpu is None else float(budget_cpu)
         self.end: str | None = None  # set by the first expired() that says True
         self.counter = problem.model if isinstance(problem.model, CheckCounter) else None

@@ -106,17 +106,12 @@ class PlannerSpec:
         from ``seed``). The result's ``end`` says which ended the run (``solved``: at its first solution)."""
         from dataclasses import replace
 
-        from solver.planning.anytime import check_budget_checks, check_budget_cpu, count_checks
+        from solver.planning.anytime import check_run_limits, count_checks
         from solver.planning.goal_sampling import default_goal_seed
 
-        if not time_limit > 0:
-            raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
+        check_run_limits(time_limit, budget_checks, budget_cpu)
         if not progress_interval > 0:
             raise ValueError(f"progress_interval must be positive seconds, got {progress_interval!r}")
-        check_budget_checks(budget_checks)
-        check_budget_cpu(budget_cpu)
-        if budget_checks is not None and budget_cpu is not None:
-            raise ValueError("a run has one budget: in checks or in CPU seconds, not both")
         goal_seed = default_goal_seed(seed) if goal_seed is None else goal_seed
         # Counted here, so that every registered planner spends a check budget in the same units:
         # a motion costs its length in resolution steps.
