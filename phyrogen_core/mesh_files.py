@@ -9,6 +9,7 @@ a :class:`MeshFormatError` naming the file.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -62,15 +63,23 @@ def read_stl(data: bytes, label: str) -> np.ndarray:
     raise MeshFormatError(f"{label}: not an STL file ({len(data)} bytes)")
 
 
-def _ascii_stl(data: bytes, label: str) -> np.ndarray:
+def _text_lines(data: bytes, label: str, encoding: str, what: str) -> Iterator[tuple[int, str, list[str]]]:
+    """(number, line, its fields) of each line of a text mesh file that is not blank; MeshFormatError
+    when the bytes are not text in ``encoding``."""
     try:
-        text = data.decode("ascii")
+        text = data.decode(encoding)
     except UnicodeDecodeError:
-        raise MeshFormatError(f"{label}: an ASCII STL must be ASCII text") from None
-    corners: list[tuple[float, float, float]] = []
+        raise MeshFormatError(f"{label}: {what} must be {encoding.upper()} text") from None
     for number, line in enumerate(text.splitlines(), start=1):
         fields = line.split()
-        if not fields or fields[0].lower() != "vertex":
+        if fields:
+            yield number, line, fields
+
+
+def _ascii_stl(data: bytes, label: str) -> np.ndarray:
+    corners: list[tuple[float, float, float]] = []
+    for number, line, fields in _text_lines(data, label, "ascii", "an ASCII STL"):
+        if fields[0].lower() != "vertex":
             continue
         try:
             x, y, z = (float(v) for v in fields[1:4])
@@ -86,16 +95,9 @@ def _ascii_stl(data: bytes, label: str) -> np.ndarray:
 
 def read_obj(data: bytes, label: str) -> np.ndarray:
     """The triangles of a Wavefront OBJ file: ``v`` lines and ``f`` faces (polygons fanned into triangles)."""
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise MeshFormatError(f"{label}: an OBJ file must be UTF-8 text") from None
     vertices: list[tuple[float, float, float]] = []
     faces: list[tuple[int, int, int]] = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        fields = line.split()
-        if not fields:
-            continue
+    for number, line, fields in _text_lines(data, label, "utf-8", "an OBJ file"):
         try:
             if fields[0] == "v":
                 x, y, z = (float(v) for v in fields[1:4])

@@ -243,43 +243,36 @@ def _copy(value: Any) -> Any:
     return value
 
 
-def _object_dict(obj: ObjectRecord) -> dict[str, Any]:
-    entry: dict[str, Any] = {"name": obj.name, "motion": obj.motion.value, "role": obj.role.value,
-                             "joints": list(obj.joints)}
-    if obj.interlock_margin is not None:
-        entry["interlock_margin"] = obj.interlock_margin
-    if obj.necessity is not None:
-        entry["necessity"] = obj.necessity
-    return entry
-
-
-def _graph_dict(graph: DependencyGraph) -> dict[str, Any]:
-    data: dict[str, Any] = {"nodes": list(graph.nodes), "edges": [list(edge) for edge in graph.edges]}
-    if graph.depth is not None:
-        data["depth"] = graph.depth
-    if graph.branching is not None:
-        data["branching"] = graph.branching
+def _with_known(data: dict[str, Any], **optional: Any) -> dict[str, Any]:
+    """``data`` with each of ``optional`` that is known (not None), in order: ``puzzle.json`` leaves
+    out a value nobody measured rather than writing null."""
+    data.update((key, value) for key, value in optional.items() if value is not None)
     return data
 
 
-def _run_dict(run: PlannerRun) -> dict[str, Any]:
+def _object_dict(obj: ObjectRecord) -> dict[str, Any]:
+    return _with_known({"name": obj.name, "motion": obj.motion.value, "role": obj.role.value,
+                        "joints": list(obj.joints)}, interlock_margin=obj.interlock_margin, necessity=obj.necessity)
+
+
+def _graph_dict(graph: DependencyGraph) -> dict[str, Any]:
+    return _with_known({"nodes": list(graph.nodes), "edges": [list(edge) for edge in graph.edges]},
+                       depth=graph.depth, branching=graph.branching)
+
+
+def _run_dict(run: PlannerRun | None) -> dict[str, Any] | None:
+    if run is None:
+        return None
     return {"planner": run.planner, "budget": run.budget, "seed": run.seed, "queries": run.queries}
 
 
 def _provenance_dict(provenance: Provenance) -> dict[str, Any]:
-    data: dict[str, Any] = {}
-    if provenance.certified is not None:
-        data["certified"] = _run_dict(provenance.certified)
-    if provenance.replanned is not None:
-        data["replanned"] = _run_dict(provenance.replanned)
-    if provenance.imported is not None:
-        imported = provenance.imported
-        data["imported"] = {
-            "file": imported.file, "sha256": imported.sha256, "robot": imported.robot,
-            "joints": {j.joint: {"urdf_joint": j.urdf_joint, "sign": j.sign, "offset": j.offset}
-                       for j in imported.joints},
-        }
-    return data
+    imported = provenance.imported
+    return _with_known({}, certified=_run_dict(provenance.certified), replanned=_run_dict(provenance.replanned),
+                       imported=None if imported is None else {
+                           "file": imported.file, "sha256": imported.sha256, "robot": imported.robot,
+                           "joints": {j.joint: {"urdf_joint": j.urdf_joint, "sign": j.sign, "offset": j.offset}
+                                      for j in imported.joints}})
 
 
 def _difficulty_dict(difficulty: Difficulty) -> dict[str, Any]:
