@@ -159,17 +159,25 @@ def _state_valid(q, kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_l
         centres[0, i] = x[link] + c[link] * cx - s[link] * cy
         centres[1, i] = y[link] + s[link] * cx + c[link] * cy
     for p in range(pairs.shape[0]):
-        a, b = pairs[p, 0], pairs[p, 1]
-        reach = shape_radius[a] + shape_radius[b] - tol
-        if reach > 0.0:
-            ex, ey = centres[0, b] - centres[0, a], centres[1, b] - centres[1, a]
-            far = reach + FAR_MARGIN
-            if ex * ex + ey * ey >= far * far:
-                continue
-        if _pair_collides(a, b, x, y, c, s, shape_link, shape_nv, shape_center,
-                          shape_radius, shape_verts, shape_normals, shape_extent, tol, tol):
+        if _near_pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, centres, shape_link, shape_nv, shape_center,
+                               shape_radius, shape_verts, shape_normals, shape_extent, tol):
             return False
     return True
+
+
+@njit(cache=True, nogil=True, inline='always')
+def _near_pair_collides(a, b, x, y, c, s, centres, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+                        shape_normals, shape_extent, tol):
+    """:func:`_pair_collides` of shapes ``a`` and ``b`` (``tol`` both tolerances), a pair whose
+    world-frame bounding-circle centres (``centres``) stand :data:`FAR_MARGIN` beyond reach skipped first."""
+    reach = shape_radius[a] + shape_radius[b] - tol
+    if reach > 0.0:
+        ex, ey = centres[0, b] - centres[0, a], centres[1, b] - centres[1, a]
+        far = reach + FAR_MARGIN
+        if ex * ex + ey * ey >= far * far:
+            return False
+    return _pair_collides(a, b, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+                          shape_normals, shape_extent, tol, tol)
 
 
 @njit(cache=True, nogil=True)

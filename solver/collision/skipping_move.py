@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
-from solver.collision.kernels import FAR_MARGIN, _circle_meets_polygon, _pair_collides, _poses, _relative_pose
+from solver.collision.kernels import FAR_MARGIN, _circle_meets_polygon, _near_pair_collides, _poses, _relative_pose
 
 SKIP_MARGIN = 1e-9
 """Metres by which a pair must be proven apart at a sample :func:`_first_hit` skips. Far more than the
@@ -89,17 +89,9 @@ def _rest_apart(x, y, c, s, centres, moving, shape_link, shape_nv, shape_center,
     """Whether every pair a move does not move (``moving`` False) stands apart at the poses and centres
     in the buffers: those of any of its samples, where such a pair stands as at the move's start."""
     for p in range(all_pairs.shape[0]):
-        if moving[p]:
-            continue
-        pa, pb = all_pairs[p, 0], all_pairs[p, 1]
-        reach = shape_radius[pa] + shape_radius[pb] - tol
-        if reach > 0.0:
-            ex, ey = centres[0, pb] - centres[0, pa], centres[1, pb] - centres[1, pa]
-            far = reach + FAR_MARGIN
-            if ex * ex + ey * ey >= far * far:
-                continue
-        if _pair_collides(pa, pb, x, y, c, s, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
-                          shape_normals, shape_extent, tol, tol):
+        if not moving[p] and _near_pair_collides(all_pairs[p, 0], all_pairs[p, 1], x, y, c, s, centres, shape_link,
+                                                 shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+                                                 shape_extent, tol):
             return False
     return True
 
