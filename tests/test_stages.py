@@ -16,6 +16,7 @@ from phyrogen_core.stage_records.audit import AuditedPuzzle, AuditRequest, Audit
 from phyrogen_core.stage_records.base import RecordError, StageRequest, StageResult
 from phyrogen_core.stage_records.benchmark import BenchmarkRequest, BenchmarkResult
 from phyrogen_core.stage_records.check import CheckRequest, CheckResult
+from phyrogen_core.stage_records.dataset import DatasetRequest, DatasetResult
 from phyrogen_core.stage_records.export import ExportRequest, ExportResult
 from phyrogen_core.stage_records.generate import GeneratedPuzzle, GenerateRequest, GenerateResult
 from phyrogen_core.stage_records.import_urdf import ImportRequest, ImportResult
@@ -50,6 +51,8 @@ VALID = [
                 "out/audit/audit.json", "out/audit/audit.md"),
     RenderRequest(size="64x48", engine="workbench", animation=False),
     RenderResult(2, 6, 64, 48, ("workbench",), 4.0, 0, 0.0, "out/index.html", None),
+    DatasetRequest("rooms,grid_world", "out/data", count=100, overrides=("n_objects=3:5",), sweep="zip"),
+    DatasetResult(200, 198, 2, 50, 150, 120.5, 1493.8, "out/data/manifest.parquet"),
 ]
 """A valid record of every stage's request and result."""
 
@@ -64,12 +67,13 @@ def _malformed(record) -> list[tuple[str, str, str]]:
     data = record.to_dict()
     envelope = type(record).ENVELOPE
     field = next(name for name in data if name not in (envelope, "version", "exit_code"))
+    other = "audit" if type(record).STAGE != "audit" else "check"
     cases = [
         ("missing key", {k: v for k, v in data.items() if k != field}, f"missing key {field!r}"),
         ("unknown key", {**data, "colour": "red"}, "unknown key 'colour'"),
         ("another version", {**data, "version": 2}, "this reader reads version 1"),
         ("no version", {k: v for k, v in data.items() if k != "version"}, "missing key 'version'"),
-        ("another stage", {**data, envelope: "dataset"}, f"{envelope!r} is 'dataset'"),
+        ("another stage", {**data, envelope: other}, f"{envelope!r} is {other!r}"),
         ("a list", [data], "expected one JSON object, got a list"),
     ]
     text_field = _first_field(record, str)
@@ -121,6 +125,7 @@ def test_the_valid_controls_are_read_back_unchanged(record):
     (lambda: ExportRequest(()), "'folders' names no folder"),
     (lambda: ReplanResult("p", "f", True, 10, 0, None, None, None, None, ()), "'planner': expected a value"),
     (lambda: GenerateResult((), -1, 0, 1.0), "'ok' is -1, expected a count"),
+    (lambda: DatasetResult(10, 9, 0, 10, 0, 1.0, 1.0, "m"), "must each add up to 'entries' 10"),
     (lambda: BenchmarkResult("o", "d", "r", 0, (), {"cells": [{"puzzle": "p"}]}), "cells[0]: missing key 'planner'"),
 ])
 def test_a_record_made_in_python_is_checked_as_one_read_from_data(make, expected):
@@ -133,7 +138,7 @@ def test_a_record_made_in_python_is_checked_as_one_read_from_data(make, expected
 
 def test_every_stage_is_run_request_to_result_from_the_python_api():
     assert set(phyrogen.STAGES) == {"check", "generate", "replan", "export", "import_urdf", "benchmark", "manipulate",
-                                    "audit", "render"}
+                                    "audit", "render", "dataset"}
     for module_name, request_name in phyrogen.STAGES.items():
         module = importlib.import_module(f"phyrogen.stages.{module_name}")
         signature = inspect.signature(module.run)
@@ -155,6 +160,7 @@ def test_every_stage_is_run_request_to_result_from_the_python_api():
     ImportRequest("{tmp}/missing.urdf", out="{tmp}/out"), BenchmarkRequest(puzzles="{tmp}/missing", out="{tmp}/b"),
     ManipulateRequest(("{tmp}/missing",), out="{tmp}/m"), AuditRequest("{tmp}/missing", out="{tmp}/a"),
     GenerateRequest("no_such_generator", out="{tmp}/out"), RenderRequest(out="{tmp}/missing"),
+    DatasetRequest("no_such_generator", "{tmp}/data", count=3),
 ], ids=lambda r: type(r).__name__)
 def test_each_stage_refuses_a_bad_request_before_any_work(request_, tmp_path):
     data = json.loads(request_.to_json().replace("{tmp}", str(tmp_path)))

@@ -7,12 +7,14 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from phyrogen.difficulty_options import add_difficulty_options, difficulty_settings
+from phyrogen.difficulty_options import add_difficulty_options
 from phyrogen.options import add_quiet_option, add_workers_option, path_option, whole_number
 from phyrogen.progress import progress_bar, show_running
-from phyrogen.ray_options import add_ray_option, check_ray, ray_connection
-from phyrogen.usage import UsageError, generator_names, parse_seeds
+from phyrogen.ray_options import add_ray_option
+from phyrogen.stages import dataset
+from phyrogen.usage import UsageError
 from phyrogen_core.registry import MAX_SEED
+from phyrogen_core.stage_records.dataset import DatasetRequest
 
 if TYPE_CHECKING:
     from solver.pipelines.dataset.manifest_row import ManifestRow
@@ -61,32 +63,17 @@ def run(args) -> int:
         print(f"plots: {plot_stats(stats)}")
         return 0
     from phyrogen_core.folder import shard_name
-    from solver.pipelines.dataset import build_dataset, check_dataset_root, local_backend, make_request, ray_backend
 
     if args.generator is None or args.out is None:
         raise UsageError("dataset needs --generator and --out (or --stats DIR to describe a dataset)")
-    if (args.seeds is None) == (args.count is None):
-        raise UsageError("give the seeds either with --seeds (e.g. 1-1000) or with --count N [--start S]")
-    if args.seeds is not None and args.start is not None:
-        raise UsageError("--start goes with --count; --seeds lists the seeds itself")
-    names = generator_names(args.generator)
-    if args.seeds is not None:
-        seeds = parse_seeds(args.seeds)
-    else:
-        start = 1 if args.start is None else args.start
-        if start + args.count - 1 > MAX_SEED:
-            raise UsageError(f"--start {start} --count {args.count} goes past the largest seed {MAX_SEED}")
-        seeds = (range(start, start + args.count),)
-    # Everything is checked before the first file is written: the request, every entry's size
-    # (feasible for its generator), and the folder (writable; empty, or this request's dataset).
-    request = make_request(names, seeds, args.set or [], args.sweep, args.shard_size, args.mjcf,
-                           difficulty_settings(args))
-    root = check_dataset_root(request, Path(args.out))
-    check_ray(args.ray)  # an unreachable cluster is bad input, refused before the progress bar shows
-    progress = progress_bar(request.size, args.quiet)
+    request = DatasetRequest(args.generator, args.out, args.seeds, args.count, args.start, tuple(args.set or ()),
+                             args.sweep, args.shard_size, args.mjcf, args.difficulty, args.difficulty_runs,
+                             args.difficulty_checks, args.workers, args.ray)
+    progress = None
 
-    def on_running(running: list) -> None:
-        show_running(progress, [task.name for task in running])
+    def on_start(size: int) -> None:
+        nonlocal progress
+        progress = progress_bar(size, args.quiet)
 
     def show_row(row: ManifestRow, made_now: bool) -> None:
         if made_now and not row.ok:
@@ -100,18 +87,17 @@ def run(args) -> int:
                        file=sys.stdout)
         sys.stdout.flush()
 
-    backend = local_backend if args.ray is None else ray_backend(args.ray)
     try:
-        with ray_connection(args.ray, args.workers):  # (an unreachable cluster is refused before anything is written)
-            result = build_dataset(request, root, args.workers, backend=backend, on_row=show_row,
-                                   on_skip=progress.update, on_shard=show_shard, on_running=on_running)
+        result = dataset.run(request, on_start=on_start, on_row=show_row, on_skip=lambda n: progress.update(n),
+                             on_shard=show_shard, on_running=lambda names: show_running(progress, names))
     finally:
-        progress.close()
+        if progress is not None:
+            progress.close()
     rate = f" ({result.puzzles_per_hour:.0f} puzzles/hour)" if result.generated else ""
     print(f"{result.ok}/{result.entries} puzzles ok, {result.failed} failed; {result.generated} made now, "
           f"{result.reused} found done; {result.seconds:.1f} s wall time with {args.workers} workers{rate}")
     print(f"manifest: {result.manifest}")
-    return 0
+    return result.exit_code
 
 
 def dataset_count_option(text: str) -> int:

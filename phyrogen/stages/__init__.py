@@ -15,7 +15,8 @@ import importlib
 
 STAGES = {"check": "CheckRequest", "generate": "GenerateRequest", "replan": "ReplanRequest",
           "export": "ExportRequest", "import_urdf": "ImportRequest", "benchmark": "BenchmarkRequest",
-          "manipulate": "ManipulateRequest", "audit": "AuditRequest", "render": "RenderRequest"}
+          "manipulate": "ManipulateRequest", "audit": "AuditRequest", "render": "RenderRequest",
+          "dataset": "DatasetRequest"}
 """Each stage's module (``phyrogen.stages.<name>``) and its request record's name."""
 
 
