@@ -10,6 +10,7 @@ type, which each gives through its ``error(message)``. Both parse through
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from xml.parsers import expat
 
 DTD_REFUSED = ("holds a document type declaration (<!DOCTYPE ...>); a URDF needs none, and its entities "
@@ -48,6 +49,26 @@ def parse_xml(data: bytes | str) -> ET.Element:
     except (_PrologEndedError, expat.ExpatError):
         pass
     return ET.fromstring(data)
+
+
+def parse_urdf(data: bytes | str, where: str, error: Callable[[str], Exception]) -> ET.Element:
+    """The ``<robot>`` element of a URDF document (:func:`parse_xml`), its size within the bounds
+    (:func:`~phyrogen_core.sizes.urdf_size_problem`: checked before any mesh is read); a DTD, malformed
+    XML, another root element or a size beyond them raises ``error(message)``, the message naming ``where``."""
+    from .sizes import urdf_size_problem
+
+    try:
+        robot = parse_xml(data)
+    except DoctypeError as exc:
+        raise error(f"{where}: the URDF {exc}") from None
+    except ET.ParseError as exc:
+        raise error(f"{where}: not a URDF file: malformed XML: {exc}") from None
+    if robot.tag != "robot":
+        raise error(f"{where}: not a URDF file: the root element is <{robot.tag}>, not <robot>")
+    too_large = urdf_size_problem(robot)
+    if too_large is not None:
+        raise error(f"{where}: the URDF {too_large}")
+    return robot
 
 
 class XmlFields:

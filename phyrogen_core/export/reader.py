@@ -59,8 +59,7 @@ from ..geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from ..objects import Motion
 from ..puzzle import Goal
 from ..record import MAX_MAGNITUDE, ObjectRecord, PuzzleRecord
-from ..sizes import urdf_size_problem
-from ..xml_fields import DoctypeError, XmlFields, parse_xml
+from ..xml_fields import XmlFields, parse_urdf
 from .metadata import start_state
 from .obj import read_prism_piece
 from .urdf import MESH_NAME
@@ -205,16 +204,7 @@ def read_urdf(path: Path, roles: Mapping[str, tuple[Role, str]] | None = None,
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise PuzzleFormatError(f"{path}: the URDF is not UTF-8 text: {exc}") from None
-    try:
-        robot = parse_xml(text)
-    except DoctypeError as exc:
-        raise PuzzleFormatError(f"{path}: the URDF {exc}") from None
-    except ET.ParseError as exc:
-        raise PuzzleFormatError(f"{path}: malformed XML: {exc}") from None
-    too_large = urdf_size_problem(robot)
-    if too_large is not None:
-        raise PuzzleFormatError(f"{path}: the URDF {too_large}")
-    return _UrdfReader(path, roles or {}, root).chain(robot)
+    return _UrdfReader(path, roles or {}, root).chain(parse_urdf(text, str(path), PuzzleFormatError))
 
 
 class _UrdfReader(XmlFields):

@@ -23,8 +23,7 @@ from ..export.reader import MAX_MAGNITUDE
 from ..folder_reads import MAX_FILE_BYTES, read_folder_file
 from ..geometry import Pose
 from ..mesh_files import MeshFormatError, read_triangles
-from ..sizes import urdf_size_problem
-from ..xml_fields import DoctypeError, XmlFields, parse_xml
+from ..xml_fields import XmlFields, parse_urdf
 
 MESH_SEARCH_LIMIT = 10_000
 """Most folder entries looked at when searching a moved mesh by its name."""
@@ -98,18 +97,7 @@ def read_urdf_model(path: str | Path) -> UrdfModel:
         raw = read_folder_file(path, Path(os.path.realpath(path)).parent, f"{path}")  # size and kind checked
     except PuzzleFormatError as exc:
         raise UrdfImportError(str(exc)) from None
-    try:
-        robot = parse_xml(raw)
-    except DoctypeError as exc:
-        raise UrdfImportError(f"{path}: the URDF {exc}") from None
-    except ET.ParseError as exc:
-        raise UrdfImportError(f"{path}: not a URDF file: malformed XML: {exc}") from None
-    if robot.tag != "robot":
-        raise UrdfImportError(f"{path}: not a URDF file: the root element is <{robot.tag}>, not <robot>")
-    too_large = urdf_size_problem(robot)  # before any mesh is read
-    if too_large is not None:
-        raise UrdfImportError(f"{path}: the URDF {too_large}")
-    return _Reader(path).model(robot)
+    return _Reader(path).model(parse_urdf(raw, str(path), UrdfImportError))
 
 
 class _Reader(XmlFields):
