@@ -46,6 +46,7 @@ from phyrogen_core import __version__
 from phyrogen_core.folder import PuzzleFolder, find_puzzle_folders
 from phyrogen_core.stage_records.audit import AuditRequest, AuditResult
 from phyrogen_core.stage_records.benchmark import BenchmarkRequest, BenchmarkResult
+from phyrogen_core.stage_records.certify import CertifyRequest, CertifyResult
 from phyrogen_core.stage_records.check import CheckRequest, CheckResult
 from phyrogen_core.stage_records.dataset import DatasetRequest, DatasetResult
 from phyrogen_core.stage_records.export import ExportRequest, ExportResult
@@ -55,11 +56,11 @@ from phyrogen_core.stage_records.manipulate import ManipulateRequest, Manipulate
 from phyrogen_core.stage_records.render import RenderRequest, RenderResult
 from phyrogen_core.stage_records.replan import ReplanRequest, ReplanResult
 
-__all__ = ["STAGES", "AuditRequest", "AuditResult", "BenchmarkRequest", "BenchmarkResult", "CheckRequest",
-           "CheckResult", "DatasetRequest", "DatasetResult", "ExportRequest", "ExportResult", "GenerateRequest",
-           "GenerateResult", "ImportRequest", "ImportResult", "ManipulateRequest", "ManipulateResult", "PuzzleFolder",
-           "RenderRequest", "RenderResult", "ReplanRequest", "ReplanResult", "__version__", "check", "find_puzzles",
-           "generate", "generate_into", "generators", "load", "run"]
+__all__ = ["STAGES", "AuditRequest", "AuditResult", "BenchmarkRequest", "BenchmarkResult", "CertifyRequest",
+           "CertifyResult", "CheckRequest", "CheckResult", "DatasetRequest", "DatasetResult", "ExportRequest",
+           "ExportResult", "GenerateRequest", "GenerateResult", "ImportRequest", "ImportResult", "ManipulateRequest",
+           "ManipulateResult", "PuzzleFolder", "RenderRequest", "RenderResult", "ReplanRequest", "ReplanResult",
+           "__version__", "check", "find_puzzles", "generate", "generate_into", "generators", "load", "run"]
 
 
 def generators() -> dict:

@@ -15,6 +15,7 @@ import phyrogen
 from phyrogen_core.stage_records.audit import AuditedPuzzle, AuditRequest, AuditResult
 from phyrogen_core.stage_records.base import RecordError, StageRequest, StageResult
 from phyrogen_core.stage_records.benchmark import BenchmarkRequest, BenchmarkResult
+from phyrogen_core.stage_records.certify import CertifyRequest, CertifyResult
 from phyrogen_core.stage_records.check import CheckRequest, CheckResult
 from phyrogen_core.stage_records.dataset import DatasetRequest, DatasetResult
 from phyrogen_core.stage_records.export import ExportRequest, ExportResult
@@ -35,6 +36,9 @@ VALID = [
     GenerateRequest("rooms", seeds="3-5", overrides=("n_objects=3",)),
     GenerateResult((GeneratedPuzzle("rooms", 3, 3, 5, 1.25, "out/rooms/rooms_3", None),
                     GeneratedPuzzle("rooms", 4, 0, 0, 0.5, None, "GenerationError: no room")), 1, 1, 2.0),
+    CertifyRequest("out/rooms/rooms_7", 100000, "la_rrt", run=2),
+    CertifyResult("rooms_7", "la_rrt", "LA-RRT", 2, 100000, True, 100205, "budget", ("a", "b"),
+                  ((0.0, 0.0), (0.5, -0.25)), 1, ()),
     ReplanRequest("out/rooms/rooms_7", 5000, 3),
     ReplanResult("rooms_7", "out/rooms/rooms_7", True, 5000, 3, "RRT-Connect", 812, 17, 3, ()),
     ExportRequest(("out",)),
@@ -123,6 +127,8 @@ def test_the_valid_controls_are_read_back_unchanged(record):
     (lambda: BenchmarkRequest(time_limit=math.inf), "'time_limit': the non-finite number inf"),
     (lambda: ImportRequest("a.urdf", goal=(0.1, math.nan)), "'goal[1]': the non-finite number nan"),
     (lambda: ExportRequest(()), "'folders' names no folder"),
+    (lambda: CertifyResult("p", "la_rrt", "LA-RRT", 0, 10, True, 10, "solved", ("a",), ((0.0, 1.0),), 1, ()),
+     "a path of one value per joint"),
     (lambda: ReplanResult("p", "f", True, 10, 0, None, None, None, None, ()), "'planner': expected a value"),
     (lambda: GenerateResult((), -1, 0, 1.0), "'ok' is -1, expected a count"),
     (lambda: DatasetResult(10, 9, 0, 10, 0, 1.0, 1.0, "m"), "must each add up to 'entries' 10"),
@@ -137,8 +143,8 @@ def test_a_record_made_in_python_is_checked_as_one_read_from_data(make, expected
 
 
 def test_every_stage_is_run_request_to_result_from_the_python_api():
-    assert set(phyrogen.STAGES) == {"check", "generate", "replan", "export", "import_urdf", "benchmark", "manipulate",
-                                    "audit", "render", "dataset"}
+    assert set(phyrogen.STAGES) == {"check", "generate", "certify", "replan", "export", "import_urdf", "benchmark",
+                                    "manipulate", "audit", "render", "dataset"}
     for module_name, request_name in phyrogen.STAGES.items():
         module = importlib.import_module(f"phyrogen.stages.{module_name}")
         signature = inspect.signature(module.run)
@@ -156,7 +162,8 @@ def test_every_stage_is_run_request_to_result_from_the_python_api():
 
 
 @pytest.mark.parametrize("request_", [
-    CheckRequest("{tmp}/missing"), ExportRequest(("{tmp}/missing",)), ReplanRequest("{tmp}/missing"),
+    CheckRequest("{tmp}/missing"), CertifyRequest("{tmp}/missing", 1000), ExportRequest(("{tmp}/missing",)),
+    ReplanRequest("{tmp}/missing"),
     ImportRequest("{tmp}/missing.urdf", out="{tmp}/out"), BenchmarkRequest(puzzles="{tmp}/missing", out="{tmp}/b"),
     ManipulateRequest(("{tmp}/missing",), out="{tmp}/m"), AuditRequest("{tmp}/missing", out="{tmp}/a"),
     GenerateRequest("no_such_generator", out="{tmp}/out"), RenderRequest(out="{tmp}/missing"),
@@ -174,7 +181,7 @@ def test_each_stage_refuses_a_bad_request_before_any_work(request_, tmp_path):
 
 @pytest.mark.slow
 def test_the_stages_chain_from_python(tmp_path):
-    # generate -> check -> export -> replan through phyrogen.run, each result read back from its own JSON.
+    # generate -> check -> export -> certify -> replan through phyrogen.run, each result read back from its JSON.
     made = phyrogen.run(GenerateRequest("simple_slider", seeds="41", overrides=("n_objects=2",), out=str(tmp_path),
                                         workers=1))
     assert isinstance(made, GenerateResult) and (made.ok, made.failed, made.exit_code) == (1, 0, 0)
@@ -183,9 +190,15 @@ def test_the_stages_chain_from_python(tmp_path):
     assert checked.valid and checked.states > 1 and checked.exit_code == 0
     (mjcf,) = phyrogen.run(ExportRequest((row.folder,))).files
     assert mjcf.endswith("simple_slider_41.xml")
+    certified = phyrogen.run(CertifyRequest(row.folder, 100_000, "la_rrt"))  # in memory: the folder stays as it is
+    assert certified.certified and certified.exit_code == 0 and len(certified.path) >= 2
+    assert certified.path[-1] != certified.path[0] and phyrogen.run(CheckRequest(row.folder)) == checked
+    assert phyrogen.run(CertifyRequest(row.folder, 100_000, "la_rrt")) == certified  # seeded: the same path
+    starved = phyrogen.run(CertifyRequest(row.folder, 1, "la_rrt"))  # control: one check solves nothing
+    assert not starved.solved and starved.path == () and starved.exit_code == 1
     replanned = phyrogen.run(ReplanRequest(row.folder))
     assert replanned.solved and replanned.states == phyrogen.run(CheckRequest(row.folder)).states
-    for result in (made, checked, replanned):
+    for result in (made, checked, certified, replanned):
         assert type(result).from_json(result.to_json()) == result
     # Negative control: a certificate cut to its two ends runs through a blocker, and the stage says so.
     record = json.loads((tmp_path / "simple_slider" / "simple_slider_41" / "puzzle.json").read_text())

@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import importlib
 
-STAGES = {"check": "CheckRequest", "generate": "GenerateRequest", "replan": "ReplanRequest",
-          "export": "ExportRequest", "import_urdf": "ImportRequest", "benchmark": "BenchmarkRequest",
-          "manipulate": "ManipulateRequest", "audit": "AuditRequest", "render": "RenderRequest",
-          "dataset": "DatasetRequest"}
-"""Each stage's module (``phyrogen.stages.<name>``) and its request record's name."""
+STAGES = {"check": "CheckRequest", "generate": "GenerateRequest", "certify": "CertifyRequest",
+          "replan": "ReplanRequest", "export": "ExportRequest", "import_urdf": "ImportRequest",
+          "benchmark": "BenchmarkRequest", "manipulate": "ManipulateRequest", "audit": "AuditRequest",
+          "render": "RenderRequest", "dataset": "DatasetRequest"}
+"""Each stage's module (``phyrogen.stages.<name>``) and its request record's name. Each but ``certify`` (Python
+only) is also a command of ``phyrogen`` (``import_urdf``: ``phyrogen import``)."""
 
 
 def run(request, **callbacks):
