@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from solver.planning.registry import PLANNERS, get_planner, planner_names, register_planner, registry_copy
+from solver.planning.registry import PLANNERS, Planner, get_planner, planner, planner_names, registry_copy
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "docs" / "examples" / "rrt_connect_planner.py"
@@ -97,28 +97,32 @@ def _benchmark_help(parser) -> str:
     return sub.choices["benchmark"].format_help()
 
 
+def _trial(plan, name: str, title: str, version: str = "1", **declared) -> type[Planner]:
+    """A planner class declaring ``name``, ``title`` and ``version`` (not yet registered)."""
+    return type("Trial", (Planner,), {"name": name, "title": title, "version": version, "uses_ompl_rng": True,
+                                      "plan": staticmethod(plan), **declared})
+
+
 def test_a_duplicate_or_malformed_registration_is_refused(with_example):
     plan = with_example.plan_function
-    from solver.planning.registry import Planner, planner
-
-    class Duplicate(Planner):
-        name, title, version = NAME, "Another title", "1"
-        plan = staticmethod(with_example.plan_function)
-
     with pytest.raises(ValueError, match="registered already"):
-        planner(Duplicate)
+        planner(_trial(plan, NAME, "Another title"))
     with pytest.raises(ValueError, match="must declare version"):
         planner(type("NoVersion", (Planner,), {"name": "fresh", "title": "Fresh", "plan": staticmethod(plan)}))
-    with pytest.raises(ValueError, match="registered already"):
-        register_planner(NAME, "Another title", plan, version="1", uses_ompl_rng=True)
     with pytest.raises(ValueError, match="title 'RRT\\*' is taken by 'rrt_star'"):
-        register_planner("rrt_star_2", "RRT*", plan, version="1", uses_ompl_rng=True)
+        planner(_trial(plan, "rrt_star_2", "RRT*"))
     for bad in ("all", "RRT", "rrt connect", "", "9rrt"):
         with pytest.raises(ValueError, match="planner name"):
-            register_planner(bad, "Fresh title", plan, version="1", uses_ompl_rng=True)
+            planner(_trial(plan, bad, "Fresh title"))
     with pytest.raises(ValueError, match="version"):
-        register_planner("fresh", "Fresh title", plan, version="", uses_ompl_rng=True)
+        planner(_trial(plan, "fresh", "Fresh title", version=""))
+    with pytest.raises(ValueError, match="planner group"):
+        planner(_trial(plan, "fresh", "Fresh title", group="favourites"))
+    with pytest.raises(ValueError, match="decorates a subclass"):
+        planner(type("NotAPlanner", (), {"name": "fresh"}))
     assert planner_names()[-1] == NAME and len(PLANNERS) == len(BUILT_IN + ABLATIONS) + 1
+    # The control: the same declaration with a fresh name and title is registered, at the end.
+    assert planner(_trial(plan, "fresh", "Fresh title")).spec is get_planner("fresh") and planner_names()[-1] == "fresh"
 
 
 def test_it_runs_in_a_benchmark_and_is_scored_like_the_others(with_example, slider_folder, tmp_path):

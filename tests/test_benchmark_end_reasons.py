@@ -209,17 +209,20 @@ def test_the_registry_charges_motions_by_length_whatever_the_planner(slider):
     own code would count otherwise (the first to count decides)."""
     from solver.planning.anytime import PlanResult
     from solver.planning.problem import problem_for_chain
-    from solver.planning.registry import register_planner, registry_copy
+    from solver.planning.registry import Planner, planner, registry_copy
 
     seen = []
 
-    def plan(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None):
-        seen.append(problem.model.by_length)
-        return PlanResult("probe", False, (), None, None, 0.0, 0, (), "Timeout")
+    class Probe(Planner):
+        name, title, version = "probe", "Probe", "1"
+
+        def plan(self, problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None):
+            seen.append(problem.model.by_length)
+            return PlanResult("probe", False, (), None, None, 0.0, 0, (), "Timeout")
 
     puzzle = slider()
     with registry_copy():
-        spec = register_planner("probe", "Probe", plan, version="1", uses_ompl_rng=False)
+        spec = planner(Probe).spec
         result = spec.plan(problem_for_chain(puzzle.planning_chain, puzzle.goal), 1.0, 0, budget_checks=10)
         with pytest.raises(TypeError):  # a plan function without budget_cpu cannot take a CPU budget
             spec.plan(problem_for_chain(puzzle.planning_chain, puzzle.goal), 1.0, 0, budget_cpu=1.0)

@@ -44,6 +44,35 @@ def test_list_names_every_generator(capsys):
         assert name in out
 
 
+def test_list_names_every_planner_with_its_version_and_a_new_one_once_registered(capsys):
+    from solver.planning.anytime import PlanResult
+    from solver.planning.registry import PLANNERS, Planner, planner, registry_copy
+
+    def listed() -> list[str]:
+        assert main(["list"]) == 0
+        out = capsys.readouterr().out
+        return out[out.index("\nplanners ("):].splitlines()
+
+    lines = listed()
+    for spec in PLANNERS.values():
+        assert any(line.startswith(f"  {spec.name}: {spec.title} (version {spec.version}") for line in lines), spec.name
+    assert "  la_rrt_fixed_order: LA-RRT, fixed factor order (version " in "\n".join(lines)
+    assert next(line for line in lines if line.startswith("  la_rrt_fixed_order:")).endswith(
+        "; group ablations, not in 'all')")
+    with registry_copy():
+        @planner
+        class Probe(Planner):
+            name, title, version, summary = "probe", "Probe", "7", "a planner that gives up at once"
+
+            def plan(self, problem, *args, **kwargs) -> PlanResult:
+                return PlanResult("Probe", False, (), None, None, 0.0, 0, (), "Timeout")
+
+        with_probe = listed()
+    assert with_probe[-2:] == [f"  probe: Probe (version {Probe.spec.version})",
+                               "      a planner that gives up at once"]
+    assert not any("probe" in line for line in listed())  # the control: gone with its registration
+
+
 @pytest.mark.slow
 def test_generate_then_check_and_detect_tampering(tmp_path, capsys):
     assert main(["generate", "--generator", "grid_world", "--seeds", "1", "--out", str(tmp_path), "--quiet"]) == 0

@@ -84,13 +84,14 @@ def test_installed_plugins_are_listed_beside_the_built_ins(site, tmp_path):
     listed = _phyrogen(site, "list", cwd=tmp_path)
     assert listed.returncode == 0, listed.stderr
     assert f"{GENERATOR}: Two Sliders (not in the paper)" in listed.stdout and "rooms: Rooms" in listed.stdout
+    assert f"\n  {PLANNER}: RRT-Connect (version " in listed.stdout and "\n  la_rrt: LA-RRT (version " in listed.stdout
     offered = "".join(_phyrogen(site, "benchmark", "--help", cwd=tmp_path).stdout.split())
     assert f"{PLANNER}(RRT-Connect)" in offered and "la_rrt_push(LA-RRT+push(ours))" in offered
 
 
 def test_without_the_plugins_folder_neither_exists(tmp_path):
     listed = _phyrogen(None, "list", cwd=tmp_path)
-    assert listed.returncode == 0 and GENERATOR not in listed.stdout
+    assert listed.returncode == 0 and GENERATOR not in listed.stdout and f"  {PLANNER}:" not in listed.stdout
     refused = _phyrogen(None, "generate", "--generator", GENERATOR, "--seeds", "1", "--out", str(tmp_path / "o"),
                         cwd=tmp_path)
     assert f"unknown generator {GENERATOR!r}" in _one_error_line(refused)

@@ -239,7 +239,7 @@ def _slice(recorder: AnytimeRecorder, progress_interval: float, watch: _FirstSol
 
 
 def ompl_plan_function(title: str, planner_class: Callable, configure: Callable | None = None) -> Callable:
-    """A registrable plan function (:func:`solver.planning.registry.register_planner`) that runs
+    """A plan function for a :class:`~solver.planning.registry.Planner`'s ``plan`` that runs
     the ``ompl.geometric`` planner ``planner_class(si)`` on our collision model through
     :func:`run_ompl`: our state and motion validity checks (counted for check budgets), the shared
     goal sampler, the action-bound objective, anytime recording with fine-resolution checks and

@@ -4,8 +4,8 @@ A planner is a :class:`Planner` subclass declaring its settings (name, title, ve
 registered with the :func:`planner` decorator and declared in a package's ``phyrogen.planners``
 entry points; the built-ins (:mod:`solver.planning.builtin_planners`) are declared so in PhyRoGen's
 own ``pyproject.toml``, and the registry loads every declared entry the first time it is read
-(:func:`load_planner_modules`). :func:`register_planner` registers a bare plan function the same way
-(for trials inside a test).
+(:func:`load_planner_modules`). A trial planner (in a test or a notebook) is a class decorated the
+same way, registered into :func:`registry_copy`.
 
 ``get_planner(name).plan(problem, time_limit, seed)`` -> :class:`~solver.planning.anytime.PlanResult`
 (best path, action cost, first-solution time, cost over time, collision checks and CPU time spent).
@@ -166,7 +166,7 @@ class _Planners(MutableMapping[str, PlannerSpec]):
 PLANNERS: MutableMapping[str, PlannerSpec] = _Planners()
 """Every registered planner, in registration order: the built-ins of PhyRoGen's own
 ``phyrogen.planners`` entry points (the paper's four with our LA-RRT variant after the paper's,
-then the ablations), then other packages' plug-ins, then any added with :func:`register_planner`."""
+then the ablations), then other packages' plug-ins, then any registered with :func:`planner` since."""
 
 LA_RRT_PLANNERS = ("la_rrt", "la_rrt_push")
 """The built-in entries whose best path is saved into the puzzle folder (the manipulation stage's
@@ -205,13 +205,20 @@ class Planner:
 
     def plan(self, problem: Problem, time_limit: float, seed: int, progress_interval: float, until_first: bool,
              goal_seed: int, budget_checks: int | None = None, budget_cpu: float | None = None) -> PlanResult:
-        """One run (see :func:`register_planner` for the rules every planner keeps)."""
+        """One run: a :class:`~solver.planning.anytime.PlanResult`. Build its recorder with
+        ``AnytimeRecorder(title, problem, time_limit, progress_interval, budget_checks, budget_cpu)`` on the
+        problem it is given (its collision checks are counted) and stop when the recorder expires;
+        :func:`solver.planning.ompl_planners.ompl_plan_function` makes a plan function from any
+        ``ompl.geometric`` planner. Register in a module, not a script run as ``__main__``: a benchmark
+        runs each run in a fresh process, which loads the registering module (by name, else from its
+        file) to find the planner."""
         raise NotImplementedError
 
 
 def planner(cls: type[Planner]) -> type[Planner]:
     """Class decorator: register a :class:`Planner` subclass under its ``name``; returns the class,
-    with its registry entry as ``cls.spec``. Raises ValueError as :func:`register_planner` does."""
+    with its registry entry as ``cls.spec``. Raises ValueError for a bad or taken name or title, an
+    empty version or an unknown group."""
     if not (isinstance(cls, type) and issubclass(cls, Planner)):
         raise ValueError(f"@planner decorates a subclass of solver.planning.registry.Planner, got {cls!r}")
     missing = [a for a in ("name", "title", "version") if not hasattr(cls, a)]
@@ -223,30 +230,6 @@ def planner(cls: type[Planner]) -> type[Planner]:
     cls.spec = _add(cls.name, cls.title, instance.plan, cls.version, cls.uses_ompl_rng, settings, cls.saves_solution,
                     cls.summary, cls.group, (cls.__module__, getattr(module, "__file__", None)))
     return cls
-
-
-def register_planner(name: str, title: str, plan: PlanFunction, *, version: str, uses_ompl_rng: bool,
-                     settings: Callable[[], object] | None = None, saves_solution: bool = False,
-                     summary: str = "", group: str | None = None) -> PlannerSpec:
-    """Add a planner to :data:`PLANNERS`, after the ones there; returns its entry.
-
-    ``plan(problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
-    budget_cpu=None)`` returns a :class:`~solver.planning.anytime.PlanResult`; build its recorder with
-    ``AnytimeRecorder(title, problem, time_limit, progress_interval, budget_checks, budget_cpu)`` on the problem
-    it is given (its collision checks are counted) and stop when the recorder expires.
-    :func:`solver.planning.ompl_planners.ompl_plan_function` makes one from any ``ompl.geometric``
-    planner. ``version``: bump it when the planner's code changes (the journal keys runs by it).
-    ``uses_ompl_rng``: it draws from OMPL's global RNG (every OMPL planner does). ``group``: None
-    puts it in ``--planners all``; a name of :data:`GROUPS` (e.g. "ablations") runs it only with that
-    set or by its own name.
-
-    Register in a module, not a script run as ``__main__``: a benchmark runs each run in a fresh
-    process, which loads the registering module (by name, else from its file) to find the planner.
-    Raises ValueError for a bad or taken name or title.
-    """
-    caller = sys._getframe(1).f_globals
-    source = None if caller.get("__name__") == __name__ else (caller.get("__name__", ""), caller.get("__file__"))
-    return _add(name, title, plan, version, uses_ompl_rng, settings, saves_solution, summary, group, source)
 
 
 def _add(name: str, title: str, plan: PlanFunction, version: str, uses_ompl_rng: bool,
@@ -349,6 +332,20 @@ def solution_planners() -> tuple[str, ...]:
     """The registered planners whose best path per puzzle the benchmark saves."""
     load_planner_modules()
     return tuple(name for name, spec in PLANNERS.items() if spec.saves_solution)
+
+
+def describe_planners() -> str:
+    """Every registered planner described for people (``phyrogen list``): its name (what ``--planners``
+    takes), title, version (the benchmark journal's key: it imports each planner's settings), the
+    group of one outside ``--planners all``, and its summary."""
+    load_planner_modules()
+    lines = ["planners (phyrogen benchmark --planners NAME,...; the journal keys each run by name and version):"]
+    for spec in PLANNERS.values():
+        group = "" if spec.group is None else f"; group {spec.group}, not in 'all'"
+        lines.append(f"  {spec.name}: {spec.title} (version {spec.version}{group})")
+        if spec.summary:
+            lines.append(f"      {spec.summary}")
+    return "\n".join(lines)
 
 
 def get_planner(name: str) -> PlannerSpec:
