@@ -116,9 +116,10 @@ def test_sizes_taken_from_the_seed_are_bounded_too(generator, tmp_path, capsys, 
 
 def test_the_papers_puzzles_stay_accepted():
     for name in paper_generators():
-        spec = get_generator(name)
-        for seed in range(1, 5):
-            spec.check(seed, spec.default_params())
+        assert all(_accepted(name, seed) for seed in range(1, 5)), name
+        # The control: the same check refuses each paper generator a size (its first integer knob, huge).
+        knob = next(parameter for generator, parameter in INT_PARAMETERS if generator == name)
+        assert not _accepted(name, 1, **{knob: HUGE}), name
 
 
 def test_all_generators_past_a_seed_sized_maximum_is_refused_before_any_work(tmp_path, capsys, no_generation):
@@ -152,18 +153,25 @@ def test_the_stated_maxima_and_their_reasons(generator, overrides, fragment):
     assert "\n" not in message and fragment in message and message.startswith(f"generator {generator!r}")
 
 
-@pytest.mark.parametrize(("generator", "overrides"), [
-    # The measured maxima (docs/generators.md#feasible-sizes), at the costliest geometry accepted.
-    ("simple_slider", {"n_objects": 50, "gap": 1e-6}),
-    ("move_n_times", {"n": 20}),
-    ("grid_world", {"n_objects": 25, "branching": 72, "clearance": 0.075, "allow_clockwise": False}),
-    ("lockbox_random", {"n_objects": 19, "max_radius": 10.0}),
-    ("continuous_space", {"n_objects": 20, "bar_length": 5.0}),
-    ("rooms", {"n_rooms": 6, "doors": 6, "scaling": 4.0}),
+@pytest.mark.parametrize(("generator", "overrides", "past"), [
+    # The measured maxima (docs/generators.md#feasible-sizes), at the costliest geometry accepted, and
+    # the size knob one step past its maximum.
+    ("simple_slider", {"n_objects": 50, "gap": 1e-6}, {"n_objects": 51}),
+    ("move_n_times", {"n": 20}, {"n": 21}),
+    ("grid_world", {"n_objects": 25, "branching": 72, "clearance": 0.075, "allow_clockwise": False},
+     {"n_objects": 26}),
+    ("lockbox_random", {"n_objects": 19, "max_radius": 10.0}, {"n_objects": 20}),
+    ("continuous_space", {"n_objects": 20, "bar_length": 5.0}, {"n_objects": 21}),
+    ("rooms", {"n_rooms": 6, "doors": 6, "scaling": 4.0}, {"n_rooms": 7}),
 ])
-def test_the_measured_maxima_are_accepted(generator, overrides):
+def test_the_measured_maxima_are_accepted_and_one_more_is_refused(generator, overrides, past):
     spec = get_generator(generator)
-    spec.check(1, spec.parse_params(overrides))
+    assert _accepted(generator, 1, **dataclasses.asdict(spec.parse_params(overrides)))
+    # The control: one more of the size knob, the rest of the costliest geometry unchanged, is refused.
+    (knob, value), = past.items()
+    with pytest.raises(ParameterError, match=f"{knob} must lie in"):
+        spec.check(1, spec.parse_params({**overrides, **past}))
+    assert value == overrides[knob] + 1
 
 
 @pytest.mark.parametrize(("generator", "seed", "overrides"), [
@@ -174,11 +182,20 @@ def test_the_measured_maxima_are_accepted(generator, overrides):
     ("move_n_times", 306, {"n": 8}),  # about 1.5 s
 ])
 def test_the_largest_accepted_sizes_generate(generator, seed, overrides):
+    from solver.planning.problem import verify_certificate
+
     spec = get_generator(generator)
     params = spec.parse_params(overrides)
-    spec.check(seed, params)
+    assert _accepted(generator, seed, **dataclasses.asdict(params))
     puzzle = generate_puzzle(generator, seed, params)
-    assert puzzle.certificate
+    assert puzzle.parameters == params and (puzzle.generator, puzzle.seed) == (generator, seed)
+    if generator == "simple_slider":
+        assert len(puzzle.objects) == overrides.get("n_objects", seed + 1)
+    # A certified puzzle of that size: its certificate holds as `phyrogen check` checks one ...
+    assert verify_certificate(puzzle.chain, puzzle.certificate, puzzle.goal) == []
+    # ... and the same check refuses it cut short of the goal (the control).
+    assert verify_certificate(puzzle.chain, puzzle.certificate[:-1], puzzle.goal) == [
+        "certificate does not end in the goal"]
 
 
 # -- command-line numbers ---------------------------------------------------------------
