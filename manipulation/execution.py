@@ -120,13 +120,13 @@ class _Run(GraspApproach):
                                 lambda now: setattr(self, "plan_state", trajectory.state_at(now)))
                 # A grip that ended names its cause (a slip, with how far; a finger off the handle).
                 stop = self.lost if result.stop is Stop.LOST_GRIP and self.lost else result.stop.value
-                stopped_at = result.time
+                stopped_at, held = result.time, result.held
             else:
-                stop, stopped_at = "the fingers did not close on the handle", t
+                stop, stopped_at, held = "the fingers did not close on the handle", t, None
             # Measured as the fingers let go: an object not at its end then never got there; one that
             # leaves it only afterwards drifted (the two causes had one label).
             there_at_release = within(goal_tolerance)
-            self.open_gripper()
+            self.open_gripper(held)
             self.execution += time.perf_counter() - started
             if stop in (Stop.DONE.value, Stop.WINDOW_ENDED.value):
                 if self.settle_released(partial(within, goal_tolerance)):

@@ -87,6 +87,8 @@ class FollowResult:
     time: float
     """Where along the trajectory (seconds) the motion stopped."""
     steps: int
+    held: np.ndarray | None = None
+    """The robot's last command, where it holds still now (None: where it stands)."""
 
 
 @dataclass(frozen=True)
@@ -222,7 +224,7 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
             if done_for >= settings.done_steps:
                 # Let go as it stands, still under control: a hold at a frozen command let the arm
                 # relax off a handle held by friction (0.2 mm on a Lockbox slide, its whole tolerance).
-                return FollowResult(Stop.DONE, t, steps)
+                return FollowResult(Stop.DONE, t, steps, target)
         else:
             done_for = 0
         q = q_new
@@ -230,8 +232,32 @@ def follow(world: World, trajectory: Trajectory, tool_pose_at: Callable[[np.ndar
             # Held at the last command, not at the measured state: the loaded arm sags off its command
             # (its servos are PD), and a command at the sagged state sags it once more (a Move N Times
             # target held there turned 0.8 mrad out of its tolerance of 1, at every regrasp).
-            return FollowResult(stop, t, steps + hold(world, target, settings.hold_steps, on_step))
-    return FollowResult(Stop.WINDOW_ENDED, t, steps + hold(world, target, settings.hold_steps, on_step))
+            return FollowResult(stop, t, steps + hold(world, target, settings.hold_steps, on_step), target)
+    return FollowResult(Stop.WINDOW_ENDED, t, steps + hold(world, target, settings.hold_steps, on_step), target)
+
+
+def lift_tool(world: World, height: float, speed: float, settings: FollowSettings,
+              on_step: Callable[[], None]) -> int:
+    """Raise the tool straight up by ``height`` at ``speed`` (the base still, the tool's orientation
+    kept), by the follower's control law; returns the steps taken."""
+    start = matrix(*world.tool_pose())
+    weights = np.ones(len(world.robot_joints))
+    weights[:3] = settings.base_weight
+    limits = np.asarray(speed_limits(world.spec))
+    steps = max(1, int(np.ceil(height / speed / TIME_STEP)))
+    for k in range(1, steps + 1):
+        desired = start.copy()
+        desired[2, 3] += height * k / steps
+        actual = matrix(*world.tool_pose())
+        error = np.concatenate([desired[:3, 3] - actual[:3, 3], rotation_error(desired[:3, :3], actual[:3, :3])])
+        twist = np.concatenate([[0.0, 0.0, height / steps / TIME_STEP], np.zeros(3)]) + settings.gain * error
+        q = world.robot_state()
+        q_dot = damped_least_squares(world.jacobian(q), weights, settings.damping, twist)
+        q_dot /= max(1.0, float(np.max(np.abs(q_dot) / limits)))
+        command(world, np.clip(q + q_dot * TIME_STEP, world.lower, world.upper), q_dot)
+        pb.stepSimulation(physicsClientId=world.client)
+        on_step()
+    return steps
 
 
 def command(world: World, target: np.ndarray, velocity: np.ndarray | None = None) -> None:

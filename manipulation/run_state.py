@@ -19,7 +19,7 @@ from phyrogen_core.chain import KinematicChain
 from phyrogen_core.export import LoadedPuzzle
 
 from .execution_records import ExecutionError, ExecutionSettings, Recording, UnplannedContactError
-from .following import TIME_STEP, command
+from .following import TIME_STEP, command, lift_tool
 from .placement import Placement, link_pose
 from .scene import PUZZLE_CONTACT_TOLERANCE, TRACKING_TOLERANCE, World
 from .transforms import inverse, matrix, rotation_error
@@ -32,8 +32,8 @@ OPEN_STEPS = 240
 """Physics steps (1 s) the fingers are given to open after a release; still closed after them, the
 robot does not drive (ExecutionError)."""
 OPEN_STALL_STEPS = 24
-"""Physics steps (0.1 s) after which opening fingers that have not left the handle and stand still
-let it go (see :meth:`RunState.open_gripper`)."""
+"""Physics steps (0.1 s) after the slow opening after which fingers still on the handle and standing
+still are lifted off it (see :meth:`RunState.open_gripper`)."""
 FINGER_TOUCH = 1e-3
 """Metres: a finger whose contact with the handle is closer than this touches it."""
 LOST_STEPS = 12
@@ -51,6 +51,12 @@ speed): at full speed the last pad to leave a light handle kicked it off its goa
 OPEN_SLOW_STEPS = 72
 """Physics steps (0.3 s, 6 mm of each finger) the slow opening lasts at most: a handle pressed on one
 pad follows it as it opens."""
+
+
+LIFT_MARGIN = 0.01
+"""Metres the pads rise above the handle's top when fingers stalled on it are lifted off."""
+OPEN_LIFT_SPEED = 0.1
+"""Metres per second of that lift."""
 
 
 @dataclass(frozen=True)
@@ -163,7 +169,8 @@ class RunState:
         g = self.settings.robot.gripper
         for finger in self.sim.finger_joints:
             pb.setJointMotorControl2(self.sim.robot, finger, pb.POSITION_CONTROL, targetPosition=target,
-                                     force=g.grip_force, maxVelocity=g.closing_speed if speed is None else speed,
+                                     force=g.grip_force,
+                                     maxVelocity=g.closing_speed if speed is None else speed,
                                      physicsClientId=self.sim.client)
 
     def grip_lost(self, grip: Grip) -> str | None:
@@ -199,22 +206,36 @@ class RunState:
         self.off_handle = 0
         return self.grip
 
-    def open_gripper(self) -> None:
+    def open_gripper(self, held: np.ndarray | None = None) -> None:
         """Release: the fingers open, slowly (:data:`OPEN_SLOW_SPEED`) until neither touches the
-        handle, then at full speed. ExecutionError if they are not open after :data:`OPEN_STEPS`."""
+        handle (at most :data:`OPEN_SLOW_STEPS`), then at full speed; fingers that stall on the
+        handle are lifted off its top. The arm holds ``held``, its last command (a loaded arm's PD
+        servos sag off it: commanded where it stood, it let go of the load it carried and shoved the
+        handle as the pads opened), or where it stands. ExecutionError if they are not open after
+        :data:`OPEN_STEPS`."""
         handles = {link for _, link in self.planned}
         self.grip = None
         self.phase = "opening"
-        q = self.sim.robot_state()
+        q = self.sim.robot_state() if held is None else held
         g = self.settings.robot.gripper
         slow = bool(handles)
         self.command_fingers(0.0, OPEN_SLOW_SPEED if slow else g.closing_speed)
+        lifted = False
         for step in range(OPEN_STEPS):
             if np.max(self.sim.finger_state()) < 1e-3:
                 break
             if slow and (step >= OPEN_SLOW_STEPS or not any(any(self.fingers_touching(link)) for link in handles)):
                 slow = False
                 self.command_fingers(0.0)
+            if (not lifted and not slow and step >= OPEN_SLOW_STEPS + OPEN_STALL_STEPS
+                    and self.finger_speed() < 0.2 * g.closing_speed
+                    and any(any(self.fingers_touching(link)) for link in handles)):
+                # A finger stalled on the handle: the arm presses it there (the tool sits off the
+                # handle's centre after a slip, or the handle leans on a wall; Move N Times 3). The
+                # tool rises off the handle's top, the pads sliding up it; the fingers open above it.
+                lifted = True
+                lift_tool(self.sim, g.grasp_depth + LIFT_MARGIN, OPEN_LIFT_SPEED, self.settings.follow, self.on_step)
+                q = self.sim.robot_state()
             command(self.sim, q)
             pb.stepSimulation(physicsClientId=self.sim.client)
             self.on_step()
