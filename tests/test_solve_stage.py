@@ -4,7 +4,6 @@ from it and writes nothing into the puzzle folder (``solutions/`` is the benchma
 from __future__ import annotations
 
 import json
-import shutil
 
 import numpy as np
 import pytest
@@ -17,27 +16,29 @@ BUDGET = 300_000
 
 
 @pytest.fixture(scope="module")
-def slider_folder(tmp_path_factory):
-    from phyrogen_core.export import write_puzzle
+def slider():
     from solver.pipelines.generation import generate_puzzle
 
-    return write_puzzle(generate_puzzle("simple_slider", 863, {"n_objects": 2}), tmp_path_factory.mktemp("solve"))
+    return generate_puzzle("simple_slider", 863, {"n_objects": 2})
 
 
 @pytest.fixture
-def folder(slider_folder, tmp_path):
-    return shutil.copytree(slider_folder, tmp_path / slider_folder.name)
+def folder(slider, tmp_path):
+    """The slider's folder, written afresh for each test (a test may add files to it)."""
+    from phyrogen_core.export import write_puzzle
+
+    return write_puzzle(slider, tmp_path)
 
 
 def _tree(root):
     return {p.relative_to(root): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
-def test_a_solve_run_is_a_valid_path_the_same_for_the_same_run(slider_folder):
+def test_a_solve_run_is_a_valid_path_the_same_for_the_same_run(folder):
     from solver.planning.problem import FINE_RESOLUTION, verify_certificate
     from solver.planning.solve import solve
 
-    loaded = read_puzzle_dir(slider_folder)
+    loaded = read_puzzle_dir(folder)
     first, again, other = (solve(loaded, "la_rrt", BUDGET, run) for run in (0, 0, 1))
     assert first.solved and first.end == "budget" and first.checks >= BUDGET
     assert first.joint_order == loaded.joint_order and first.title == "LA-RRT"
@@ -46,11 +47,11 @@ def test_a_solve_run_is_a_valid_path_the_same_for_the_same_run(slider_folder):
     assert other.solved and other.seed != first.seed and other.path != first.path  # another run, another draw
 
 
-def test_a_budget_too_small_solves_nothing_and_no_budget_is_refused(slider_folder):
+def test_a_budget_too_small_solves_nothing_and_no_budget_is_refused(folder):
     """The negative control: one check finds no path (an empty one, not a made-up one)."""
     from solver.planning.solve import solve
 
-    loaded = read_puzzle_dir(slider_folder)
+    loaded = read_puzzle_dir(folder)
     starved = solve(loaded, "la_rrt", 1)
     assert not starved.solved and starved.path == () and starved.action_cost is None and starved.end == "budget"
     for budget in (None, 0, 1.5, True):
