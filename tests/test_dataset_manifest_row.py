@@ -134,3 +134,46 @@ def test_stats_reads_the_valid_manifest(dataset, capsys):
     shutil.rmtree(dataset / "plots", ignore_errors=True)
     assert main(["dataset", "--stats", str(dataset)]) == 0
     assert "grid_world" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("tamper", [None, {"seconds": "fast"}, {"seconds": float("nan")}, {"seconds": -1.0},
+                                    {"validation_checks": 2.5}, {"ok": 0}, {"error": ["no"]}])
+def test_a_resumed_dataset_makes_again_a_generation_record_no_worker_writes(tmp_path, tamper):
+    """An unfinished shard's generation records become manifest rows when the dataset resumes; a record
+    whose values are of other kinds than a worker writes is made again, as a torn one is, rather than
+    read into a row. The control (None): the record as written is a row, and not made again."""
+    import json
+    from pathlib import Path
+
+    from solver.pipelines.dataset import EntryOutcome, build_dataset, local_backend, make_request
+    from solver.pipelines.dataset.build import write_record
+
+    request = make_request(["grid_world"], [(6831, 6832)], ["n_objects=2"], shard_size=4)
+    root = tmp_path / "d"
+
+    def fail_first_then_stop(tasks, workers, on_running=None):
+        task = next(iter(tasks))
+        write_record(Path(task.shard_dir), task, EntryOutcome(task.index, False, "no puzzle", 0.5, 7))
+        yield EntryOutcome(task.index, False, "no puzzle", 0.5, 7)
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        build_dataset(request, root, 1, backend=fail_first_then_stop)
+    (record,) = root.glob("shard-00000/.records/*.json")
+    if tamper is not None:
+        record.write_text(json.dumps(json.loads(record.read_text()) | tamper))
+    made = []
+
+    def logging(tasks, workers, on_running=None):
+        tasks = list(tasks)
+        made.extend(task.index for task in tasks)
+        yield from local_backend(tasks, workers, on_running)
+
+    build_dataset(request, root, 1, backend=logging)
+    rows, complete = manifest_rows(root)
+    assert complete and [row.seed for row in rows] == [6831, 6832]
+    if tamper is None:
+        assert made == [1]
+        assert (rows[0].status, rows[0].error, rows[0].generation_seconds) == ("failed", "no puzzle", 0.5)
+    else:
+        assert made == [0, 1] and rows[0].ok

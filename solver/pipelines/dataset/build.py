@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import re
 import shutil
@@ -511,7 +512,16 @@ def _read_record(shard_dir: Path, entry: Entry) -> dict[str, Any] | None:
         return None
     same = (record.get("index") == entry.index and record.get("generator") == entry.generator
             and record.get("seed") == entry.seed and record.get("parameters") == entry.parameters_json)
-    return record if same else None
+    return record if same and _record_values_hold(record) else None
+
+
+def _record_values_hold(record: dict[str, Any]) -> bool:
+    """Whether a generation record's values are of the kinds :func:`write_record` writes (a manifest row
+    is made of them): one that is not is made again, as a torn record is."""
+    seconds, checks, error = record.get("seconds"), record.get("validation_checks"), record.get("error")
+    return (isinstance(record.get("ok"), bool) and (error is None or isinstance(error, str))
+            and (seconds is None or type(seconds) in (int, float) and math.isfinite(seconds) and seconds >= 0)
+            and (checks is None or type(checks) is int and checks >= 0))
 
 
 def _remove_temporary_files(folder: Path, own: Callable[[str], object]) -> None:
