@@ -208,3 +208,18 @@ def test_the_stages_chain_from_python(tmp_path):
     (tmp_path / "simple_slider" / "simple_slider_41" / "puzzle.json").write_text(json.dumps(record))
     broken = phyrogen.run(CheckRequest(row.folder))
     assert not broken.valid and broken.exit_code == 1
+
+
+def test_the_manipulation_outcome_holds_exactly_the_executors_report_and_its_folder():
+    # The manipulate stage reads each report (manipulation.execution_records.ManipulationReport, which the core
+    # may not import) into its record strictly: a field added there must be added here, or every run would end
+    # in the record's refusal; this says so in a test first.
+    import dataclasses
+
+    from manipulation.execution_records import ManipulationReport
+
+    report = {field.name for field in dataclasses.fields(ManipulationReport)}
+    assert {field.name for field in dataclasses.fields(ManipulationOutcome)} == report | {"folder"}
+    # Control: a report with one more field is refused in one line naming it.
+    with pytest.raises(RecordError, match="unknown key 'grip_force'"):
+        ManipulationOutcome.from_dict({**OUTCOME.to_dict(), "grip_force": 1.0})
