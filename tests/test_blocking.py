@@ -64,6 +64,40 @@ def test_a_fixed_target_away_from_its_goal_is_proven():
     assert BlockingProver().proves(objects, goal, ["obj_00"], 0.04)
 
 
+def test_a_question_proven_at_the_top_rung_runs_no_search_and_gets_the_judges_verdict():
+    from solver.validation.judge import MARGIN_LEVELS, judge
+
+    objects, goal = _corridor(1.5)
+    chain, margin = build_chain(objects), 0.01
+    prover = BlockingProver()
+    proven = judge(chain, goal, ["obj_01"], margin, JUDGE_BUDGET, np.random.default_rng(0),
+                   second_budget=SECOND_JUDGE_BUDGET, proof=lambda s: prover.proves(objects, goal, ["obj_01"], s))
+    alone = judge(chain, goal, ["obj_01"], margin, JUDGE_BUDGET, np.random.default_rng(0),
+                  second_budget=SECOND_JUDGE_BUDGET)
+    assert proven.necessary and proven.how == BY_GEOMETRY and proven.queries == 0 and proven.second_checks == 0
+    assert alone.necessary and proven.margin == alone.margin == MARGIN_LEVELS[0] * margin
+    assert alone.queries > 0  # control: without the proof the first judge spent its search
+
+
+def test_the_compiled_overlap_test_answers_as_the_numpy_one_ties_included():
+    from solver.validation.blocking import _overlaps, _pair_overlaps
+
+    rng = np.random.default_rng(7406)
+    differ = shifted = 0
+    for _ in range(200):
+        n, m = (int(v) for v in rng.integers(1, 12, 2))
+        # Half-unit coordinates, axis normals and thresholds: many overlaps equal their threshold exactly.
+        va, vb = (np.round(rng.normal(size=(k, 4, 2)) * 2) / 2 for k in (n, m))
+        na, nb = (rng.integers(-1, 2, size=(k, 4, 2)).astype(float) for k in (n, m))
+        i, j = rng.integers(0, n, 30), rng.integers(0, m, 30)
+        threshold = np.round(rng.uniform(-2, 2, 30) * 2) / 2
+        compiled = _pair_overlaps(va, na, vb, nb, i, j, threshold)
+        differ += int(np.sum(compiled != _overlaps(va[i], na[i], vb[j], nb[j], threshold)))
+        shifted += int(np.sum(compiled != _overlaps(va[i], na[i], vb[j], nb[j], threshold - 1e-12)))
+    assert differ == 0
+    assert shifted > 0  # control: the comparison sees a threshold moved by 1e-12 (the ties are there)
+
+
 def _questions(seeds, generator="grid_world", params=None):
     """Every necessity question the Maker asked on ``seeds``: (objects, goal, fixed, margin, verdict)."""
     asked = []

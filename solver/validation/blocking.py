@@ -40,6 +40,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from phyrogen_core.chain import Role, pose_matrix
 from phyrogen_core.geometry import Box, ConvexPrism
@@ -188,6 +189,31 @@ def _world(outline: _Outline, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return vertices, normals
 
 
+@njit(cache=True, nogil=True)
+def _pair_overlaps(va, na, vb, nb, first, second, threshold):  # pragma: no cover (compiled)
+    """:func:`_overlaps` of the pairs (``va[first[p]]``, ``vb[second[p]]``), compiled: the same products,
+    sums, extremes and comparison, in a loop instead of numpy's temporaries (the same answers)."""
+    out = np.empty(len(first), dtype=np.bool_)
+    for p in range(len(first)):
+        a, b = first[p], second[p]
+        overlap = np.inf
+        for side in range(2):
+            normals = na[a] if side == 0 else nb[b]
+            for k in range(normals.shape[0]):
+                nx, ny = normals[k, 0], normals[k, 1]
+                low_a, high_a = np.inf, -np.inf
+                for j in range(va.shape[1]):
+                    v = nx * va[a, j, 0] + ny * va[a, j, 1]
+                    low_a, high_a = min(low_a, v), max(high_a, v)
+                low_b, high_b = np.inf, -np.inf
+                for j in range(vb.shape[1]):
+                    v = nx * vb[b, j, 0] + ny * vb[b, j, 1]
+                    low_b, high_b = min(low_b, v), max(high_b, v)
+                overlap = min(overlap, min(high_a, high_b) - max(low_a, low_b))
+        out[p] = overlap > threshold[p]
+    return out
+
+
 def _overlaps(va: np.ndarray, na: np.ndarray, vb: np.ndarray, nb: np.ndarray, threshold: float) -> np.ndarray:
     """Whether outline pairs (``va[i]``, ``vb[i]``) overlap by more than ``threshold`` along every edge
     normal of both (the separating-axis test of :mod:`solver.collision.kernels`, with ``threshold`` as its
@@ -212,6 +238,7 @@ class BlockingProver:
         self._cells: dict[tuple, _Cells] = {}
         self._tables: dict[tuple, np.ndarray] = {}
         self._bounds: dict[tuple, np.ndarray] = {}
+        self._worlds: dict[tuple, tuple] = {}
         self._kept: dict[int, PuzzleObject] = {}  # keys hold objects by id (hashing one costs more than a check)
 
     def _id(self, obj: PuzzleObject) -> int:
@@ -256,6 +283,15 @@ class BlockingProver:
             found = self._cells[key] = _Cells(pose[None, :], None)
         return found
 
+    def _world(self, obj: PuzzleObject, where: tuple, cells: _Cells, index: int):
+        """Outline ``index`` of the object over its cells: ((vertices, normals), the vertices' means)."""
+        key = (self._id(obj), where, index)
+        found = self._worlds.get(key)
+        if found is None:
+            world = _world(self.outlines(obj)[index], cells.poses)
+            found = self._worlds[key] = (world, world[0].mean(axis=1))
+        return found
+
     # -- per pair ----------------------------------------------------------------
     def _box(self, obj: PuzzleObject, where: tuple, cells: _Cells) -> np.ndarray:
         """The (x, y) bounds of everything the object covers over its cells: [low x, low y, high x, high y]."""
@@ -285,18 +321,16 @@ class BlockingProver:
         if np.all(box_a[:2] < box_b[2:]) and np.all(box_b[:2] < box_a[2:]):
             tolerance = shrunk_tolerance(shrink)
             erosion = shrink + self.erosion + PROOF_SLACK
-            for outline_a in self.outlines(obj_a):
-                world_a = None
-                for outline_b in self.outlines(obj_b):
+            for index_a, outline_a in enumerate(self.outlines(obj_a)):
+                for index_b, outline_b in enumerate(self.outlines(obj_b)):
                     if min(outline_a.z_high, outline_b.z_high) - max(outline_a.z_low, outline_b.z_low) <= tolerance:
                         continue
                     if erosion > min(outline_a.erodible, outline_b.erodible):
                         continue  # too thin for the bound: left out, which can only prove less
-                    world_a = world_a if world_a is not None else _world(outline_a, cells_a.poses)
-                    world_b = _world(outline_b, cells_b.poses)
+                    world_a, centre_a = self._world(obj_a, where_a, cells_a, index_a)
+                    world_b, centre_b = self._world(obj_b, where_b, cells_b, index_b)
                     least = max(2 * erosion, DEFAULT_TOLERANCE)
                     # Only cell pairs whose bounding circles overlap by more than the threshold can.
-                    centre_a, centre_b = world_a[0].mean(axis=1), world_b[0].mean(axis=1)
                     reach = outline_a.radius + outline_b.radius - least
                     near = np.sum((centre_a[:, None] - centre_b[None]) ** 2, axis=2) < reach * abs(reach)
                     i, j = np.nonzero(near & ~table)
@@ -310,7 +344,7 @@ class BlockingProver:
                             turn = np.mod(cells_a.poses[i, 2] + outline_a.phase - cells_b.poses[j, 2] - outline_b.phase,
                                           math.pi / 2)
                             threshold[np.minimum(turn, math.pi / 2 - turn) < PARALLEL] = least
-                        hit = _overlaps(world_a[0][i], world_a[1][i], world_b[0][j], world_b[1][j], threshold)
+                        hit = _pair_overlaps(world_a[0], world_a[1], world_b[0], world_b[1], i, j, threshold)
                         table[i[hit], j[hit]] = True
         self._tables[key] = table
         return table
@@ -424,3 +458,11 @@ class BlockingProver:
                     if not np.array_equal(kept, domains[i]):
                         domains[i], changed = kept, True
         return any(not mask.any() for mask in domains)
+
+
+def warm_up() -> None:
+    """Load the proof's compiled test (from numba's cache, or compile it), as a server does before it forks."""
+    square = np.array([[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]])
+    normals = np.array([[[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]]])
+    index = np.zeros(1, dtype=np.int64)
+    _pair_overlaps(square, normals, square, normals, index, index, np.zeros(1))

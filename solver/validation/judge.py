@@ -219,8 +219,6 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     queries = second_checks = 0
     attempt = None
     attempts: list[Attempt] = []
-    if second_budget and second_seed is None:
-        second_seed = question_seed(chain, fixed)
     levels = MARGIN_LEVELS if margin > 0 else (1,)
     for level in levels:
         # Reaching the required rung means the puzzle was solved at every rung above it: the
@@ -237,6 +235,8 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
             attempt = Attempt(tuple(fixed), level * margin, False, judge=GEOMETRY)
             attempts.append(attempt)
         elif not attempt.solved and second_budget:
+            if second_seed is None:  # (a repr of the chain: not paid where no second judge runs)
+                second_seed = question_seed(chain, fixed)
             attempt = attempt_second(chain, goal, fixed, level * margin, second_budget * scale,
                                      stable_seed(second_seed, level))
             attempts.append(attempt)
