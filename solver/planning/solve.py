@@ -8,9 +8,8 @@ saving a best path into ``solutions/`` is the benchmark's business alone
 too): the same puzzle, planner, budget and run give the same path here, in a benchmark and on any
 machine under any load; the clock is only a backstop against a planner that stops checking
 (:func:`~solver.planning.anytime.backstop_seconds`). (An OMPL planner's ``checks`` may still differ
-between equal runs by the work in flight as the budget ends, its goal sampler filling on a thread of
-its own: RRT* on a two-slider puzzle spent 100,615 or 100,642 of 100,000 in five fresh processes,
-always with the same path.)
+between equal runs as its budget ends, for a cause not yet traced: RRT* on a two-slider puzzle spent
+100,615 or 100,642 of 100,000 in five fresh processes, always with the same path.)
 """
 
 from __future__ import annotations
