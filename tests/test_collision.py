@@ -96,3 +96,25 @@ def test_agrees_with_pybullet_on_random_states():
         scene.close()
     assert 0.2 < ours.mean() < 0.9, "the sample should contain both valid and colliding states"
     assert disagreements == 0
+
+
+@pytest.mark.parametrize("generator", ["lockbox_random", "rooms", "grid_world"])
+def test_one_states_colliding_pairs_are_those_of_the_batch_test(generator):
+    """``colliding_objects`` of one state takes the packed single-state kernel; a batch of several
+    takes the batched one. On random states of a fresh puzzle, with a joint locked and a shrink
+    too, each state alone names the pairs that the same state in a batch of two names."""
+    from solver.pipelines.generation import generate_here
+
+    chain = generate_here(generator, 7407).planning_chain
+    rng = np.random.default_rng(7407)
+    colliding = 0
+    for locked, tolerance in (({}, 1e-6), ({chain.joint_order[-1]: 0.0}, 0.02)):
+        model = CollisionModel(chain, locked, tolerance)
+        lower = np.array([chain.joint(j).lower for j in model.joint_order])
+        upper = np.array([chain.joint(j).upper for j in model.joint_order])
+        states = rng.uniform(lower, upper, size=(150, len(lower)))
+        for state in states:
+            alone = model.colliding_objects(state[None, :])
+            assert alone == model.colliding_objects(np.stack([state, state]))
+            colliding += bool(alone)
+    assert colliding >= 20  # the states do collide: the comparison is not of empty sets alone

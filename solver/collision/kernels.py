@@ -197,13 +197,10 @@ PACKED_HEADER = 5
 per shape, pairs."""
 
 
-@njit(cache=True, nogil=True)
-def state_valid_packed(q, ints, floats):
-    """One state's validity as a bool (the single-state queries' entry point), with the model's
-    arrays packed into two (``CollisionModel._pack``): a call from Python pays for each argument
-    it passes, and this one passes three instead of thirteen.
-    The arrays are views of the packed ones, holding the same numbers: the same verdicts. The
-    fixed links' poses come packed too (:func:`fixed_poses`), computed by the same code once."""
+@njit(inline="always")
+def _unpacked(ints, floats):
+    """The model's arrays as views of the packed ones (``CollisionModel._pack``), holding the same
+    numbers, and a copy of the fixed links' poses (:func:`fixed_poses`, computed by the same code once)."""
     n_links, rows, shapes, k, n_pairs = ints[0], ints[1], ints[2], ints[3], ints[4]
     o = PACKED_HEADER
     kin_int = ints[o:o + rows * 4].reshape((rows, 4))
@@ -227,12 +224,41 @@ def state_valid_packed(q, ints, floats):
     o += shapes * k
     tol = floats[o]
     o += 1
-    # The fixed links' poses, computed once by the model (fixed_poses): only the moving links' are computed here.
     poses = floats[o:o + 5 * n_links].reshape((5, n_links)).copy()
-    centres = np.empty((2, shapes))
+    return (kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+            shape_extent, pairs, tol, poses)
+
+
+@njit(cache=True, nogil=True)
+def state_valid_packed(q, ints, floats):
+    """One state's validity as a bool (the single-state queries' entry point), with the model's
+    arrays packed into two (``CollisionModel._pack``): a call from Python pays for each argument
+    it passes, and this one passes three instead of thirteen.
+    The arrays are views of the packed ones, holding the same numbers: the same verdicts. The
+    fixed links' poses come packed too (:func:`fixed_poses`), computed by the same code once."""
+    (kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+     shape_extent, pairs, tol, poses) = _unpacked(ints, floats)
+    # Only the moving links' poses are computed here.
+    centres = np.empty((2, len(shape_link)))
     return _state_valid(q, kin_int, kin_float, poses[0], poses[1], poses[2], poses[3], poses[4], centres, False,
                         shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent,
                         pairs, tol)
+
+
+@njit(cache=True, nogil=True)
+def pair_hits_packed(q, ints, floats):
+    """:func:`pair_hits` of the one state ``q``, with the model packed as for :func:`state_valid_packed`
+    (a goal sampler asks which pairs collide one state at a time): the same pair test on the same
+    numbers, the same answers."""
+    (kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+     shape_extent, pairs, tol, poses) = _unpacked(ints, floats)
+    x, y, c, s, yaws = poses[0], poses[1], poses[2], poses[3], poses[4]
+    _poses(q, kin_int, kin_float, x, y, c, s, yaws, False)
+    hits = np.zeros(pairs.shape[0], dtype=np.bool_)
+    for p in range(pairs.shape[0]):
+        hits[p] = _pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, shape_link, shape_nv, shape_center,
+                                 shape_radius, shape_verts, shape_normals, shape_extent, tol, tol)
+    return hits
 
 
 @njit(cache=True, nogil=True)

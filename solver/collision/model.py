@@ -247,6 +247,7 @@ class CollisionModel:
         self._pair_columns = np.array([link_columns[shape_link[a]] | link_columns[shape_link[b]] for a, b in pairs],
                                       dtype=np.bool_).reshape(len(pairs), len(self.joint_order))
         self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in pairs]
+        self._pair_names = [tuple(sorted(names)) for names in self._pair_objects]
         self._arguments = self._args()
         self._state_shape = (len(self.joint_order),)
         self._packed_int, self._packed_float = self._pack()
@@ -362,8 +363,14 @@ class CollisionModel:
 
     def colliding_objects(self, states) -> set[tuple[str, str]]:
         """Pairs of object names that collide at any of ``states``."""
-        hits = _kernels.pair_hits(self._as_states(states), *self._arguments)
-        return {tuple(sorted(self._pair_objects[p])) for p in np.flatnonzero(hits)}
+        if type(states) is np.ndarray and states.dtype is _FLOAT64 and states.shape[0] == 1 and \
+                states.shape[1:] == self._state_shape:
+            # One state (a goal sampler's repair step): the packed entry point, three arguments.
+            hits = _kernels.pair_hits_packed(states[0], self._packed_int, self._packed_float)
+        else:
+            hits = _kernels.pair_hits(self._as_states(states), *self._arguments)
+        names = self._pair_names
+        return {names[p] for p in hits.nonzero()[0].tolist()}
 
     def joint_reach(self) -> np.ndarray:
         """Per state joint: how far (metres) a unit of motion can move any collision point.
@@ -427,3 +434,4 @@ def warm_up() -> None:
     model.is_valid(states[0])
     model.check_motion(states[0], states[1] + 1.0, np.full(2, 0.1))
     model.colliding_objects(states)
+    model.colliding_objects(states[:1])
