@@ -36,3 +36,16 @@ def check_workers(workers: int) -> None:
     if not 1 <= workers <= max_workers():
         raise UsageError(f"workers must be a whole number in 1..{max_workers()} ({WORKERS_PER_CORE} per usable "
                          f"core), got {workers}")
+
+
+def check_within(name: str, value, low, high, what: str = "", *, above_low: bool = False) -> None:
+    """Refuse a request's number (None: not given) outside ``low..high`` (``above_low``: above ``low``), the
+    bounds the command line's option type keeps it in; a request built in Python meets them here."""
+    from phyrogen.usage import UsageError
+
+    if value is None:
+        return
+    if not (low < value if above_low else low <= value) or not value <= high:  # NaN fails both
+        low, high = (f"{v:g}" if isinstance(v, float) else str(v) for v in (low, high))
+        bound = f"above {low} and at most {high}" if above_low else f"in {low}..{high}"
+        raise UsageError(f"{name} must be {bound}{what}, got {value!r}")

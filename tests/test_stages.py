@@ -161,6 +161,26 @@ def test_every_stage_is_run_request_to_result_from_the_python_api():
         phyrogen.run(CheckResult("p", "f", 1, False, ()))  # a result is no request
 
 
+@pytest.mark.parametrize(("request_", "expected"), [
+    (BenchmarkRequest(time_limit=-1.0, puzzles="/nonexistent"), "time_limit must be above 0 and at most 86400"),
+    (BenchmarkRequest(runs=10_001, puzzles="/nonexistent"), "runs must be in 1..10000, got 10001"),
+    (ReplanRequest("/nonexistent", budget=0), "budget must be in 1..100000000 collision queries, got 0"),
+    (ManipulateRequest(("/nonexistent",), scale=2.5), "scale must be in 0.05..2 scene metres"),
+    (ImportRequest("/nonexistent.urdf", seed=-1), "seed must be in 0..2147483646, got -1"),
+    (GenerateRequest(workers=0), "workers must be a whole number in 1.."),
+    (AuditRequest("/nonexistent", budget=0), "budget must be a whole number of collision queries"),
+], ids=lambda r: type(r).__name__ if not isinstance(r, str) else "")
+def test_a_stage_keeps_a_python_request_in_the_command_lines_bounds(request_, expected):
+    # The command line's option types keep these in bounds; a request built in Python meets the same bounds
+    # in its stage, before the (missing) folder is even looked at.
+    with pytest.raises(ValueError, match="^" + expected.replace(".", r"\.")):
+        phyrogen.run(request_)
+    # Control: within the bounds the same request goes on, to the missing folder.
+    if isinstance(request_, BenchmarkRequest):
+        with pytest.raises(FileNotFoundError, match="nonexistent"):
+            phyrogen.run(BenchmarkRequest(time_limit=1.0, runs=2, puzzles="/nonexistent"))
+
+
 @pytest.mark.parametrize("request_", [
     CheckRequest("{tmp}/missing"), CertifyRequest("{tmp}/missing", 1000), ExportRequest(("{tmp}/missing",)),
     ReplanRequest("{tmp}/missing"),

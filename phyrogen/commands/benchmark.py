@@ -19,6 +19,7 @@ from phyrogen.options import (
 )
 from phyrogen.ray_options import add_ray_option
 from phyrogen.stages import benchmark
+from phyrogen.stages.benchmark import MAX_RUNS, MAX_TIME_LIMIT
 from phyrogen_core.stage_records.benchmark import BenchmarkRequest
 
 
@@ -115,10 +116,6 @@ def _planners_help() -> str:
             f"in any mix: {listed}")
 
 
-MAX_RUNS = 10_000
-"""``benchmark --runs``: the paper's protocol takes 100 runs per planner and puzzle."""
-MAX_TIME_LIMIT = 24 * 3600.0
-"""``benchmark --time-limit`` in seconds: a day per run; the paper's longest limit is 600 s."""
 
 
 def runs_option(text: str) -> int:

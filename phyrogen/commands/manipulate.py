@@ -8,6 +8,7 @@ import math
 from phyrogen.json_output import add_json_option
 from phyrogen.options import add_quiet_option, path_option
 from phyrogen.stages import manipulate
+from phyrogen.stages.manipulate import MAX_SCENE_SCALE, MIN_SCENE_SCALE
 from phyrogen_core.stage_records.manipulate import ManipulateRequest
 
 
@@ -40,10 +41,6 @@ def run(args) -> int:
     return args.json_result.exit_code
 
 
-MAX_SCENE_SCALE = 2.0
-MIN_SCENE_SCALE = 0.05
-"""``manipulate --scale``: below it every object's 5 cm knob is under 2.5 mm wide, less than the
-gripper closes on (docs/manipulation/README.md#physical-scale); 1e-300 made the physics fail."""
 
 
 def scene_scale_option(text: str) -> float:

@@ -6,10 +6,16 @@ import json
 from collections.abc import Callable
 from pathlib import Path
 
+from phyrogen.options import MAX_BENCHMARK_SEED
 from phyrogen.ray_options import check_ray, ray_connection
-from phyrogen.stage_checks import check_workers
+from phyrogen.stage_checks import check_within, check_workers
 from phyrogen.usage import UsageError, generator_names
 from phyrogen_core.stage_records.benchmark import BenchmarkPlan, BenchmarkRequest, BenchmarkResult
+
+MAX_RUNS = 10_000
+"""``runs``: the paper's protocol takes 100 runs per planner and puzzle."""
+MAX_TIME_LIMIT = 24 * 3600.0
+"""``time_limit`` in seconds: a day per run; the paper's longest limit is 600 s."""
 
 
 def plan(request: BenchmarkRequest) -> BenchmarkPlan:
@@ -40,6 +46,9 @@ def _plan(request: BenchmarkRequest):
     from solver.planning.registry import select_planners
 
     check_workers(request.workers)
+    check_within("runs", request.runs, 1, MAX_RUNS)
+    check_within("time_limit", request.time_limit, 0, MAX_TIME_LIMIT, " seconds", above_low=True)
+    check_within("seed", request.seed, 0, MAX_BENCHMARK_SEED)
     generators = None if request.generator == "all" else generator_names(request.generator)
     try:
         planners = select_planners(request.planners)

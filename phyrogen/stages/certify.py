@@ -3,6 +3,8 @@ path checked at fine resolution as ``phyrogen check`` checks a certificate; noth
 
 from __future__ import annotations
 
+from phyrogen.options import MAX_BENCHMARK_SEED
+from phyrogen.stage_checks import check_within
 from phyrogen_core.stage_records.certify import CertifyRequest, CertifyResult
 
 
@@ -11,6 +13,7 @@ def run(request: CertifyRequest) -> CertifyResult:
     from solver.planning.problem import verify_certificate
     from solver.planning.solve import solve
 
+    check_within("seed", request.seed, 0, MAX_BENCHMARK_SEED)
     loaded = read_puzzle_dir(request.folder)
     found = solve(loaded, request.planner, request.budget_checks, request.run, request.seed)
     problems = verify_certificate(loaded.chain, found.path, loaded.goal, start=loaded.start) if found.solved else ()

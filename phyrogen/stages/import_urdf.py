@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from phyrogen.options import MAX_BENCHMARK_SEED
+from phyrogen.stage_checks import check_within
 from phyrogen_core.stage_records.import_urdf import ImportRequest, ImportResult
 
 
@@ -13,8 +15,10 @@ def run(request: ImportRequest, *, on_note: Callable[[str], None] | None = None)
     from phyrogen_core.export import write_puzzle
     from phyrogen_core.folder import require_writable_dir
     from phyrogen_core.urdf_import import import_urdf
-    from solver.pipelines.importing import IMPORT_BUDGET, certify_imported, versions
+    from solver.pipelines.importing import IMPORT_BUDGET, MAX_IMPORT_BUDGET, certify_imported, versions
 
+    check_within("budget", request.budget, 1, MAX_IMPORT_BUDGET, " collision queries")
+    check_within("seed", request.seed, 0, MAX_BENCHMARK_SEED)
     out = require_writable_dir(request.out)  # an unusable out is found before any work
     goal = None if request.goal is None else list(request.goal)
     imported = import_urdf(request.urdf, target=request.target, goal=goal, name=request.name)

@@ -6,8 +6,14 @@ import dataclasses
 import os
 from pathlib import Path
 
+from phyrogen.stage_checks import check_within
 from phyrogen_core.stage_records.base import RecordError
 from phyrogen_core.stage_records.manipulate import ManipulateRequest, ManipulateResult, ManipulationOutcome
+
+MAX_SCENE_SCALE = 2.0
+MIN_SCENE_SCALE = 0.05
+"""``scale``: below it every object's 5 cm knob is under 2.5 mm wide, less than the gripper closes on
+(docs/manipulation/README.md#physical-scale); 1e-300 made the physics fail."""
 
 
 def run(request: ManipulateRequest) -> ManipulateResult:
@@ -16,6 +22,7 @@ def run(request: ManipulateRequest) -> ManipulateResult:
     from manipulation.execution import ExecutionSettings
     from phyrogen_core.folder import PuzzleFolder, find_in_paths
 
+    check_within("scale", request.scale, MIN_SCENE_SCALE, MAX_SCENE_SCALE, " scene metres per puzzle metre")
     folders = [f.path if isinstance(f, PuzzleFolder) else f for f in find_in_paths(list(request.folders))]
     runs = benchmark_runs(Path(request.benchmark), folders) if request.benchmark else None
     out = Path(request.out)

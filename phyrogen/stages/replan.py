@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from phyrogen.options import MAX_BENCHMARK_SEED
+from phyrogen.stage_checks import check_within
 from phyrogen_core.stage_records.replan import ReplanRequest, ReplanResult
 
 PLANNER_TITLES = {"rrt_connect": "RRT-Connect", "la_rrt_push": "LA-RRT+push"}
@@ -13,8 +15,16 @@ def run(request: ReplanRequest) -> ReplanResult:
     """Find a new certificate and store it in the folder's puzzle.json; not solved within the budget, the
     folder is left as it was."""
     from phyrogen_core.export import read_puzzle_dir
-    from solver.pipelines.replanning import REPLAN_BUDGET, check_replan_folder, replan, write_replanned
+    from solver.pipelines.replanning import (
+        MAX_REPLAN_BUDGET,
+        REPLAN_BUDGET,
+        check_replan_folder,
+        replan,
+        write_replanned,
+    )
 
+    check_within("budget", request.budget, 1, MAX_REPLAN_BUDGET, " collision queries")
+    check_within("seed", request.seed, 0, MAX_BENCHMARK_SEED)
     folder = Path(request.folder)
     loaded = read_puzzle_dir(folder)  # bad input is found before any work
     check_replan_folder(folder, loaded.name)
