@@ -147,8 +147,8 @@ def test_robot_executes_a_simple_slider_end_to_end(tmp_path):
     assert report.target_at_goal
     assert report.max_penetration <= 0.002
     out = write_outputs(tmp_path / "out", report, recording, setup, video=False)
-    # The default solution source: a short benchmark's best LA-RRT path (the folder had none).
-    assert report.solution.startswith("benchmark best: LA-RRT run "), report.solution
+    # The default solution source: a run of the in-memory LA-RRT solve (the folder had no best file).
+    assert report.solution.startswith("benchmark: LA-RRT run "), report.solution
     assert report.actions == count_actions(puzzle.certificate, puzzle.planning_chain.factors)
     expected = [f"frame_{i}.png" for i in range(1, 5)] + [f"grip_{i}.png" for i in range(1, report.actions + 1)]
     assert sorted(p.name for p in (out / "frames").iterdir()) == sorted(expected)
