@@ -140,7 +140,7 @@ class Recording:
     fingers: list[np.ndarray] = field(default_factory=list)
     """The gripper's two finger joints (0 open)."""
     holding: list[bool] = field(default_factory=list)
-    """Whether both fingers held the handle (the object bound to the tool)."""
+    """Whether the fingers held the handle (a grip, neither slipped nor lost)."""
 
 
 @dataclass(frozen=True)
