@@ -32,31 +32,37 @@ OUTCOME = ManipulationOutcome("rooms_7", "/tmp/m/rooms_7", "rooms", 7, 0.5, "cer
                               20.0, 30.0, 0.0, 0.001, "ok", ({"solution": "certificate", "actions": 4},), None)
 VALID = [
     CheckRequest("out/rooms/rooms_7"),
-    CheckResult("rooms_7", "out/rooms/rooms_7", 17, False, ()),
+    CheckResult(puzzle="rooms_7", folder="out/rooms/rooms_7", states=17, edited=False, problems=()),
     GenerateRequest("rooms", seeds="3-5", overrides=("n_objects=3",)),
-    GenerateResult((GeneratedPuzzle("rooms", 3, 3, 5, 1.25, "out/rooms/rooms_3", None),
-                    GeneratedPuzzle("rooms", 4, 0, 0, 0.5, None, "GenerationError: no room")), 1, 1, 2.0),
+    GenerateResult(puzzles=(GeneratedPuzzle("rooms", 3, 3, 5, 1.25, "out/rooms/rooms_3", None),
+                            GeneratedPuzzle("rooms", 4, 0, 0, 0.5, None, "GenerationError: no room")),
+                   ok=1, failed=1, wall_seconds=2.0),
     CertifyRequest("out/rooms/rooms_7", 100000, "la_rrt", run=2),
     CertifyResult("rooms_7", "la_rrt", "LA-RRT", 2, 100000, True, 100205, "budget", ("a", "b"),
-                  ((0.0, 0.0), (0.5, -0.25)), 1, ()),
+                  ((0.0, 0.0), (0.5, -0.25)), 1, problems=()),
     ReplanRequest("out/rooms/rooms_7", 5000, 3),
-    ReplanResult("rooms_7", "out/rooms/rooms_7", True, 5000, 3, "RRT-Connect", 812, 17, 3, ()),
+    ReplanResult(puzzle="rooms_7", folder="out/rooms/rooms_7", solved=True, budget=5000, seed=3, planner="RRT-Connect",
+                 queries=812, states=17, dependencies=3, notices=()),
     ExportRequest(("out",)),
-    ExportResult(("out/rooms/rooms_7/mjcf/rooms_7.xml",)),
+    ExportResult(files=("out/rooms/rooms_7/mjcf/rooms_7.xml",)),
     ImportRequest("drawer.urdf", goal=(0.25,), target="drawer_joint"),
-    ImportResult("drawer", True, "out/imported/drawer", 100000, 0, 2, 1, 2, "goal link", "drawer", 420, 9, 2,
-                 ("a note",), ()),
+    ImportResult(puzzle="drawer", solved=True, folder="out/imported/drawer", budget=100000, seed=0, movable=2, static=1,
+                 joints=2, goal_source="goal link", target="drawer", queries=420, states=9, actions=2,
+                 notes=("a note",), notices=()),
     BenchmarkRequest(planners="la_rrt", budget_checks=20000, until="first"),
-    BenchmarkResult("out/b", "out/b/benchmark.db", "out/b/results.html", 0, (), SUMMARY),
+    BenchmarkResult(out="out/b", database="out/b/benchmark.db", results_page="out/b/results.html", crashed=0,
+                    unsaved_solutions=(), summary=SUMMARY),
     ManipulateRequest(("out/rooms/rooms_7",), scale=0.5),
-    ManipulateResult("out/m", (OUTCOME,)),
+    ManipulateResult(out="out/m", reports=(OUTCOME,)),
     AuditRequest("out", budget=1000),
-    AuditResult((AuditedPuzzle("rooms_7", "rooms", 7, False, ("box",), ("rooms_7: box is superfluous",)),), 3.5,
-                "out/audit/audit.json", "out/audit/audit.md"),
+    AuditResult(puzzles=(AuditedPuzzle("rooms_7", "rooms", 7, False, ("box",), ("rooms_7: box is superfluous",)),),
+                wall_seconds=3.5, report_json="out/audit/audit.json", report_markdown="out/audit/audit.md"),
     RenderRequest(size="64x48", engine="workbench", animation=False),
-    RenderResult(2, 6, 64, 48, ("workbench",), 4.0, 0, 0.0, "out/index.html", None),
+    RenderResult(puzzles=2, images=6, width=64, height=48, engines=("workbench",), seconds=4.0, animations=0,
+                 animation_seconds=0.0, gallery="out/index.html", error=None),
     DatasetRequest("rooms,grid_world", "out/data", count=100, overrides=("n_objects=3:5",), sweep="zip"),
-    DatasetResult(200, 198, 2, 50, 150, 120.5, 1493.8, "out/data/manifest.parquet"),
+    DatasetResult(entries=200, ok=198, failed=2, generated=50, reused=150, seconds=120.5, puzzles_per_hour=1493.8,
+                  manifest="out/data/manifest.parquet"),
 ]
 """A valid record of every stage's request and result."""
 
@@ -127,12 +133,15 @@ def test_the_valid_controls_are_read_back_unchanged(record):
     (lambda: BenchmarkRequest(time_limit=math.inf), "'time_limit': the non-finite number inf"),
     (lambda: ImportRequest("a.urdf", goal=(0.1, math.nan)), "'goal[1]': the non-finite number nan"),
     (lambda: ExportRequest(()), "'folders' names no folder"),
-    (lambda: CertifyResult("p", "la_rrt", "LA-RRT", 0, 10, True, 10, "solved", ("a",), ((0.0, 1.0),), 1, ()),
+    (lambda: CertifyResult("p", "la_rrt", "LA-RRT", 0, 10, True, 10, "solved", ("a",), ((0.0, 1.0),), 1, problems=()),
      "a path of one value per joint"),
-    (lambda: ReplanResult("p", "f", True, 10, 0, None, None, None, None, ()), "'planner': expected a value"),
-    (lambda: GenerateResult((), -1, 0, 1.0), "'ok' is -1, expected a count"),
-    (lambda: DatasetResult(10, 9, 0, 10, 0, 1.0, 1.0, "m"), "must each add up to 'entries' 10"),
-    (lambda: BenchmarkResult("o", "d", "r", 0, (), {"cells": [{"puzzle": "p"}]}), "cells[0]: missing key 'planner'"),
+    (lambda: ReplanResult(puzzle="p", folder="f", solved=True, budget=10, seed=0, planner=None, queries=None,
+                          states=None, dependencies=None, notices=()), "'planner': expected a value"),
+    (lambda: GenerateResult(puzzles=(), ok=-1, failed=0, wall_seconds=1.0), "'ok' is -1, expected a count"),
+    (lambda: DatasetResult(entries=10, ok=9, failed=0, generated=10, reused=0, seconds=1.0, puzzles_per_hour=1.0,
+                           manifest="m"), "must each add up to 'entries' 10"),
+    (lambda: BenchmarkResult(out="o", database="d", results_page="r", crashed=0, unsaved_solutions=(),
+                             summary={"cells": [{"puzzle": "p"}]}), "cells[0]: missing key 'planner'"),
 ])
 def test_a_record_made_in_python_is_checked_as_one_read_from_data(make, expected):
     with pytest.raises(RecordError) as caught:
@@ -158,7 +167,7 @@ def test_every_stage_is_run_request_to_result_from_the_python_api():
         assert request_type.__module__.startswith("phyrogen_core.stage_records.")
         assert {request_type, result_type} <= {type(record) for record in VALID}  # the reader tests cover both
     with pytest.raises(TypeError, match="no stage's request"):
-        phyrogen.run(CheckResult("p", "f", 1, False, ()))  # a result is no request
+        phyrogen.run(CheckResult(puzzle="p", folder="f", states=1, edited=False, problems=()))  # a result is no request
 
 
 @pytest.mark.parametrize(("request_", "expected"), [

@@ -55,8 +55,8 @@ def run(request: AuditRequest, *, on_start: Callable[[AuditPlan], None] | None =
             reports = write_reports(out, audits, settings, total=len(puzzles))
     if reports is None:  # nothing to audit: the reports say so
         reports = write_reports(out, audits, settings, total=len(puzzles))
-    return AuditResult(tuple(_record(a) for a in audits), round(time.perf_counter() - started, 3), str(reports[0]),
-                       str(reports[1]))
+    return AuditResult(puzzles=tuple(_record(a) for a in audits), wall_seconds=round(time.perf_counter() - started, 3),
+                       report_json=str(reports[0]), report_markdown=str(reports[1]))
 
 
 def _nothing() -> None:

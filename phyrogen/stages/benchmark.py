@@ -35,9 +35,10 @@ def run(request: BenchmarkRequest, *, on_plan: Callable[[BenchmarkPlan], None] |
     with ray_connection(request.ray, request.workers):
         output = run_plan(checked, progress=request.progress, ray=request.ray)
     out = Path(request.out)
-    return BenchmarkResult(str(out), str(output.database), str(out / "results.html"),
-                           sum(1 for r in output.records if r.error), tuple(output.unsaved_solutions),
-                           json.loads((out / "summary.json").read_text(encoding="utf-8")))
+    return BenchmarkResult(out=str(out), database=str(output.database), results_page=str(out / "results.html"),
+                           crashed=sum(1 for r in output.records if r.error),
+                           unsaved_solutions=tuple(output.unsaved_solutions),
+                           summary=json.loads((out / "summary.json").read_text(encoding="utf-8")))
 
 
 def _plan(request: BenchmarkRequest):

@@ -3,9 +3,11 @@ path checked at fine resolution as ``phyrogen check`` checks a certificate; noth
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 from phyrogen.options import MAX_BENCHMARK_SEED
 from phyrogen.stage_checks import check_within
-from phyrogen_core.stage_records.certify import CertifyRequest, CertifyResult
+from phyrogen_core.stage_records.certify import CertifyRequest, CertifyResult, PlannerRun
 
 
 def run(request: CertifyRequest) -> CertifyResult:
@@ -17,5 +19,5 @@ def run(request: CertifyRequest) -> CertifyResult:
     loaded = read_puzzle_dir(request.folder)
     found = solve(loaded, request.planner, request.budget_checks, request.run, request.seed)
     problems = verify_certificate(loaded.chain, found.path, loaded.goal, start=loaded.start) if found.solved else ()
-    return CertifyResult(found.puzzle, found.planner, found.title, found.run, found.budget_checks, found.solved,
-                         found.checks, found.end, found.joint_order, found.path, found.action_cost, tuple(problems))
+    run_fields = {field.name: getattr(found, field.name) for field in fields(PlannerRun)}
+    return CertifyResult(**run_fields, problems=tuple(problems))

@@ -11,5 +11,5 @@ def run(request: CheckRequest) -> CheckResult:
 
     loaded = read_puzzle_dir(request.folder)
     # An edited puzzle (the Blender panel's Export) keeps its old certificate, marked as not verified for it.
-    return CheckResult(loaded.name, request.folder, len(loaded.certificate), not loaded.record.certificate_verified,
-                       tuple(certificate_problems(loaded)))
+    return CheckResult(puzzle=loaded.name, folder=request.folder, states=len(loaded.certificate),
+                       edited=not loaded.record.certificate_verified, problems=tuple(certificate_problems(loaded)))

@@ -53,5 +53,6 @@ def run(request: DatasetRequest, *, on_start: Callable[[int], None] | None = Non
     with ray_connection(request.ray, request.workers):  # (an unreachable cluster is refused before anything is written)
         built = build_dataset(made, root, request.workers, backend=backend, on_row=on_row, on_skip=on_skip,
                               on_shard=on_shard, on_running=running)
-    return DatasetResult(built.entries, built.ok, built.failed, built.generated, built.reused, built.seconds,
-                         built.puzzles_per_hour, str(built.manifest))
+    return DatasetResult(entries=built.entries, ok=built.ok, failed=built.failed, generated=built.generated,
+                         reused=built.reused, seconds=built.seconds, puzzles_per_hour=built.puzzles_per_hour,
+                         manifest=str(built.manifest))

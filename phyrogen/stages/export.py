@@ -28,4 +28,4 @@ def run(request: ExportRequest, *, on_file: Callable[[str], None] | None = None)
         files.append(str(write_mjcf(folder, loaded.chain, loaded.name, loaded.certificate)))
         if on_file is not None:
             on_file(files[-1])
-    return ExportResult(tuple(files))
+    return ExportResult(files=tuple(files))

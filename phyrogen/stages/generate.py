@@ -56,7 +56,8 @@ def run(request: GenerateRequest, *, on_start: Callable[[int], None] | None = No
             on_puzzle(row, report.notices)
         done += 1
         failed += report.error is not None
-    return GenerateResult(tuple(rows), done - failed, failed, round(time.perf_counter() - started, 3))
+    return GenerateResult(puzzles=tuple(rows), ok=done - failed, failed=failed,
+                          wall_seconds=round(time.perf_counter() - started, 3))
 
 
 def _row(report) -> GeneratedPuzzle:

@@ -29,8 +29,8 @@ def run(request: ImportRequest, *, on_note: Callable[[str], None] | None = None)
     found = certify_imported(puzzle, IMPORT_BUDGET if request.budget is None else request.budget, request.seed)
     notices: list[str] = []
     folder = None if found.puzzle is None else str(write_puzzle(found.puzzle, out, versions(), notices))
-    return ImportResult(puzzle.name, found.puzzle is not None, folder, found.budget, request.seed, imported.movable,
-                        len(imported.objects) - imported.movable, len(puzzle.joint_order), imported.goal_source,
-                        puzzle.goal.target, found.queries,
-                        0 if found.puzzle is None else len(found.puzzle.certificate),
-                        found.actions, tuple(imported.notes), tuple(notices))
+    return ImportResult(puzzle=puzzle.name, solved=found.puzzle is not None, folder=folder, budget=found.budget,
+                        seed=request.seed, movable=imported.movable, static=len(imported.objects) - imported.movable,
+                        joints=len(puzzle.joint_order), goal_source=imported.goal_source, target=puzzle.goal.target,
+                        queries=found.queries, states=0 if found.puzzle is None else len(found.puzzle.certificate),
+                        actions=found.actions, notes=tuple(imported.notes), notices=tuple(notices))

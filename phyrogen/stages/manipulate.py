@@ -29,7 +29,7 @@ def run(request: ManipulateRequest) -> ManipulateResult:
     reports = manipulate_folders(folders, out, video=request.video,
                                  table=Path(request.table) if request.table else None, gui=request.gui,
                                  quiet=not request.progress, settings=ExecutionSettings(scale=request.scale), runs=runs)
-    return ManipulateResult(str(out), tuple(_outcome(report, out) for report in reports))
+    return ManipulateResult(out=str(out), reports=tuple(_outcome(report, out) for report in reports))
 
 
 def _outcome(report, out: Path) -> ManipulationOutcome:

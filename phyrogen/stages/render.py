@@ -38,7 +38,7 @@ def run(request: RenderRequest, *, on_start: Callable[[int], None] | None = None
     # a broken one is bad input naming the folder, not a failed render worker.
     folders = check_render_folders(found, writable=size is not None)
     if size is None:
-        return RenderResult(0, 0, 0, 0, (), 0.0, 0, 0.0, str(write_gallery(Path(request.out), views)), None)
+        return _nothing_rendered((0, 0), gallery=str(write_gallery(Path(request.out), views)), error=None)
     if on_start is not None:
         on_start(len(folders))
     try:
@@ -46,10 +46,16 @@ def run(request: RenderRequest, *, on_start: Callable[[int], None] | None = None
                                 on_done=lambda _: on_done() if on_done is not None else None,
                                 animation=request.animation)
     except RenderError as exc:
-        return RenderResult(0, 0, *size, (), 0.0, 0, 0.0, None, str(exc))
-    return RenderResult(len(report.rendered), report.images, *size, tuple(sorted({r.engine for r in report.rendered})),
-                        report.seconds, report.animations, report.animation_seconds,
-                        str(write_gallery(Path(request.out), views)), None)
+        return _nothing_rendered(size, gallery=None, error=str(exc))
+    return RenderResult(puzzles=len(report.rendered), images=report.images, width=size[0], height=size[1],
+                        engines=tuple(sorted({r.engine for r in report.rendered})), seconds=report.seconds,
+                        animations=report.animations, animation_seconds=report.animation_seconds,
+                        gallery=str(write_gallery(Path(request.out), views)), error=None)
+
+
+def _nothing_rendered(size: tuple[int, int], gallery: str | None, error: str | None) -> RenderResult:
+    return RenderResult(puzzles=0, images=0, width=size[0], height=size[1], engines=(), seconds=0.0, animations=0,
+                        animation_seconds=0.0, gallery=gallery, error=error)
 
 
 def _use_blender_binary(text: str) -> None:

@@ -30,8 +30,10 @@ def run(request: ReplanRequest) -> ReplanResult:
     check_replan_folder(folder, loaded.name)
     found = replan(loaded, REPLAN_BUDGET if request.budget is None else request.budget, request.seed)
     if not found.solved:
-        return ReplanResult(loaded.name, str(folder), False, found.budget, request.seed, None, None, None, None, ())
+        return ReplanResult(puzzle=loaded.name, folder=str(folder), solved=False, budget=found.budget,
+                            seed=request.seed, planner=None, queries=None, states=None, dependencies=None, notices=())
     notices: list[str] = []
     write_replanned(folder, loaded, found, notices)
-    return ReplanResult(loaded.name, str(folder), True, found.budget, request.seed, PLANNER_TITLES[found.planner],
-                        found.queries, len(found.certificate), len(found.dependencies), tuple(notices))
+    return ReplanResult(puzzle=loaded.name, folder=str(folder), solved=True, budget=found.budget, seed=request.seed,
+                        planner=PLANNER_TITLES[found.planner], queries=found.queries, states=len(found.certificate),
+                        dependencies=len(found.dependencies), notices=tuple(notices))

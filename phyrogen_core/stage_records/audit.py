@@ -5,15 +5,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .base import Count, Record, StageRequest, StageResult
+from .base import Count, Record, StageResult
+from .shared import FolderRequest
 
 
-@dataclass(frozen=True)
-class AuditRequest(StageRequest):
-    STAGE = "audit"
+class AuditRequest(FolderRequest, stage="audit"):
+    """``folder``: a puzzle folder, or a folder of generated puzzles (all of them)."""
 
-    folder: str
-    """A puzzle folder, or a folder of generated puzzles (all of them)."""
     budget: int | None = None
     """Collision queries per attempt with an object fixed (None: the default, 25 x the Maker's judge budget)."""
     out: str = "output/audit"
@@ -51,15 +49,11 @@ class AuditedPuzzle(Record):
     """One line per failure, naming the object or the certificate."""
 
 
-@dataclass(frozen=True)
-class AuditResult(StageResult):
-    STAGE = "audit"
-
+class AuditResult(StageResult, stage="audit"):
     puzzles: tuple[AuditedPuzzle, ...]
     wall_seconds: float
     report_json: str
     report_markdown: str
 
-    @property
-    def exit_code(self) -> int:
-        return 0 if all(p.ok for p in self.puzzles) else 1
+    def done(self) -> bool:
+        return all(p.ok for p in self.puzzles)

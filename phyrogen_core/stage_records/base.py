@@ -9,7 +9,9 @@ a ``Literal`` of strings, ``X | None``, ``tuple[X, ...]``, another :class:`Recor
 exactly the record's keys: an unknown key is refused as a missing one is.
 
 A request or result of a stage is versioned: its dict also holds the stage's name and the record's
-:attr:`~StageRecord.VERSION`, and a result the exit code the command line gives it.
+:attr:`~StageRecord.VERSION`, and a result the exit code the command line gives it. A stage's record is
+declared as ``class CheckResult(StageResult, stage="check")`` with its fields: the base makes every such
+class (and every shared base of fields) a frozen dataclass, a result's fields keyword-only.
 """
 
 from __future__ import annotations
@@ -22,8 +24,8 @@ import types
 import typing
 from collections.abc import Mapping
 from contextvars import ContextVar
-from dataclasses import fields
-from typing import Any, ClassVar, Literal, NewType, TypeVar
+from dataclasses import dataclass, fields
+from typing import Any, ClassVar, Literal, NewType, TypeVar, dataclass_transform
 
 Count = NewType("Count", int)
 """A whole number, 0 or more."""
@@ -85,12 +87,24 @@ class Record:
 
 class StageRecord(Record):
     """A stage's request or result: its data also holds the stage's name (under :attr:`ENVELOPE`) and
-    :attr:`VERSION`; a reader refuses another stage's record and another version."""
+    :attr:`VERSION`; a reader refuses another stage's record and another version.
+
+    A subclass is made a frozen dataclass as it is declared (a result's fields keyword-only, as
+    :attr:`KEYWORD_ONLY` says), with the stage's name given as the ``stage`` keyword of its class
+    statement; a shared base of fields has none."""
 
     STAGE: ClassVar[str]
     VERSION: ClassVar[int] = 1
     ENVELOPE: ClassVar[str]
     """The key that names the stage: ``request`` for a request, ``command`` for a result."""
+    KEYWORD_ONLY: ClassVar[bool] = False
+
+    def __init_subclass__(cls, stage: str | None = None, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if stage is not None:
+            cls.STAGE = stage
+        if "ENVELOPE" not in cls.__dict__:  # StageRequest and StageResult themselves hold no fields
+            dataclass(frozen=True, kw_only=cls.KEYWORD_ONLY)(cls)
 
     def envelope(self) -> dict[str, Any]:
         return {self.ENVELOPE: self.STAGE, "version": self.VERSION}
@@ -147,22 +161,29 @@ class StageRecord(Record):
 _S = TypeVar("_S", bound=StageRecord)
 
 
+@dataclass_transform(frozen_default=True)
 class StageRequest(StageRecord):
-    """What a stage is asked to do."""
+    """What a stage is asked to do; its fields may be given in order."""
 
     ENVELOPE = "request"
 
 
+@dataclass_transform(frozen_default=True, kw_only_default=True)
 class StageResult(StageRecord):
     """What a stage did; with the command line's ``--json`` it is the one JSON object on stdout, which
     also holds the command's exit code (:attr:`exit_code`, a function of the result)."""
 
     ENVELOPE = "command"
+    KEYWORD_ONLY = True
+
+    def done(self) -> bool:
+        """Everything asked for was done (what that means is each stage's result's to say)."""
+        return True
 
     @property
     def exit_code(self) -> int:
-        """The command's exit status for this result: 0 when everything asked for was done."""
-        return 0
+        """The command's exit status for this result: 0 when everything asked for was done, else 1."""
+        return 0 if self.done() else 1
 
     def envelope(self) -> dict[str, Any]:
         return {**super().envelope(), "exit_code": self.exit_code}

@@ -8,10 +8,7 @@ from typing import Literal
 from .base import Count, JsonObject, Record, RecordError, StageRequest, StageResult, read_value
 
 
-@dataclass(frozen=True)
-class BenchmarkRequest(StageRequest):
-    STAGE = "benchmark"
-
+class BenchmarkRequest(StageRequest, stage="benchmark"):
     puzzles: str = "output"
     """A folder of puzzle folders."""
     generator: str = "all"
@@ -69,11 +66,8 @@ class BenchmarkCell:
     """Median seconds to a first solution over all runs; None when not within the budget (or no estimate)."""
 
 
-@dataclass(frozen=True)
-class BenchmarkResult(StageResult):
+class BenchmarkResult(StageResult, stage="benchmark"):
     """The output's paths and ``summary.json`` whole (its own format, under ``summary``)."""
-
-    STAGE = "benchmark"
 
     out: str
     database: str
@@ -84,9 +78,8 @@ class BenchmarkResult(StageResult):
     """One line per puzzle whose best solution could not be saved."""
     summary: JsonObject
 
-    @property
-    def exit_code(self) -> int:
-        return 1 if self.crashed or self.unsaved_solutions else 0
+    def done(self) -> bool:
+        return not (self.crashed or self.unsaved_solutions)
 
     @property
     def cells(self) -> tuple[BenchmarkCell, ...]:

@@ -4,15 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .base import Count, StageRequest, StageResult
+from .base import Count, Record, StageResult
+from .shared import FolderRequest
 
 
-@dataclass(frozen=True)
-class CertifyRequest(StageRequest):
-    STAGE = "certify"
+class CertifyRequest(FolderRequest, stage="certify"):
+    """``folder``: the puzzle folder (read, never written)."""
 
-    folder: str
-    """The puzzle folder (read, never written)."""
     budget_checks: int
     """Collision checks the run may spend (a motion charged by its length): the same path on any machine."""
     planner: str = "la_rrt_push"
@@ -24,13 +22,13 @@ class CertifyRequest(StageRequest):
 
 
 @dataclass(frozen=True)
-class CertifyResult(StageResult):
-    """The path found (empty when the budget ran out first) and the problems a fine check finds in it."""
-
-    STAGE = "certify"
+class PlannerRun(Record):
+    """One seeded planner run on a puzzle (the solve stage's, :func:`solver.planning.solve.solve`): what
+    identifies it and the path it found."""
 
     puzzle: str
     planner: str
+    """The planner's registry name."""
     title: str
     """The planner's title, as reports print it."""
     run: Count
@@ -38,11 +36,22 @@ class CertifyResult(StageResult):
     solved: bool
     checks: Count
     end: str
-    """Why the run ended: ``solved``, ``budget``, or ``clock`` only when the backstop did."""
+    """Why the run ended (:data:`~solver.planning.anytime.END_REASONS`): ``solved``, ``budget``, or ``clock``
+    only when the backstop did."""
     joint_order: tuple[str, ...]
     path: tuple[tuple[float, ...], ...]
     """States in ``joint_order`` from the start to a goal state; empty when not solved."""
     action_cost: Count | None
+
+    def problem(self) -> str | None:
+        if self.solved != bool(self.path) or any(len(state) != len(self.joint_order) for state in self.path):
+            return "a solved run has a path of one value per joint, an unsolved one none"
+        return None
+
+
+class CertifyResult(PlannerRun, StageResult, stage="certify"):
+    """The path found (empty when the budget ran out first) and the problems a fine check finds in it."""
+
     problems: tuple[str, ...]
     """What the fine check (``phyrogen check``'s) finds wrong with the path; empty when it certifies the puzzle."""
 
@@ -50,11 +59,5 @@ class CertifyResult(StageResult):
     def certified(self) -> bool:
         return self.solved and not self.problems
 
-    @property
-    def exit_code(self) -> int:
-        return 0 if self.certified else 1
-
-    def problem(self) -> str | None:
-        if self.solved != bool(self.path) or any(len(state) != len(self.joint_order) for state in self.path):
-            return "a solved run has a path of one value per joint, an unsolved one none"
-        return None
+    def done(self) -> bool:
+        return self.certified

@@ -2,24 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-from .base import Count, StageRequest, StageResult
-
-
-@dataclass(frozen=True)
-class CheckRequest(StageRequest):
-    STAGE = "check"
-
-    folder: str
-    """The puzzle folder."""
+from .base import Count
+from .shared import FolderRequest, PuzzleResult
 
 
-@dataclass(frozen=True)
-class CheckResult(StageResult):
-    STAGE = "check"
+class CheckRequest(FolderRequest, stage="check"):
+    """``folder``: the puzzle folder."""
 
-    puzzle: str
+
+class CheckResult(PuzzleResult, stage="check"):
     folder: str
     states: Count
     """States of the certificate checked."""
@@ -32,6 +23,5 @@ class CheckResult(StageResult):
     def valid(self) -> bool:
         return not self.problems
 
-    @property
-    def exit_code(self) -> int:
-        return 0 if self.valid else 1
+    def done(self) -> bool:
+        return self.valid

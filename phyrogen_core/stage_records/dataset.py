@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
 from .base import Count, StageRequest, StageResult
 
 
-@dataclass(frozen=True)
-class DatasetRequest(StageRequest):
-    STAGE = "dataset"
-
+class DatasetRequest(StageRequest, stage="dataset"):
     generators: str
     """A name, comma-separated names, or 'all' (the paper's six)."""
     out: str
@@ -35,11 +31,8 @@ class DatasetRequest(StageRequest):
     """Make the puzzles as Ray tasks: 'local' or a cluster's address (None: local worker processes)."""
 
 
-@dataclass(frozen=True)
-class DatasetResult(StageResult):
+class DatasetResult(StageResult, stage="dataset"):
     """Every entry has its manifest row (failed seeds are rows too, so a finished dataset exits 0)."""
-
-    STAGE = "dataset"
 
     entries: Count
     ok: Count

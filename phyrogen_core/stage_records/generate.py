@@ -7,10 +7,7 @@ from dataclasses import dataclass
 from .base import Count, Record, StageRequest, StageResult
 
 
-@dataclass(frozen=True)
-class GenerateRequest(StageRequest):
-    STAGE = "generate"
-
+class GenerateRequest(StageRequest, stage="generate"):
     generators: str | None = None
     """A name, comma-separated names, or 'all' (the paper's six; None is 'all')."""
     suite: str | None = None
@@ -54,19 +51,15 @@ class GeneratedPuzzle(Record):
         return None
 
 
-@dataclass(frozen=True)
-class GenerateResult(StageResult):
-    STAGE = "generate"
-
+class GenerateResult(StageResult, stage="generate"):
     puzzles: tuple[GeneratedPuzzle, ...]
     """Every puzzle's row, in the order asked for (empty when the request kept none)."""
     ok: Count
     failed: Count
     wall_seconds: float
 
-    @property
-    def exit_code(self) -> int:
-        return 1 if self.failed else 0
+    def done(self) -> bool:
+        return not self.failed
 
     def problem(self) -> str | None:
         errors = sum(p.error is not None for p in self.puzzles)

@@ -2,15 +2,11 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from .base import Count, StageRequest
+from .shared import SearchResult
 
-from .base import Count, StageRequest, StageResult
 
-
-@dataclass(frozen=True)
-class ImportRequest(StageRequest):
-    STAGE = "import"
-
+class ImportRequest(StageRequest, stage="import"):
     urdf: str
     out: str = "output"
     """The puzzle goes to ``<out>/imported/<name>``."""
@@ -25,16 +21,9 @@ class ImportRequest(StageRequest):
     seed: int = 0
 
 
-@dataclass(frozen=True)
-class ImportResult(StageResult):
-    STAGE = "import"
-
-    puzzle: str
-    solved: bool
-    """Certified within the budget; else nothing was written."""
+class ImportResult(SearchResult, stage="import"):
     folder: str | None
-    budget: Count
-    seed: int
+    """None when not solved (certified within the budget): then nothing was written."""
     movable: Count
     static: Count
     joints: Count
@@ -46,12 +35,6 @@ class ImportResult(StageResult):
     actions: Count
     notes: tuple[str, ...]
     """What the import assumed of the URDF."""
-    notices: tuple[str, ...]
-    """What writing the folder did beside (old outputs moved away)."""
-
-    @property
-    def exit_code(self) -> int:
-        return 0 if self.solved else 1
 
     def problem(self) -> str | None:
         return None if self.solved == (self.folder is not None) else "a puzzle has a folder exactly when it is solved"

@@ -4,15 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .base import Count, JsonObject, Record, StageRequest, StageResult
+from .base import Count, JsonObject, Record, StageResult
+from .shared import FoldersRequest
 
 
-@dataclass(frozen=True)
-class ManipulateRequest(StageRequest):
-    STAGE = "manipulate"
-
-    folders: tuple[str, ...]
-    """Puzzle folders, or folders of generated puzzles (all of them)."""
+class ManipulateRequest(FoldersRequest, stage="manipulate"):
     out: str = "output/manipulation"
     video: bool = True
     table: str | None = None
@@ -25,9 +21,6 @@ class ManipulateRequest(StageRequest):
     benchmark: str | None = None
     """A benchmark's output folder: every least-cost LA-RRT solution in its journal is tried, then the
     certificate (None: the puzzle's best solution, then the certificate)."""
-
-    def problem(self) -> str | None:
-        return None if self.folders else "'folders' names no folder"
 
 
 @dataclass(frozen=True)
@@ -58,13 +51,9 @@ class ManipulationOutcome(Record):
     """The unplanned contact that stopped the last attempt, if one did."""
 
 
-@dataclass(frozen=True)
-class ManipulateResult(StageResult):
-    STAGE = "manipulate"
-
+class ManipulateResult(StageResult, stage="manipulate"):
     out: str
     reports: tuple[ManipulationOutcome, ...]
 
-    @property
-    def exit_code(self) -> int:
-        return 0 if all(report.success for report in self.reports) else 1
+    def done(self) -> bool:
+        return all(report.success for report in self.reports)

@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
 from .base import Count, StageRequest, StageResult
 
 
-@dataclass(frozen=True)
-class RenderRequest(StageRequest):
-    STAGE = "render"
-
+class RenderRequest(StageRequest, stage="render"):
     out: str = "output"
     """The output folder holding the puzzles; ``index.html`` goes there."""
     engine: Literal["auto", "workbench", "cycles"] = "auto"
@@ -28,11 +24,8 @@ class RenderRequest(StageRequest):
     """Only (re)write ``index.html``."""
 
 
-@dataclass(frozen=True)
-class RenderResult(StageResult):
+class RenderResult(StageResult, stage="render"):
     """What was rendered (nothing with ``gallery_only``) and the gallery written."""
-
-    STAGE = "render"
 
     puzzles: Count
     images: Count
@@ -53,9 +46,8 @@ class RenderResult(StageResult):
     def seconds_per_image(self) -> float:
         return self.seconds / self.images if self.images else 0.0
 
-    @property
-    def exit_code(self) -> int:
-        return 0 if self.error is None else 1
+    def done(self) -> bool:
+        return self.error is None
 
     def problem(self) -> str | None:
         return None if (self.gallery is None) != (self.error is None) else "a render has a gallery or an error"

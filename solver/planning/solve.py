@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from phyrogen_core.stage_records.certify import PlannerRun
 from solver.planning.anytime import backstop_seconds, check_budget_checks
 from solver.planning.goal_sampling import goal_seed
 from solver.planning.registry import PlannerSpec, get_planner, run_seed
@@ -28,27 +29,14 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True)
-class SolvedPath:
+class SolvedPath(PlannerRun):
     """One solve run's outcome: the path (every joint of ``joint_order``; empty when unsolved) and
-    what identifies the run."""
+    what identifies the run (the fields the certify stage's result shares, and these)."""
 
-    puzzle: str
-    planner: str
-    """The planner's registry name."""
-    title: str
-    """Its title, as logs and reports print it."""
     version: str
-    run: int
+    """The planner's version, as the benchmark's journal keys its runs."""
     seed: int
-    budget_checks: int
-    solved: bool
-    joint_order: tuple[str, ...]
-    path: tuple[tuple[float, ...], ...]
-    action_cost: int | None
     length: float | None
-    checks: int
-    end: str
-    """Why the run ended (:data:`~solver.planning.anytime.END_REASONS`): ``clock`` only when the backstop did."""
 
 
 def seeded_plan(spec: PlannerSpec, problem: Problem, seed: int, goal_seed: int, time_limit: float,
@@ -80,7 +68,8 @@ def solve(puzzle: LoadedPuzzle, planner: str, budget_checks: int, run: int = 0, 
     problem = problem_for_chain(puzzle.chain, puzzle.goal)
     result = seeded_plan(spec, problem, seed, goal_seed(puzzle.name, run, base_seed), backstop_seconds(budget_checks),
                          budget_checks=budget_checks)
-    return SolvedPath(puzzle.name, planner, spec.title, spec.version, run, seed, budget_checks, result.solved,
-                      tuple(puzzle.joint_order), chain_path(problem, result.path) if result.solved else (),
-                      result.action_cost if result.solved else None, result.length if result.solved else None,
-                      result.checks, result.end)
+    solved = result.solved
+    return SolvedPath(puzzle.name, planner, spec.title, run, budget_checks, solved, result.checks, result.end,
+                      tuple(puzzle.joint_order), chain_path(problem, result.path) if solved else (),
+                      result.action_cost if solved else None, version=spec.version, seed=seed,
+                      length=result.length if solved else None)
