@@ -209,13 +209,12 @@ def build(seed: int, params: ContinuousSpaceParams) -> MakerInput:
     Design notes: docs/generators.md#continuous-space
     """
     params.validate(seed)
-    return MakerInput(
-        interlock_margin=params.interlock_margin,
+    return kit.paper_input(
+        params,
         objects=Choice(("cuboid",)),
         joints=Choice((Motion.REVOLUTE,)),
         transforms=Uniform((ARC_DEGREES[0], REACH[0]), (ARC_DEGREES[1], REACH[1])),
         n_objects=params.n_objects,
         attach=_attach_for(params),
-        # The target's limits allow only one direction, so the paper's rule needs no draw.
-        goal=kit.target_paper_goal,
+        # (The paper's goal rule: the target's limits allow only one direction, so it needs no draw.)
     )

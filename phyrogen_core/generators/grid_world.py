@@ -51,10 +51,8 @@ class GridWorldParams:
     interlock_margin: float = kit.interlock_margin_parameter()
 
     def validate(self, seed: int) -> None:
-        kit.check_interlock_margin(self)
-        kit.check_object_count(self.n_objects, high=MAX_CUBOIDS,
-                               why=f"generation time grows steeply with the count (25: up to about 40 s of CPU "
-                                   f"time, 30: about 70 s, 50: many minutes; {kit.SIZES_DOC})")
+        kit.check_margin_and_count(self, MAX_CUBOIDS, "25: up to about 40 s of CPU time, 30: about 70 s, 50: "
+                                                      "many minutes")
         kit.check_count("branching", self.branching, 0, MAX_BRANCHING,
                         f"each of at most {MAX_CUBOIDS - 1} turning bars opens at most 3 extra start cells")
         low = min_clearance()
@@ -227,13 +225,12 @@ def build(seed: int, params: GridWorldParams) -> MakerInput:
     Design notes: docs/generators.md#grid-world
     """
     params.validate(seed)
-    return MakerInput(
-        interlock_margin=params.interlock_margin,
+    return kit.paper_input(
+        params,
         objects=Choice(("cuboid",)),
         joints=Choice((Motion.REVOLUTE, Motion.PRISMATIC)),
         transforms=Choice(kit.QUARTER_TURNS),
         n_objects=params.n_objects,
         attach=_attach_for(params),
-        goal=kit.target_paper_goal,
         initial=Draft((), GridState(frozenset({ORIGIN}), (ORIGIN,), params.branching)),
     )

@@ -80,10 +80,28 @@ def check_object_count(n_objects: int, low: int = 1, high: int = MAX_OBJECTS - 1
     check_count("n_objects", n_objects, low, high, why)
 
 
+def check_margin_and_count(params: object, high: int, costs: str) -> None:
+    """:func:`check_interlock_margin`, then ``n_objects`` of ``params`` in 1..``high``, the refusal saying that
+    generation time grows steeply with the count and what sizes near ``high`` cost (``costs``)."""
+    check_interlock_margin(params)
+    check_object_count(params.n_objects, high=high,
+                       why=f"generation time grows steeply with the count ({costs}; {SIZES_DOC})")
+
+
 def check_count(name: str, value: int, low: int, high: int, why: str = "") -> None:
     """Raise :class:`ParameterError` unless ``low <= value <= high``, one line with ``why`` appended."""
     if not low <= value <= high:
         raise ParameterError(f"{name} must lie in {low}..{high}, got {value}" + (f": {why}" if why else ""))
+
+
+def seed_sized(params: object, name: str, from_seed: int, meaning: str) -> int:
+    """The size the field ``name`` of ``params`` asks for: its value, or ``from_seed`` when it is 0 (the paper
+    takes the size from the seed; ``meaning`` says how, e.g. "Seed + 1"). Raises :class:`ParameterError`
+    for a negative value."""
+    value = getattr(params, name)
+    if value < 0:
+        raise ParameterError(f"{name} must be >= 0 (0 means {meaning}), got {value}")
+    return value if value > 0 else from_seed
 
 
 def check_positive(params: object, *names: str) -> None:
@@ -340,6 +358,13 @@ def _oriented_overlap(a: FloorArea, b: FloorArea, tolerance: float) -> bool:
             if min(max(pa), max(pb)) - max(min(pa), min(pb)) <= tolerance:
                 return False
     return True
+
+
+# -- the Maker's input ----------------------------------------------------------------------
+def paper_input(params: object, **items) -> MakerInput:
+    """A generator's Maker input (``items``: its fields) with the parameters' interlock margin and, unless
+    ``goal`` is among ``items``, the paper's goal rule for the target (:func:`target_paper_goal`)."""
+    return MakerInput(interlock_margin=params.interlock_margin, **{"goal": target_paper_goal, **items})
 
 
 # -- goals --------------------------------------------------------------------------------

@@ -45,10 +45,7 @@ class LockboxRandomParams:
     interlock_margin: float = kit.interlock_margin_parameter()
 
     def validate(self, seed: int) -> None:
-        kit.check_interlock_margin(self)
-        kit.check_object_count(self.n_objects, high=MAX_PARTS,
-                               why=f"generation time grows steeply with the count (19: up to about 1 min of CPU "
-                                   f"time, 25: about 2 min; {kit.SIZES_DOC})")
+        kit.check_margin_and_count(self, MAX_PARTS, "19: up to about 1 min of CPU time, 25: about 2 min")
         # Larger discs also cost time: every turn sweeps a longer rim past the validator's checks.
         if not MIN_RADIUS <= self.max_radius <= MAX_RADIUS:
             raise ParameterError(
@@ -201,12 +198,11 @@ def build(seed: int, params: LockboxRandomParams) -> MakerInput:
     Design notes: docs/generators.md#lockbox-random
     """
     params.validate(seed)
-    return MakerInput(
-        interlock_margin=params.interlock_margin,
+    return kit.paper_input(
+        params,
         objects=InfiniteSequence((CUBOID, DISK)),
         joints=InfiniteSequence((Motion.PRISMATIC, Motion.REVOLUTE)),
         transforms=Choice(kit.QUARTER_TURNS),
         n_objects=params.n_objects,
         attach=_attach_for(params),
-        goal=kit.target_paper_goal,
     )

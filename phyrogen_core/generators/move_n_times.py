@@ -97,13 +97,11 @@ class MoveNTimesParams:
     interlock_margin: float = kit.interlock_margin_parameter()
 
     def moves(self, seed: int) -> int:
-        return self.n if self.n > 0 else seed
+        return kit.seed_sized(self, "n", seed, "n = Seed")
 
     def validate(self, seed: int) -> None:
         kit.check_interlock_margin(self)
         kit.check_between(self, "clearance", 0.0, MAX_DOOR_CLEARANCE, "the door must stay at least 0.05 thick")
-        if self.n < 0:
-            raise ParameterError(f"n must be >= 0 (0 means n = Seed), got {self.n}")
         moves = self.moves(seed)
         if moves > MAX_N:
             raise ParameterError(

@@ -37,12 +37,10 @@ class SimpleSliderParams:
     interlock_margin: float = kit.interlock_margin_parameter()
 
     def count(self, seed: int) -> int:
-        return self.n_objects if self.n_objects > 0 else seed + 1
+        return kit.seed_sized(self, "n_objects", seed + 1, "Seed + 1")
 
     def validate(self, seed: int) -> None:
         kit.check_interlock_margin(self)
-        if self.n_objects < 0:
-            raise ParameterError(f"n_objects must be >= 0 (0 means Seed + 1), got {self.n_objects}")
         count = self.count(seed)
         if count > MAX_SLIDERS:
             raise ParameterError(
@@ -167,12 +165,11 @@ def build(seed: int, params: SimpleSliderParams) -> MakerInput:
     Design notes: docs/generators.md#simple-slider
     """
     params.validate(seed)
-    return MakerInput(
-        interlock_margin=params.interlock_margin,
+    return kit.paper_input(
+        params,
         objects=Choice(("t_slider",)),
         joints=Choice((Motion.PRISMATIC,)),
         transforms=Choice(kit.HALF_TURNS),
         n_objects=params.count(seed),
         attach=_attach_for(params, params.count(seed)),
-        goal=kit.target_paper_goal,
     )
