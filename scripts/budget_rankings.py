@@ -25,8 +25,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from solver.benchmark.journal import JournalFormatError  # noqa: E402
-from solver.benchmark.runner import JOURNAL, RunRecord, read_journal  # noqa: E402
+from solver.benchmark.jobs import RunRecord  # noqa: E402
+from solver.benchmark.journal import JOURNAL, JournalFormatError, read_journal  # noqa: E402
 from solver.benchmark.statistics import wilson_interval  # noqa: E402
 from solver.planning.registry import PLANNERS  # noqa: E402
 

@@ -239,7 +239,7 @@ def measured_sizes(sizes: dict[str, int]) -> list[tuple[str, dict[str, str], boo
 def table_rows(bench: Path, sizes: dict[str, int]) -> tuple[list[str], float, list[str]]:
     """The Markdown rows of the measured suite in ``bench`` (one benchmark folder per generator), the CPU
     seconds of its runs and warnings (crashed runs left out, clock-ended runs)."""
-    from solver.benchmark.runner import read_journal
+    from solver.benchmark.journal import read_journal
     from solver.planning.registry import get_planner
 
     rows = ["| generator | parameters | budget (checks) | entry | solved / runs | success rate [95 % Wilson] "

@@ -23,9 +23,10 @@ import tempfile
 from pathlib import Path
 
 from phyrogen_core.atomic_writes import OutputError
+from solver.benchmark.journal import read_journal
+from solver.benchmark.ompl_log import build_database, write_log
 from solver.benchmark.plots import summary_json, summary_markdown, summary_rows
 from solver.benchmark.results_page import write_results_page
-from solver.benchmark.runner import build_database, read_journal, write_log
 from solver.planning.registry import PLANNERS
 
 

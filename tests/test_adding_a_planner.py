@@ -130,8 +130,10 @@ def test_it_runs_in_a_benchmark_and_is_scored_like_the_others(with_example, slid
 
     from phyrogen_core.actions import count_actions
     from phyrogen_core.export import read_puzzle_dir
+    from solver.benchmark.journal import JOURNAL, read_journal
     from solver.benchmark.plots import summary_rows
-    from solver.benchmark.runner import JOURNAL, get_profile, read_journal, run_benchmark
+    from solver.benchmark.profiles import get_profile
+    from solver.benchmark.runner import run_benchmark
 
     # A check budget, not seconds: what the runs find does not depend on the machine's load.
     out = run_benchmark(slider_folder, ["la_rrt_push", NAME], get_profile("quick", runs=2, time_limit=120.0),

@@ -11,6 +11,9 @@ import pytest
 
 from phyrogen_core.folder import PuzzleFolder
 from phyrogen_core.folder_layout import BEST_SOLUTION
+from solver.benchmark.jobs import RunRecord, make_jobs
+from solver.benchmark.journal import journal_line, parse_journal_line, run_key
+from solver.benchmark.ompl_log import build_database, write_log
 from solver.benchmark.plots import (
     COLORS,
     PLANNER_ORDER,
@@ -20,18 +23,8 @@ from solver.benchmark.plots import (
     summary_markdown,
     summary_rows,
 )
-from solver.benchmark.runner import (
-    PAPER_TIME_LIMITS,
-    RunRecord,
-    build_database,
-    estimate_seconds,
-    get_profile,
-    journal_line,
-    make_jobs,
-    parse_journal_line,
-    run_key,
-    write_log,
-)
+from solver.benchmark.profiles import PAPER_TIME_LIMITS, get_profile
+from solver.benchmark.runner import estimate_seconds
 from solver.planning.registry import PLANNERS, default_planners
 
 
@@ -233,7 +226,8 @@ def test_benchmark_end_to_end(tmp_path):
 def test_a_benchmark_until_first_stops_every_run_at_its_first_solution(tmp_path):
     from phyrogen_core.export import write_puzzle
     from phyrogen_core.folder import find_puzzle_folders
-    from solver.benchmark.runner import JOURNAL, read_journal, run_benchmark
+    from solver.benchmark.journal import JOURNAL, read_journal
+    from solver.benchmark.runner import run_benchmark
     from solver.pipelines.generation import generate_puzzle, versions
 
     write_puzzle(generate_puzzle("move_n_times", 1), tmp_path / "puzzles", versions())

@@ -23,7 +23,8 @@ def _script():
 
 def _journal(folder: Path, outcomes: dict[str, list[tuple[bool, str, int, float]]]) -> Path:
     """A journal of runs on grid_world_1: per planner name, (solved, end, checks, cpu seconds) per run."""
-    from solver.benchmark.runner import JOURNAL, RunRecord, journal_line
+    from solver.benchmark.jobs import RunRecord
+    from solver.benchmark.journal import JOURNAL, journal_line
     from solver.planning.registry import get_planner
 
     folder.mkdir(parents=True)
@@ -63,7 +64,7 @@ def test_the_rankings_side_by_side_count_a_clock_ended_run_apart(tmp_path):
 
 def test_a_cpu_budget_matches_a_check_budget_at_the_median_rate(tmp_path):
     script = _script()
-    from solver.benchmark.runner import RunRecord
+    from solver.benchmark.jobs import RunRecord
 
     spent = ((100, 1.0), (300, 1.0), (200, 1.0))
     runs = [RunRecord("BIT*", "rooms_1", k, k, 1.0, False, "Timeout", 1.0, None, None, None, 1, 0, (),

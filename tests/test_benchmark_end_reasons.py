@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from phyrogen.cli import main
-from solver.benchmark.runner import JOURNAL
+from solver.benchmark.journal import JOURNAL
 
 PLANNERS = "la_rrt,la_rrt_push,rrt_star,lbt_rrt,bit_star"
 BUDGET = "60000"
@@ -155,7 +155,7 @@ def test_a_bad_cpu_budget_is_refused_with_one_line(puzzles, tmp_path, capsys, ex
 def test_the_backstop_of_a_budget_is_derived_from_it_unless_a_time_limit_is_given():
     from solver.benchmark.difficulty import BACKSTOP_SECONDS, backstop_seconds, cpu_backstop_seconds
     from solver.benchmark.paper_budgets import paper_budgets
-    from solver.benchmark.runner import backstop_profile, get_profile
+    from solver.benchmark.profiles import backstop_profile, get_profile
 
     quick = get_profile("quick")
     by_checks = backstop_profile(quick, 10**8)

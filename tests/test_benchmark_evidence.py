@@ -261,8 +261,10 @@ def test_a_paper_budget_is_the_paper_limit_times_the_stated_rate():
 def test_paper_budgets_reach_each_run_and_its_journal_key(tmp_path):
     from phyrogen_core.errors import PuzzleFormatError
     from phyrogen_core.folder import PuzzleFolder
+    from solver.benchmark.jobs import make_jobs
+    from solver.benchmark.journal import run_key
     from solver.benchmark.paper_budgets import paper_budgets
-    from solver.benchmark.runner import budget_for, get_profile, make_jobs, run_key
+    from solver.benchmark.profiles import budget_for, get_profile
 
     puzzles = [PuzzleFolder(Path("/nowhere"), name, generator)
                for name, generator in (("rooms_1", "rooms"), ("lockbox_random_1", "lockbox_random"))]
@@ -322,7 +324,8 @@ def test_a_budget_gets_a_backstop_derived_from_it_unless_a_time_limit_is_given(s
 
 
 def test_checks_to_the_first_solution_survive_the_journal_and_older_records_read_as_none():
-    from solver.benchmark.runner import RunRecord, journal_line, parse_journal_line
+    from solver.benchmark.jobs import RunRecord
+    from solver.benchmark.journal import journal_line, parse_journal_line
 
     record = RunRecord("LA-RRT", "toy_1", 0, 100, 1.0, True, "Exact solution", 1.0, 0.25, 3, 2.5, 20, 0,
                        ((0.0, math.inf, 0), (1.0, 3.0, 20)), checks=5000, cpu_time=0.9, first_solution_checks=1234)

@@ -15,9 +15,10 @@ import pytest
 from phyrogen.cli import main
 from phyrogen_core.seeding import stable_rng
 from solver.benchmark.database import BenchmarkDataError, parse_settings, read_benchmark
+from solver.benchmark.jobs import RunRecord
+from solver.benchmark.ompl_log import build_database, write_log
 from solver.benchmark.plots import benchmark_statistics, summary_markdown, summary_rows
 from solver.benchmark.results_page import RESULTS_PAGE, write_results_page
-from solver.benchmark.runner import RunRecord, build_database, write_log
 from solver.benchmark.statistics import (
     Proportion,
     beta_quantile,

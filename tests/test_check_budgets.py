@@ -28,7 +28,8 @@ def slider_folder(tmp_path_factory):
 
 
 def _outcomes(folders) -> dict[str, tuple]:
-    from solver.benchmark.runner import get_profile, make_jobs, run_all
+    from solver.benchmark.jobs import make_jobs, run_all
+    from solver.benchmark.profiles import get_profile
 
     jobs = make_jobs(folders, list(default_planners()), get_profile("quick", runs=1, time_limit=BACKSTOP),
                      base_seed=3, budget_checks=BUDGET)

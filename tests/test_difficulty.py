@@ -238,7 +238,7 @@ def test_difficulty_runs_are_the_benchmarks_runs(tmp_path, larger):
     # The docstring's claim: run r of the measurement is run r of `phyrogen benchmark --planners bit_star
     # --until first --budget-checks N`, on the generated chain as on the one read back from the folder.
     from phyrogen_core.export import read_puzzle_dir
-    from solver.benchmark.runner import read_journal
+    from solver.benchmark.journal import read_journal
 
     # (Not the smallest slider: every seed solves it in 2 checks, which tests no seeding.)
     folder = write_puzzle(larger, tmp_path / "puzzles")

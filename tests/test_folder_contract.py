@@ -70,7 +70,8 @@ def test_panel_export_after_render_and_benchmark_keeps_their_files(tmp_path):
     from blender_addon.rendering import render_puzzles
     from blender_addon.scene import build_puzzle_folder, read_chain
     from manipulation.source import ShortBenchmark
-    from solver.benchmark.runner import get_profile, run_benchmark
+    from solver.benchmark.profiles import get_profile
+    from solver.benchmark.runner import run_benchmark
     from solver.pipelines.generation import generate_puzzle, versions
 
     root = tmp_path / "out"

@@ -109,7 +109,8 @@ def test_the_search_resumes_only_verdicts_made_at_the_same_budget(tmp_path):
 
 
 def test_the_table_reports_every_entry_on_every_generator_and_counts_clock_ended_runs_apart(tmp_path):
-    from solver.benchmark.runner import RunRecord, journal_line
+    from solver.benchmark.jobs import RunRecord
+    from solver.benchmark.journal import journal_line
     from solver.planning.registry import get_planner
 
     script = _script()

@@ -23,16 +23,10 @@ from phyrogen_core.atomic_writes import OutputError
 from phyrogen_core.errors import PuzzleFormatError
 from phyrogen_core.export import write_puzzle
 from phyrogen_core.folder import find_puzzle_folders
-from solver.benchmark.runner import (
-    JOURNAL,
-    Journal,
-    estimate_seconds,
-    get_profile,
-    make_jobs,
-    plan_benchmark,
-    read_journal,
-    run_benchmark,
-)
+from solver.benchmark.jobs import make_jobs
+from solver.benchmark.journal import JOURNAL, Journal, read_journal
+from solver.benchmark.profiles import get_profile
+from solver.benchmark.runner import estimate_seconds, plan_benchmark, run_benchmark
 
 REPO = Path(__file__).resolve().parents[1]
 QUICK = ["--budget-checks", "5000", "--time-limit", "300", "--runs", "1", "--planners", "la_rrt", "--workers", "1",

@@ -63,7 +63,7 @@ def _run(loaded, path, run: int, planner: str = "LA-RRT") -> BenchmarkRun:
 
 
 def _digest(folder, loaded):
-    from solver.benchmark.runner import puzzle_digest
+    from solver.benchmark.journal import puzzle_digest
 
     return puzzle_digest(PuzzleFolder(folder, loaded.name))
 
@@ -104,7 +104,8 @@ def test_a_costlier_best_file_gives_way_to_cheaper_journal_runs(folder):
 def test_the_command_line_takes_solved_la_rrt_runs_of_this_very_puzzle_from_the_journal(folder, tmp_path):
     from phyrogen.cli import benchmark_runs
     from phyrogen_core.atomic_writes import OutputError
-    from solver.benchmark.runner import RunRecord, journal_line
+    from solver.benchmark.jobs import RunRecord
+    from solver.benchmark.journal import journal_line
 
     loaded = read_puzzle_dir(folder)
     name, digest = loaded.name, _digest(folder, loaded)

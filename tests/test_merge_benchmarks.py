@@ -11,7 +11,8 @@ import merge_benchmarks  # noqa: E402
 
 
 def _line(run: int, solved: bool, seed: int | None = None, checks: int = 1000) -> bytes:
-    from solver.benchmark.runner import RunRecord, journal_line
+    from solver.benchmark.jobs import RunRecord
+    from solver.benchmark.journal import journal_line
 
     seed = 100 + run if seed is None else seed
     key = {"planner": "la_rrt", "planner_version": "v", "puzzle": "toy_1", "puzzle_sha256": "d", "run": run,

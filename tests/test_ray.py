@@ -21,7 +21,7 @@ pytest.importorskip("ray")
 pq = pytest.importorskip("pyarrow.parquet")
 
 from phyrogen.cli import main  # noqa: E402
-from solver.benchmark.runner import JOURNAL, read_journal  # noqa: E402
+from solver.benchmark.journal import JOURNAL, read_journal  # noqa: E402
 from solver.pipelines.dataset import TIMING_COLUMNS  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -59,7 +59,7 @@ def test_paper_time_limits_are_the_papers():
 
 
 def test_benchmark_profiles_read_their_limits_from_the_registry():
-    from solver.benchmark.runner import get_profile
+    from solver.benchmark.profiles import get_profile
 
     for profile in BENCHMARK_PROFILES:
         assert dict(get_profile(profile).time_limits) == benchmark_time_limits(profile)

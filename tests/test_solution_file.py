@@ -129,10 +129,10 @@ def test_an_oversized_file_is_refused_before_it_is_read(tmp_path):
 
 
 def test_the_benchmarks_writer_output_reads_back_byte_for_byte(tmp_path):
-    """What ``solver.benchmark.runner.solution_json`` writes today is exactly this format: the record
+    """What ``solver.benchmark.solutions.solution_json`` writes today is exactly this format: the record
     reads it and writes the same bytes, so the writer can move onto the record unchanged."""
     from phyrogen_core.export import read_puzzle_dir, write_puzzle
-    from solver.benchmark.runner import solution_json
+    from solver.benchmark.solutions import solution_json
     from solver.pipelines.generation import generate_puzzle
 
     loaded = read_puzzle_dir(write_puzzle(generate_puzzle("grid_world", 917), tmp_path / "out"))

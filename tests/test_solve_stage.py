@@ -66,7 +66,8 @@ def test_a_solve_run_finds_the_path_of_the_benchmark_run_of_the_same_index(folde
     """Seeded as the benchmark seeds its run (in a fresh worker process), the in-memory run finds the
     very path that run journals."""
     from phyrogen_core.folder import PuzzleFolder
-    from solver.benchmark.runner import get_profile, run_benchmark
+    from solver.benchmark.profiles import get_profile
+    from solver.benchmark.runner import run_benchmark
     from solver.planning.solve import solve
 
     records = []

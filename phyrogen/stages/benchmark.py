@@ -43,7 +43,8 @@ def run(request: BenchmarkRequest, *, on_plan: Callable[[BenchmarkPlan], None] |
 
 def _plan(request: BenchmarkRequest):
     from phyrogen_core.folder import find_puzzle_folders
-    from solver.benchmark.runner import backstop_profile, get_profile, plan_benchmark
+    from solver.benchmark.profiles import backstop_profile, get_profile
+    from solver.benchmark.runner import plan_benchmark
     from solver.planning.registry import select_planners
 
     check_workers(request.workers)

@@ -49,7 +49,7 @@ def benchmark_runs(benchmark: Path, folders: list[Path]) -> dict[Path, list]:
     from manipulation.solution import BenchmarkRun
     from phyrogen_core.export import read_puzzle_dir
     from phyrogen_core.folder import OutputError, PuzzleFolder
-    from solver.benchmark.runner import JOURNAL, puzzle_digest, read_journal
+    from solver.benchmark.journal import JOURNAL, puzzle_digest, read_journal
     from solver.planning.registry import LA_RRT_PLANNERS
 
     journal = benchmark / JOURNAL

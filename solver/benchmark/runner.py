@@ -56,61 +56,13 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from phyrogen_core.folder import (
-    OutputError,
-    PuzzleFolder,
-    PuzzleFormatError,
-    carry_others,
-    require_stage_folder,
-)
-from solver.benchmark.jobs import _PRELOAD, RunJob, RunRecord, make_jobs, run_all
-from solver.benchmark.journal import (
-    JOURNAL,
-    JOURNAL_FORMAT,
-    Journal,
-    _fsync_dir,
-    journal_line,
-    parse_journal_line,
-    puzzle_digest,
-    read_journal,
-    run_key,
-)
-from solver.benchmark.ompl_log import (
-    ENUMS,
-    PROGRESS_PROPERTIES,
-    RUN_PROPERTIES,
-    STATUS_NAMES,
-    build_database,
-    is_benchmark_log,
-    write_log,
-)
-from solver.benchmark.profiles import (
-    PAPER_TIME_LIMITS,
-    PROFILES,
-    QUICK_TIME_LIMITS,
-    Budget,
-    Profile,
-    backstop_profile,
-    budget_for,
-    check_time_limit,
-    check_workers,
-    get_profile,
-)
-from solver.benchmark.solutions import save_best_solution, solution_json, solution_record
+from phyrogen_core.folder import OutputError, PuzzleFolder, PuzzleFormatError, carry_others, require_stage_folder
+from solver.benchmark.jobs import RunJob, RunRecord, make_jobs, run_all
+from solver.benchmark.journal import JOURNAL, Journal, _fsync_dir, puzzle_digest, read_journal, run_key
+from solver.benchmark.ompl_log import build_database, is_benchmark_log, write_log
+from solver.benchmark.profiles import Budget, Profile, budget_for, check_time_limit, check_workers
+from solver.benchmark.solutions import save_best_solution
 from solver.planning.registry import PLANNERS, get_planner, solution_planners
-
-__all__ = [
-    "DATABASE_TABLES", "ENUMS", "ESTIMATED_CHECKS_PER_SECOND", "JOURNAL", "JOURNAL_FORMAT", "OUTPUT_ENTRIES",
-    "PAPER_TIME_LIMITS", "PROFILES", "PROGRESS_PROPERTIES", "QUICK_TIME_LIMITS", "RUN_PROPERTIES", "STATUS_NAMES",
-    "_PRELOAD", "BenchmarkOutput", "BenchmarkPlan", "Budget", "Journal", "Profile", "RunJob", "RunRecord",
-    "backstop_profile", "budget_for", "build_database", "check_output_folder", "check_time_limit", "check_workers",
-    "estimate_seconds", "get_profile", "is_benchmark_log", "journal_line", "make_jobs", "parse_journal_line",
-    "plan_benchmark", "puzzle_digest", "read_journal", "run_all", "run_benchmark", "run_key", "run_plan",
-    "save_best_solution", "solution_json", "solution_record", "write_log",
-]
-"""Everything the benchmark's modules hold, importable from here as before they were split:
-:mod:`~solver.benchmark.profiles`, :mod:`~solver.benchmark.jobs`, :mod:`~solver.benchmark.ompl_log`,
-:mod:`~solver.benchmark.solutions`, :mod:`~solver.benchmark.journal`."""
 
 OUTPUT_ENTRIES = ("logs", "benchmark.db", "errors.txt", "summary.md", "summary.json", "fig4.png", "results.html")
 """The entries of the output folder that a finished benchmark writes, replacing the old ones (an entry
