@@ -133,6 +133,8 @@ class KinematicChain:
                 "joint": {j.name: j for j in self.joints},
                 "parent_joint": parent_of,
                 "topo": _topological_links(self.root, self.joints),
+                # Asked for in every state conversion (the chain is immutable): sorted once.
+                "order": tuple(sorted(j.name for j in self.joints if j.is_active)),
             },
         )
 
@@ -154,7 +156,7 @@ class KinematicChain:
     @property
     def joint_order(self) -> tuple[str, ...]:
         """Names of the active (non-fixed) joints, sorted: the state-vector order."""
-        return tuple(sorted(j.name for j in self.joints if j.is_active))
+        return self._index["order"]
 
     @property
     def active_joints(self) -> tuple[Joint, ...]:

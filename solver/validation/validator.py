@@ -437,11 +437,12 @@ class OmplValidator:
         # Candidates are screened at the validator's resolution (most parkings fail, and fail
         # fast there); the one kept must hold at fine resolution, as certificates do.
         coarse, fine = model.motion_steps(self.resolution), model.motion_steps(FINE_RESOLUTION)
-        old_path = [dict(zip(old_chain.joint_order, state, strict=True)) for state in self._solved[objects[:prefix]]]
+        old_order, order = old_chain.joint_order, chain.joint_order
+        old_path = [dict(zip(old_order, state, strict=True)) for state in self._solved[objects[:prefix]]]
         for value in _parking_values(chain, new_joints):
             rows = [{**old_path[0], **{j: 0.0 for j in new_joints}}]
             rows += [{**state, **{j: value for j in new_joints}} for state in old_path]
-            path = np.array([[row[j] for j in chain.joint_order] for row in rows])
+            path = np.array([[row[j] for j in order] for row in rows])
             if not goal.is_reached(chain.state_dict(path[-1])):
                 return None
             self.checks += len(path)
