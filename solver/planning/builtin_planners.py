@@ -9,6 +9,7 @@ runs or a version is first asked for, so that building the command line's parser
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING
 
 from solver.planning.registry import Planner, planner
@@ -17,9 +18,29 @@ if TYPE_CHECKING:
     from solver.planning.anytime import PlanResult
 
 
-class _LaRrtBase(Planner):
+class _Imported(Planner):
+    """A planner whose plan function, ``function`` of ``module``, is imported only when it first runs; it
+    is called with the registry's arguments by keyword (each plan function orders its own optional ones),
+    and with :meth:`options`."""
+
+    module = "solver.planning.ompl_planners"
+    function = "plan_rrt_star"
+
+    def options(self) -> dict[str, object]:
+        """The plan function's keyword arguments of this planner's own."""
+        return {}
+
+    def plan(self, problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
+             budget_cpu=None) -> PlanResult:
+        plan = getattr(importlib.import_module(self.module), self.function)
+        return plan(problem, time_limit, seed, progress_interval, until_first=until_first, goal_seed=goal_seed,
+                    budget_checks=budget_checks, budget_cpu=budget_cpu, **self.options())
+
+
+class _LaRrtBase(_Imported):
     """LA-RRT under one of :mod:`solver.planning.la_rrt`'s settings (named by ``which``)."""
 
+    module, function = "solver.planning.la_rrt", "plan_la_rrt"
     which = "paper"
     version = "paper-4"
     saves_solution = True
@@ -30,12 +51,8 @@ class _LaRrtBase(Planner):
         return {"paper": la_rrt.PAPER_SETTINGS, "push": la_rrt.PUSH_SETTINGS,
                 "fixed_order": la_rrt.FIXED_ORDER_SETTINGS, "segment_check": la_rrt.SEGMENT_CHECK_SETTINGS}[self.which]
 
-    def plan(self, problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
-             budget_cpu=None) -> PlanResult:
-        from solver.planning.la_rrt import plan_la_rrt
-
-        return plan_la_rrt(problem, time_limit, seed, progress_interval, self.settings(), until_first=until_first,
-                           goal_seed=goal_seed, title=self.title, budget_checks=budget_checks, budget_cpu=budget_cpu)
+    def options(self) -> dict[str, object]:
+        return {"settings": self.settings(), "title": self.title}
 
 
 @planner
@@ -50,16 +67,10 @@ class LaRrtPush(_LaRrtBase):
     summary = "our LA-RRT with blocker pushes; fewest actions, by path defragmentation"
 
 
-class _OmplBase(Planner):
+class _OmplBase(_Imported):
     """An OMPL planner of :mod:`solver.planning.ompl_planners`, by its plan function's name."""
 
-    function = "plan_rrt_star"
     version, uses_ompl_rng = "ompl-5", True
-
-    def plan(self, *args, **kwargs) -> PlanResult:
-        from solver.planning import ompl_planners
-
-        return getattr(ompl_planners, self.function)(*args, **kwargs)
 
 
 @planner
@@ -69,16 +80,10 @@ class RrtStar(_OmplBase):
 
 
 @planner
-class LbtRrt(Planner):
+class LbtRrt(_Imported):
     name, title, version = "lbt_rrt", "LBT-RRT", "py-4"
+    module, function = "solver.planning.lbt_rrt", "plan_lbt_rrt"
     summary = "LBT-RRT in Python; objects moved per edge, epsilon 0.4"
-
-    def plan(self, problem, time_limit, seed, progress_interval, until_first, goal_seed, budget_checks=None,
-             budget_cpu=None) -> PlanResult:
-        from solver.planning.lbt_rrt import plan_lbt_rrt
-
-        return plan_lbt_rrt(problem, time_limit, seed, progress_interval, until_first=until_first, goal_seed=goal_seed,
-                            budget_checks=budget_checks, budget_cpu=budget_cpu)
 
 
 @planner
