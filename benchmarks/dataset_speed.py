@@ -31,18 +31,13 @@ import tempfile
 import time
 from pathlib import Path
 
+from dataset_sizes import plan
 from machine_load import load_average, measure
 
 ROOT = Path(__file__).resolve().parents[1]
-PLAN = {
-    # generator: (puzzles at --scale 1, settings that keep sizes where the paper ties them to the seed)
-    "grid_world": (200, []),
-    "simple_slider": (60, ["n_objects=4"]),
-    "lockbox_random": (12, []),
-    "rooms": (30, []),
-    "continuous_space": (20, []),
-    "move_n_times": (6, ["n=3"]),
-}
+PLAN = plan({"grid_world": 200, "simple_slider": 60, "lockbox_random": 12, "rooms": 30, "continuous_space": 20,
+             "move_n_times": 6})
+"""Each generator's (puzzles at --scale 1, its size settings)."""
 COMPARED_AWAY = ("generation_seconds", "validation_checks", "content_hash")
 """Manifest columns left out when the two trees' datasets are compared: timings, and what a change to
 ``puzzle.json``'s format or the validator's own bookkeeping moves without changing the puzzle."""

@@ -30,6 +30,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.dataset_sizes import plan  # noqa: E402
 from solver.parallel.ray_pool import LOCAL, ray_instance  # noqa: E402
 from solver.pipelines.dataset import (  # noqa: E402
     TIMING_COLUMNS,
@@ -40,16 +41,9 @@ from solver.pipelines.dataset import (  # noqa: E402
     ray_backend,
 )
 
-# Puzzles per generator at --scale 1 (about 20-40 s per backend on 2 cores), and the settings that
-# keep sizes where the paper ties them to the seed.
-PLAN = {
-    "grid_world": (600, []),
-    "simple_slider": (300, ["n_objects=4"]),
-    "lockbox_random": (40, []),
-    "rooms": (120, []),
-    "continuous_space": (60, []),
-    "move_n_times": (16, ["n=3"]),
-}
+# Puzzles per generator at --scale 1 (about 20-40 s per backend on 2 cores), each with its size settings.
+PLAN = plan({"grid_world": 600, "simple_slider": 300, "lockbox_random": 40, "rooms": 120, "continuous_space": 60,
+             "move_n_times": 16})
 
 
 def manifest_without_timing(root: Path) -> list[dict]:
