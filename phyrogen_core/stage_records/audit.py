@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .base import Count, Record, StageResult
-from .shared import FolderRequest
+from .base import Count, Record
+from .shared import FolderRequest, TimedResult
 
 
 class AuditRequest(FolderRequest, stage="audit"):
@@ -49,9 +49,8 @@ class AuditedPuzzle(Record):
     """One line per failure, naming the object or the certificate."""
 
 
-class AuditResult(StageResult, stage="audit"):
+class AuditResult(TimedResult, stage="audit"):
     puzzles: tuple[AuditedPuzzle, ...]
-    wall_seconds: float
     report_json: str
     report_markdown: str
 

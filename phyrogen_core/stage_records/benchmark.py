@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from .base import Count, JsonObject, Record, RecordError, StageRequest, StageResult, read_value
+from .base import Count, JsonObject, Record, RecordError, StageRequest, read_value
+from .shared import OutputResult
 
 
 class BenchmarkRequest(StageRequest, stage="benchmark"):
@@ -66,10 +67,9 @@ class BenchmarkCell:
     """Median seconds to a first solution over all runs; None when not within the budget (or no estimate)."""
 
 
-class BenchmarkResult(StageResult, stage="benchmark"):
+class BenchmarkResult(OutputResult, stage="benchmark"):
     """The output's paths and ``summary.json`` whole (its own format, under ``summary``)."""
 
-    out: str
     database: str
     results_page: str
     crashed: Count

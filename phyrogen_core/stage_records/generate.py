@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .base import Count, Record, StageRequest, StageResult
+from .base import Count, Record, StageRequest
+from .shared import TimedResult
 
 
 class GenerateRequest(StageRequest, stage="generate"):
@@ -51,12 +52,11 @@ class GeneratedPuzzle(Record):
         return None
 
 
-class GenerateResult(StageResult, stage="generate"):
+class GenerateResult(TimedResult, stage="generate"):
     puzzles: tuple[GeneratedPuzzle, ...]
     """Every puzzle's row, in the order asked for (empty when the request kept none)."""
     ok: Count
     failed: Count
-    wall_seconds: float
 
     def done(self) -> bool:
         return not self.failed

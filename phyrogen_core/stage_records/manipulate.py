@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .base import Count, JsonObject, Record, StageResult
-from .shared import FoldersRequest
+from .base import Count, JsonObject, Record
+from .shared import FoldersRequest, OutputResult
 
 
 class ManipulateRequest(FoldersRequest, stage="manipulate"):
@@ -51,8 +51,7 @@ class ManipulationOutcome(Record):
     """The unplanned contact that stopped the last attempt, if one did."""
 
 
-class ManipulateResult(StageResult, stage="manipulate"):
-    out: str
+class ManipulateResult(OutputResult, stage="manipulate"):
     reports: tuple[ManipulationOutcome, ...]
 
     def done(self) -> bool:

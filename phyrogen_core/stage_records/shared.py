@@ -22,6 +22,20 @@ class FoldersRequest(StageRequest):
         return None if self.folders else "'folders' names no folder"
 
 
+class OutputResult(StageResult):
+    """A result of a stage that wrote into an output folder of its own."""
+
+    out: str
+    """The output folder."""
+
+
+class TimedResult(StageResult):
+    """A result of a stage run over many puzzles, their work timed whole."""
+
+    wall_seconds: float
+    """Wall-clock seconds the puzzles took, from the first started to the last done."""
+
+
 class PuzzleResult(StageResult):
     """A result about one puzzle."""
 
