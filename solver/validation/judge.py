@@ -211,10 +211,11 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     what they were without the proof. At the top rung it spares the first judge's whole failing
     search (most of a Grid World puzzle's time), which would have drawn from ``rng`` (the validator's
     stream, not the Maker's): a later search of the validator that draws from it (RRT-Connect where
-    no certificate extends, the certificate's repair) then draws other numbers than without the
-    proof, and can find another certificate or accept another candidate; every object stays
-    necessary with the same margin (docs/performance.md says how often puzzles changed). Below the
-    top rung the proof is asked only after the first judge failed, so it changes no draw.
+    no certificate extends, the certificate's repair, a later question's first judge) then draws
+    other numbers than without the proof, and can find another certificate, measure another margin
+    or accept another candidate; every verdict is still both judges' or a proof's
+    (docs/performance.md says how often puzzles changed). Below the top rung the proof is asked
+    only after the first judge failed, so it changes no draw.
     """
     queries = second_checks = 0
     attempt = None
