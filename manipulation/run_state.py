@@ -57,6 +57,11 @@ LIFT_MARGIN = 0.01
 """Metres the pads rise above the handle's top when fingers stalled on it are lifted off."""
 OPEN_LIFT_SPEED = 0.1
 """Metres per second of that lift."""
+RELEASE_LIFT_SPEED = 0.2
+"""Metres per second the tool rises as the fingers begin to open on a handle: ten times their slow
+opening, so that a pad still touching the handle slides up it and its friction pulls the handle up
+(which the puzzle's planar joints take) and sideways with at most a tenth of itself (0.05 N of the
+0.5 N contact measured, against a Move N Times target's joint friction of 0.44 N)."""
 
 
 @dataclass(frozen=True)
@@ -208,8 +213,10 @@ class RunState:
 
     def open_gripper(self, held: np.ndarray | None = None) -> None:
         """Release: the fingers open, slowly (:data:`OPEN_SLOW_SPEED`) until neither touches the
-        handle (at most :data:`OPEN_SLOW_STEPS`), then at full speed; fingers that stall on the
-        handle are lifted off its top. The arm holds ``held``, its last command (a loaded arm's PD
+        handle (at most :data:`OPEN_SLOW_STEPS`), then at full speed; while they begin to open on the
+        handle the tool rises straight up off its top (:data:`RELEASE_LIFT_SPEED`), so no pad drags
+        it sideways; fingers that stall on a handle later are lifted off it too.
+        The arm holds ``held``, its last command (a loaded arm's PD
         servos sag off it: commanded where it stood, it let go of the load it carried and shoved the
         handle as the pads opened), or where it stands. ExecutionError if they are not open after
         :data:`OPEN_STEPS`."""
@@ -221,6 +228,13 @@ class RunState:
         slow = bool(handles)
         self.command_fingers(0.0, OPEN_SLOW_SPEED if slow else g.closing_speed)
         lifted = False
+        if slow and any(any(self.fingers_touching(link)) for link in handles):
+            # The tool rises off the handle as the fingers open. Opened in place, a pad on a knob
+            # left a few tens of mrad off square (its contact across the closing direction) dragged
+            # it along at the pad's speed, 16-22 mm into a wall (Move N Times 4 and 9417).
+            lifted = True
+            lift_tool(self.sim, g.grasp_depth + LIFT_MARGIN, RELEASE_LIFT_SPEED, self.settings.follow, self.on_step)
+            q = self.sim.robot_state()
         for step in range(OPEN_STEPS):
             if np.max(self.sim.finger_state()) < 1e-3:
                 break
