@@ -49,8 +49,11 @@ from typing import Protocol
 import numpy as np
 
 from solver.collision.kernels import nearest_l1
+from solver.collision.model import CollisionModel
+from solver.planning._isolated_step import isolated_moves
 from solver.planning.anytime import (
     AnytimeRecorder,
+    CheckCounter,
     Offer,
     PlanResult,
     count_checks,
@@ -91,13 +94,17 @@ class _Tree:
         self.weights = weights
 
     def add(self, state: np.ndarray, parent: int) -> int:
-        if self.size == len(self.states):
-            self.states = np.concatenate([self.states, np.empty_like(self.states)])
-            self.parents = np.concatenate([self.parents, np.empty_like(self.parents)])
+        self.reserve(1)
         self.states[self.size] = state
         self.parents[self.size] = parent
         self.size += 1
         return self.size - 1
+
+    def reserve(self, count: int) -> None:
+        """Room for ``count`` more nodes (a compiled step writes its nodes into the arrays)."""
+        while self.size + count > len(self.states):
+            self.states = np.concatenate([self.states, np.empty_like(self.states)])
+            self.parents = np.concatenate([self.parents, np.empty_like(self.parents)])
 
     def nearest(self, state: np.ndarray) -> int:
         return int(nearest_l1(self.states, self.size, state, self.weights))
@@ -134,6 +141,21 @@ class LaRrt(TreeRun):
         self.iterations = 0
         self.defragment_seconds = 0.0
         self.connections = 0
+        self._compiled_step = self._compiled_step_arguments()
+
+    def _compiled_step_arguments(self) -> tuple | None:
+        """What :func:`~solver.planning._isolated_step.isolated_moves` needs beyond a step's own values, where
+        it makes this run's isolated steps (the model our collision model, counted by a
+        :class:`CheckCounter` or not; no straight-segment check): None where the Python step runs."""
+        if self.settings.extension != "isolate" or self.settings.check_isolated_segment:
+            return None
+        counter = self.model if type(self.model) is CheckCounter else None
+        real = counter._model if counter is not None else self.model
+        if type(real) is not CollisionModel:
+            return None
+        factor_columns, factor_sizes = factor_table(self.columns)
+        return (counter, self.settings.factor_order != "fixed", counter is not None and counter.by_length,
+                factor_columns, factor_sizes, self.steps, *real._arguments, real._pair_columns)
 
     # -- sampling ----------------------------------------------------------
     def _draw(self, lower: np.ndarray, upper: np.ndarray, limit_probability: float) -> np.ndarray:
@@ -282,6 +304,14 @@ class LaRrt(TreeRun):
             return _REACHED, node
         reach = distance <= self.range
         end = target if reach else current + delta * (self.range / distance)
+        if self._compiled_step is not None:
+            tree.reserve(len(self.columns))  # (before the call: it may move the tree's arrays)
+            counter, *arguments = self._compiled_step
+            status, node, tree.size, checks = isolated_moves(self.rng, tree.states, tree.parents, tree.size, node,
+                                                             end, reach, *arguments)
+            if counter is not None:
+                counter.checks += checks
+            return int(status), int(node)
         changed = [f for f, columns in enumerate(self.columns) if np.any(end[columns] != current[columns])]
         if self.settings.check_isolated_segment and len(changed) > 1 and \
                 not self.model.check_motion(current, end, self.steps):
@@ -512,6 +542,15 @@ def la_rrt_within(problem: Problem, budget: int, rng: np.random.Generator,
     return planner.solve(recorder, until_first=True), model.queries
 
 
+def factor_table(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Each factor's state columns as the compiled loops read them: (F, k) padded with -1, and their counts."""
+    factor_sizes = np.array([len(c) for c in columns], dtype=np.int64)
+    factor_columns = np.full((len(columns), max(factor_sizes, default=1)), -1, dtype=np.int64)
+    for f, factor in enumerate(columns):
+        factor_columns[f, :len(factor)] = factor
+    return factor_columns, factor_sizes
+
+
 def _compiled_loop_applies(settings: LaRrtSettings) -> bool:
     """Whether the compiled judge loop runs these settings: staircase extensions, goal roots by
     probability, random factor order. The ablations' switches (fixed order, the isolated segment
@@ -544,10 +583,7 @@ def _compiled_run(planner: LaRrt, recorder: _BudgetRecorder, model: _CountingMod
     from solver.planning import _judge_loop
 
     problem, settings, real = planner.problem, planner.settings, model._model
-    factor_sizes = np.array([len(c) for c in planner.columns], dtype=np.int64)
-    factor_columns = np.full((len(planner.columns), max(factor_sizes)), -1, dtype=np.int64)
-    for f, columns in enumerate(planner.columns):
-        factor_columns[f, :len(columns)] = columns
+    factor_columns, factor_sizes = factor_table(planner.columns)
     names = sorted({name for pair in real._pair_objects for name in pair})
     number = {name: i for i, name in enumerate(names)}
     pair_objects = np.array([(number[a], number[b]) for a, b in real._pair_objects], dtype=np.int64).reshape(-1, 2)
