@@ -101,8 +101,9 @@ def test_agrees_with_pybullet_on_random_states():
 @pytest.mark.parametrize("generator", ["lockbox_random", "rooms", "grid_world"])
 def test_one_states_colliding_pairs_are_those_of_the_batch_test(generator):
     """``colliding_objects`` of one state takes the packed single-state kernel; a batch of several
-    takes the batched one. On random states of a fresh puzzle, with a joint locked and a shrink
-    too, each state alone names the pairs that the same state in a batch of two names."""
+    takes the batched one; ``colliding_objects_each`` a row's pairs for every row at once. On random
+    states of a fresh puzzle, with a joint locked and a shrink too, each state alone names the pairs
+    that the same state in a batch of two names, and that its row names."""
     from solver.pipelines.generation import generate_here
 
     chain = generate_here(generator, 7407).planning_chain
@@ -113,8 +114,10 @@ def test_one_states_colliding_pairs_are_those_of_the_batch_test(generator):
         lower = np.array([chain.joint(j).lower for j in model.joint_order])
         upper = np.array([chain.joint(j).upper for j in model.joint_order])
         states = rng.uniform(lower, upper, size=(150, len(lower)))
-        for state in states:
+        each = model.colliding_objects_each(states)  # (all rows in one call, as a goal sampler's repair asks)
+        for state, in_rows in zip(states, each, strict=True):
             alone = model.colliding_objects(state[None, :])
-            assert alone == model.colliding_objects(np.stack([state, state]))
+            assert alone == model.colliding_objects(np.stack([state, state])) == in_rows
             colliding += bool(alone)
+        assert len({frozenset(pairs) for pairs in each}) > 1  # rows differ: each row is its own state's
     assert colliding >= 20  # the states do collide: the comparison is not of empty sets alone

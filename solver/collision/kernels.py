@@ -262,6 +262,22 @@ def pair_hits_packed(q, ints, floats):
 
 
 @njit(cache=True, nogil=True)
+def pair_hits_rows(states, ints, floats):
+    """:func:`pair_hits_packed` of each row of ``states`` (N, d) in one call: row i of the result is
+    that state's colliding pairs (a goal sampler's repair asks it of all its draws at once)."""
+    (kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+     shape_extent, pairs, tol, poses) = _unpacked(ints, floats)
+    x, y, c, s, yaws = poses[0], poses[1], poses[2], poses[3], poses[4]
+    hits = np.zeros((states.shape[0], pairs.shape[0]), dtype=np.bool_)
+    for i in range(states.shape[0]):
+        _poses(states[i], kin_int, kin_float, x, y, c, s, yaws, False)
+        for p in range(pairs.shape[0]):
+            hits[i, p] = _pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, shape_link, shape_nv, shape_center,
+                                        shape_radius, shape_verts, shape_normals, shape_extent, tol, tol)
+    return hits
+
+
+@njit(cache=True, nogil=True)
 def fixed_poses(q, kin_int, kin_float, n_links):
     """Every link's pose at ``q`` as rows x, y, cos, sin, yaw (N links): the fixed links' entries are
     the same at any state."""

@@ -372,6 +372,13 @@ class CollisionModel:
         names = self._pair_names
         return {names[p] for p in hits.nonzero()[0].tolist()}
 
+    def colliding_objects_each(self, states: np.ndarray) -> list[set[tuple[str, str]]]:
+        """:meth:`colliding_objects` of each row of ``states`` (a C-contiguous float64 (N, d) array), the
+        same pair test in one compiled call: one set of colliding object pairs per state."""
+        names = self._pair_names
+        hits = _kernels.pair_hits_rows(states, self._packed_int, self._packed_float)
+        return [{names[p] for p in row.nonzero()[0].tolist()} for row in hits]
+
     def joint_reach(self) -> np.ndarray:
         """Per state joint: how far (metres) a unit of motion can move any collision point.
 

@@ -55,6 +55,7 @@ from typing import Protocol
 import numpy as np
 
 from phyrogen_core.seeding import stable_seed
+from solver.collision.model import CollisionModel
 from solver.planning.anytime import CheckCounter
 from solver.planning.problem import Problem, problem_factors
 
@@ -240,6 +241,27 @@ class GoalSampler:
             return None
         return self.model.colliding_objects(state[None, :])
 
+    def _conflicts_each(self, draws: np.ndarray) -> list[set[tuple[str, str]]] | None:
+        """:meth:`_conflicts` of each of ``draws`` in turn, or None when the budget ends before the last;
+        on our collision model the states are paid one by one as before, then tested in one compiled call
+        (the same pair test: the same sets)."""
+        counter = self.model if type(self.model) is CheckCounter else None
+        real = counter._model if counter is not None else self.model
+        if type(real) is not CollisionModel:
+            found = []
+            for draw in draws:
+                conflicts = self._conflicts(draw)
+                if conflicts is None:
+                    return None
+                found.append(conflicts)
+            return found
+        for _ in range(len(draws)):
+            if not self._spend(1):
+                return None
+            if counter is not None:
+                counter.checks += 1  # as the counter charges one state's colliding pairs
+        return real.colliding_objects_each(draws)
+
     def _repair(self, state: np.ndarray) -> np.ndarray | None:
         """Min-conflicts repair of an invalid candidate; None when it fails or the budget ends."""
         settings = self.settings
@@ -261,12 +283,9 @@ class GoalSampler:
             valid = self.model.check_prepared(draws)
             if valid.any():
                 return draws[int(np.argmax(valid))]
-            found = []
-            for draw in draws:
-                conflicts = self._conflicts(draw)
-                if conflicts is None:
-                    return None
-                found.append(conflicts)
+            found = self._conflicts_each(draws)
+            if found is None:
+                return None
             best = min(range(len(found)), key=lambda k: len(found[k]))
             if len(found[best]) <= len(pairs):  # sideways moves too: plateaus are common
                 state, pairs = draws[best], found[best]
