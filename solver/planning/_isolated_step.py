@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
-from solver.collision.kernels import motion_collision
+from solver.collision.kernels import _unpacked, motion_collision
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2  # as in solver.planning.la_rrt
 
@@ -37,14 +37,17 @@ def _motion_length(a, b, steps):
 
 @njit(cache=True, nogil=True)
 def isolated_moves(rng, states, parents, size, node, end, reach, random_order, by_length, factor_columns,
-                   factor_sizes, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
-                   shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns):
+                   factor_sizes, steps, ints, floats, pair_columns):
     """The moves of one isolated step from tree node ``node`` to ``end``: each factor that changes, one after
     another (in a random order when ``random_order``, else by factor), added to the tree (``states``,
     ``parents``, ``size`` nodes; room for one node per factor beyond it) only when every move is free.
     Returns (status, last node added or ``node``, the tree's new size, checks): checks as a
     :class:`~solver.planning.anytime.CheckCounter` charges the motions (their length with ``by_length``,
-    else one each); ``reach`` says whether ``end`` is the step's target (reached) or short of it."""
+    else one each); ``reach`` says whether ``end`` is the step's target (reached) or short of it. The
+    collision model comes packed (``CollisionModel._pack``: the same numbers, fewer arguments to pass)."""
+    (kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+     shape_extent, pairs, tol, _) = _unpacked(ints, floats)
+    n_links = ints[0]
     current = states[node]
     n_factors = factor_sizes.shape[0]
     changed = np.empty(n_factors, dtype=np.int64)

@@ -155,7 +155,7 @@ class LaRrt(TreeRun):
             return None
         factor_columns, factor_sizes = factor_table(self.columns)
         return (counter, self.settings.factor_order != "fixed", counter is not None and counter.by_length,
-                factor_columns, factor_sizes, self.steps, *real._arguments, real._pair_columns)
+                factor_columns, factor_sizes, self.steps, real._packed_int, real._packed_float, real._pair_columns)
 
     # -- sampling ----------------------------------------------------------
     def _draw(self, lower: np.ndarray, upper: np.ndarray, limit_probability: float) -> np.ndarray:
@@ -308,7 +308,7 @@ class LaRrt(TreeRun):
             tree.reserve(len(self.columns))  # (before the call: it may move the tree's arrays)
             counter, *arguments = self._compiled_step
             status, node, tree.size, checks = isolated_moves(self.rng, tree.states, tree.parents, tree.size, node,
-                                                             end, reach, *arguments)
+                                                             end, bool(reach), *arguments)
             if counter is not None:
                 counter.checks += checks
             return int(status), int(node)
