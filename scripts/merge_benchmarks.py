@@ -22,12 +22,14 @@ import sys
 import tempfile
 from pathlib import Path
 
-from phyrogen_core.atomic_writes import OutputError
-from solver.benchmark.journal import read_journal
-from solver.benchmark.ompl_log import build_database, write_log
-from solver.benchmark.plots import summary_json, summary_markdown, summary_rows
-from solver.benchmark.results_page import write_results_page
-from solver.planning.registry import PLANNERS
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # this checkout's code, not an installed one
+
+from phyrogen_core.atomic_writes import OutputError  # noqa: E402
+from solver.benchmark.journal import read_journal  # noqa: E402
+from solver.benchmark.ompl_log import build_database, write_log  # noqa: E402
+from solver.benchmark.plots import summary_json, summary_markdown, summary_rows  # noqa: E402
+from solver.benchmark.results_page import write_results_page  # noqa: E402
+from solver.planning.registry import PLANNERS  # noqa: E402
 
 
 def merged_runs(journals: list[Path]) -> dict[tuple[str, str, int], tuple[dict, object]]:
