@@ -21,6 +21,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
 
 from merge_benchmarks import merged_runs  # noqa: E402
+
 from solver.benchmark.journal import JournalFormatError  # noqa: E402
 from solver.benchmark.statistics import wilson_interval  # noqa: E402
 from solver.planning.registry import PLANNERS  # noqa: E402
