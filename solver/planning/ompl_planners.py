@@ -26,7 +26,17 @@ out only valid goal states. The two planners use it differently:
 - RRT* calls ``sampleGoal`` directly for its goal bias (5 % of its samples)
   whenever ``canSample()`` (``maxSampleCount() > 0``) and steers toward the
   state; it reaches the goal by ``isSatisfied``. After the sampler's states
-  run out, the region hands out one of them again.
+  run out, the region hands out one of them again, moved by a hair
+  (:data:`REPEAT_OFFSET`).
+
+No goal sample is the same state as an earlier one. OMPL 2.0.1's nearest-neighbour
+structure (GNAT) orders neighbours at equal distances by the memory address where it
+keeps them, which differs between processes; a goal state handed out again used to put
+a second vertex exactly on the first, and RRT* then checked a varying number of
+zero-length motions between such twins (RRT* on Simple Slider 1: 100,000 or 100,027
+checks, 3,329 or 3,330 iterations, in fresh processes with the same seed). Distinct
+states have no equal distances but by a coincidence of measure zero, so the order, and
+with it the checks, iterations, cost and path, are the same in every process.
 
 OMPL draws from its own global RNG, which must be seeded once in a fresh
 process before the planner is built (see :mod:`solver.benchmark.runner`); the goal
@@ -72,6 +82,11 @@ class ObjectsMovedObjective(ob.OptimizationObjective):
         return ob.Cost(float(moved))
 
 
+REPEAT_OFFSET = 1e-9
+"""A goal state handed out again has each joint the goal leaves free moved by up to this share of its
+range (uniform, within its limits), so that it is never the state it repeats (see the module docstring)."""
+
+
 class SharedGoalRegion(ob.GoalSampleableRegion):
     """The goal region (target joints at their goal values) whose samples are the run's shared
     valid goal states (see the module docstring for how BIT* and RRT* use it)."""
@@ -86,15 +101,29 @@ class SharedGoalRegion(ob.GoalSampleableRegion):
         self._fallback = problem.start.copy()
         for column, value in problem.goal_columns.items():
             self._fallback[column] = value
+        self._free = np.array([c for c in range(len(problem.start)) if c not in problem.goal_columns], dtype=np.int64)
         self.setThreshold(problem.tolerance)
 
     def distanceGoal(self, state) -> float:  # noqa: N802 (OMPL's name)
         return goal_distance(self.problem, state)
 
     def sampleGoal(self, state) -> None:  # noqa: N802
-        values = self.goals.sample(self.rng)
+        values = self.goals.next()
+        if values is None and self.goals.states:
+            values = self._repeat()
         for i, v in enumerate((self._fallback if values is None else values).tolist()):
             state[i] = v
+
+    def _repeat(self) -> np.ndarray:
+        """One of the goal states found, drawn with the run's ``rng``, moved by :data:`REPEAT_OFFSET`."""
+        states = self.goals.states
+        values = states[int(self.rng.integers(len(states)))].copy()
+        free = self._free
+        if len(free):
+            lower, upper = self.problem.lower[free], self.problem.upper[free]
+            moved = values[free] + REPEAT_OFFSET * (upper - lower) * self.rng.uniform(-1.0, 1.0, len(free))
+            values[free] = np.clip(moved, lower, upper)
+        return values
 
     def maxSampleCount(self) -> int:  # noqa: N802
         # The sampler's capacity while it may find more, then what it found: BIT* stops asking
