@@ -7,9 +7,10 @@ saving a best path into ``solutions/`` is the benchmark's business alone
 --budget-checks N`` on the same puzzle is (:func:`seeded_plan`, which the benchmark's workers run
 too): the same puzzle, planner, budget and run give the same path here, in a benchmark and on any
 machine under any load; the clock is only a backstop against a planner that stops checking
-(:func:`~solver.planning.anytime.backstop_seconds`). (An OMPL planner's ``checks`` may still differ
-between equal runs as its budget ends, for a cause not yet traced: RRT* on a two-slider puzzle spent
-100,615 or 100,642 of 100,000 in five fresh processes, always with the same path.)
+(:func:`~solver.planning.anytime.backstop_seconds`). That holds for the OMPL planners too since
+``ompl-6``: before, a goal state handed out again put a second vertex on the first, and OMPL orders
+neighbours at equal distances by memory address, so RRT*'s checks and iterations could differ between
+fresh processes (:mod:`solver.planning.ompl_planners`, ``REPEAT_OFFSET``; tests/test_budget_processes.py).
 """
 
 from __future__ import annotations
