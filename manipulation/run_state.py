@@ -48,6 +48,18 @@ OPEN_SLOW_SPEED = 0.02
 speed): at full speed the last pad to leave a light handle kicked it off its goal."""
 
 
+LINKAGE_STIFFNESS = 2000.0
+"""Newtons per metre between the two fingers' travels while they squeeze (:meth:`RunState.squeeze`):
+the stiffest an explicit force on 50 g fingers stays stable with at 240 steps a second."""
+LINKAGE_DAMPING = 2.0
+"""Newton seconds per metre between the two fingers' speeds while they squeeze."""
+SOLVER_ITERATIONS = 50
+"""PyBullet's default solver iterations a step, while the fingers do not squeeze."""
+SQUEEZE_SOLVER_ITERATIONS = 200
+"""Solver iterations a step while they squeeze: with 50, each finger's motor, solved with the pads'
+contacts, stalled at 71-88 N of its 235 N limit on a blocked handle (87 N whether 235 N or 100 N was
+commanded); with 200 it reaches its limit, and the pads press with it."""
+
 OPEN_SLOW_STEPS = 72
 """Physics steps (0.3 s, 6 mm of each finger) the slow opening lasts at most: a handle pressed on one
 pad follows it as it opens."""
@@ -100,12 +112,16 @@ class RunState:
         self.grip: Grip | None = None
         """The held handle while both fingers hold it and it has not slipped; None otherwise."""
         self.lost: str | None = None
+        """Why the last grip ended while following (a slip, a finger off the handle); None while held."""
         self.off_handle = 0
         """Physics steps in a row a finger has not touched the held handle."""
-        """Why the last grip ended while following (a slip, a finger off the handle); None while held."""
+        self.squeezing: int | None = None
+        """The puzzle link the closed fingers press on with the gripper's force (:meth:`squeeze`), or None."""
 
     def on_step(self) -> None:
         self.steps += 1
+        if self.squeezing is not None:
+            self.squeeze(self.squeezing)
         if self.grip is not None and self.phase == "following":
             self.lost = self.grip_lost(self.grip)
             if self.lost is not None:
@@ -166,12 +182,33 @@ class RunState:
             still = still + 1 if self.finger_speed() < 0.2 * g.closing_speed and self.fingers_hold(link_index) else 0
             if still >= SQUEEZE_STEPS:
                 self.phase = "following"
+                self.squeezing = link_index
+                pb.setPhysicsEngineParameter(numSolverIterations=SQUEEZE_SOLVER_ITERATIONS, physicsClientId=c)
+                self.squeeze(link_index)
                 return True
         self.phase = "holding"
         return False
 
+    def squeeze(self, link_index: int) -> None:
+        """While the closed fingers press on the link: each finger's motor pushes with the gripper's
+        force (with :data:`SQUEEZE_SOLVER_ITERATIONS` it reaches it), and the 2F-85's linkage, which
+        moves both fingers alike, is stood for by a spring and damper on their difference
+        (:data:`LINKAGE_STIFFNESS`, :data:`LINKAGE_DAMPING`), applied as opposite joint forces for the
+        next step (PyBullet clears them after each). Without it two motors at their limit let the
+        fingers slide together along their closing direction, and the handle with them: it moved 5 mm
+        in the fingers at the first pull. A joint force of 235 N in place of the motor flung a 50 g
+        finger through its stop the one step a pad's contact dropped out of the manifold."""
+        c = self.sim.client
+        (q_a, v_a), (q_b, v_b) = (s[:2] for s in pb.getJointStates(self.sim.robot, self.sim.finger_joints,
+                                                                    physicsClientId=c))
+        pull = LINKAGE_STIFFNESS * (q_a - q_b) + LINKAGE_DAMPING * (v_a - v_b)
+        for finger, f in zip(self.sim.finger_joints, (-pull, pull), strict=True):
+            pb.setJointMotorControl2(self.sim.robot, finger, pb.TORQUE_CONTROL, force=f, physicsClientId=c)
+
     def command_fingers(self, target: float, speed: float | None = None) -> None:
         g = self.settings.robot.gripper
+        self.squeezing = None
+        pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=self.sim.client)
         for finger in self.sim.finger_joints:
             pb.setJointMotorControl2(self.sim.robot, finger, pb.POSITION_CONTROL, targetPosition=target,
                                      force=g.grip_force,

@@ -66,9 +66,12 @@ def test_every_generators_handles_fit_the_gripper_at_its_physical_scale():
 
 
 @contextmanager
-def holding(slider, tmp_path):
+def holding(slider, tmp_path, grip_force: float | None = None):
     """Worlds in which the robot has driven to the slider's target and closed its fingers on the
-    handle, the object held by their friction: yields (run, handle's link index)."""
+    handle (with ``grip_force`` per finger, else the datasheet's), the object held by their friction:
+    yields (run, handle's link index)."""
+    from dataclasses import replace
+
     from manipulation.execution import ExecutionSettings, _Run, scene_placement
     from manipulation.following import Trajectory, command
     from manipulation.grasp import grasp_point
@@ -81,6 +84,9 @@ def holding(slider, tmp_path):
 
     loaded = read_puzzle_dir(slider)
     settings = ExecutionSettings(short_benchmark=None)
+    if grip_force is not None:
+        settings = replace(settings, robot=replace(settings.robot,
+                                                   gripper=replace(settings.robot.gripper, grip_force=grip_force)))
     certificate = np.asarray(loaded.certificate, dtype=float)
     placement = scene_placement(loaded, certificate, settings)
     chain = with_masses(scale_chain(loaded.chain, placement.scale), settings.material)
@@ -131,6 +137,33 @@ def test_the_object_is_held_only_while_both_fingers_touch_it(slider, tmp_path):
             pb.stepSimulation(physicsClientId=sim.client)
         assert np.linalg.norm(np.asarray(sim.tool_pose()[0]) - tool_before) > 0.05
         assert np.allclose(sim.puzzle_state(), before, atol=1e-4), (before, sim.puzzle_state())
+
+
+@pytest.mark.parametrize("grip_force", [None, 100.0])
+def test_the_pads_press_with_the_commanded_grip_force(slider, tmp_path, grip_force):
+    """Held still for 0.5 s, each pad presses on the handle with the force its finger is commanded
+    with, within 10 %: the datasheet's 235 N (PyBullet's position motor stalled at 71-88 N there), and,
+    the control, a lower command gives the lower squeeze."""
+    import pybullet as pb
+
+    from manipulation.following import command
+    from manipulation.robot import GripperSpec
+
+    commanded = GripperSpec().grip_force if grip_force is None else grip_force
+    with holding(slider, tmp_path, grip_force) as (run, link):
+        sim = run.sim
+        q = sim.robot_state()
+        pressed = []
+        for _ in range(120):
+            command(sim, q)
+            pb.stepSimulation(physicsClientId=sim.client)
+            run.on_step()
+            pressed.append([sum(p[9] for p in pb.getContactPoints(sim.robot, sim.puzzle, finger, link,
+                                                                  physicsClientId=sim.client))
+                            for finger in sim.finger_joints])
+        assert run.grip is not None and run.lost is None
+        squeeze = np.mean(pressed[60:], axis=0)
+        assert np.all(np.abs(squeeze - commanded) < 0.1 * commanded), (commanded, squeeze)
 
 
 @pytest.mark.parametrize("glued", [False, True])
