@@ -263,3 +263,27 @@ def test_every_module_the_architecture_page_names_exists():
                .replace("`goal_sampling`", "`goal_samples`"))
     assert unknown_names(planted, REPOSITORY) == ["phyrogen_core.folder_sizes", "solver.planning.goal_samples",
                                                   "solver.parallel.tasks.pick_pool"]
+
+
+LONGEST_MODULE = 600
+"""Lines a product module may have: past it a file mixes jobs that a newcomer must read apart."""
+
+
+def long_modules(root: Path) -> list[str]:
+    """The product's Python files (the layers' packages) longer than :data:`LONGEST_MODULE` lines."""
+    found = []
+    for package in LAYERS:
+        for path in sorted((root / package).rglob("*.py")):
+            lines = path.read_text(encoding="utf-8").count("\n")
+            if lines > LONGEST_MODULE:
+                found.append(f"{path.relative_to(root)}: {lines} lines")
+    return found
+
+
+def test_no_product_module_is_longer_than_the_limit(tmp_path):
+    assert not long_modules(REPOSITORY), long_modules(REPOSITORY)
+    # the control: a module one line past the limit is named
+    (tmp_path / "solver").mkdir()
+    (tmp_path / "solver" / "long.py").write_text("x = 1\n" * (LONGEST_MODULE + 1))
+    (tmp_path / "solver" / "short.py").write_text("x = 1\n" * LONGEST_MODULE)
+    assert long_modules(tmp_path) == [f"{Path('solver', 'long.py')}: {LONGEST_MODULE + 1} lines"]

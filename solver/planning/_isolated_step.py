@@ -18,6 +18,8 @@ import numpy as np
 from numba import njit
 
 from solver.collision.kernels import _unpacked, motion_collision
+from solver.collision.model import CollisionModel
+from solver.planning.anytime import CheckCounter
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2  # as in solver.planning.la_rrt
 
@@ -81,3 +83,27 @@ def isolated_moves(rng, states, parents, size, node, end, reach, random_order, b
         node = size
         size += 1
     return (_REACHED if reach else _ADVANCED), node, size, checks
+
+
+def factor_table(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Each factor's state columns as the compiled loops read them: (F, k) padded with -1, and their counts."""
+    factor_sizes = np.array([len(c) for c in columns], dtype=np.int64)
+    factor_columns = np.full((len(columns), max(factor_sizes, default=1)), -1, dtype=np.int64)
+    for f, factor in enumerate(columns):
+        factor_columns[f, :len(factor)] = factor
+    return factor_columns, factor_sizes
+
+
+def step_arguments(settings, model, columns: list[np.ndarray], steps: np.ndarray) -> tuple | None:
+    """What :func:`isolated_moves` needs beyond a step's own values, where it makes a run's isolated
+    steps (the model our collision model, counted by a :class:`CheckCounter` or not; no
+    straight-segment check): None where the Python step runs."""
+    if settings.extension != "isolate" or settings.check_isolated_segment:
+        return None
+    counter = model if type(model) is CheckCounter else None
+    real = counter._model if counter is not None else model
+    if type(real) is not CollisionModel:
+        return None
+    factor_columns, factor_sizes = factor_table(columns)
+    return (counter, settings.factor_order != "fixed", counter is not None and counter.by_length,
+            factor_columns, factor_sizes, steps, real._packed_int, real._packed_float, real._pair_columns)

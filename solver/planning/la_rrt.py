@@ -49,11 +49,9 @@ from typing import Protocol
 import numpy as np
 
 from solver.collision.kernels import nearest_l1
-from solver.collision.model import CollisionModel
-from solver.planning._isolated_step import isolated_moves
+from solver.planning._isolated_step import factor_table, isolated_moves, step_arguments
 from solver.planning.anytime import (
     AnytimeRecorder,
-    CheckCounter,
     Offer,
     PlanResult,
     count_checks,
@@ -144,18 +142,8 @@ class LaRrt(TreeRun):
         self._compiled_step = self._compiled_step_arguments()
 
     def _compiled_step_arguments(self) -> tuple | None:
-        """What :func:`~solver.planning._isolated_step.isolated_moves` needs beyond a step's own values, where
-        it makes this run's isolated steps (the model our collision model, counted by a
-        :class:`CheckCounter` or not; no straight-segment check): None where the Python step runs."""
-        if self.settings.extension != "isolate" or self.settings.check_isolated_segment:
-            return None
-        counter = self.model if type(self.model) is CheckCounter else None
-        real = counter._model if counter is not None else self.model
-        if type(real) is not CollisionModel:
-            return None
-        factor_columns, factor_sizes = factor_table(self.columns)
-        return (counter, self.settings.factor_order != "fixed", counter is not None and counter.by_length,
-                factor_columns, factor_sizes, self.steps, real._packed_int, real._packed_float, real._pair_columns)
+        """What the compiled isolated step needs beyond a step's own values; None where the Python step runs."""
+        return step_arguments(self.settings, self.model, self.columns, self.steps)
 
     # -- sampling ----------------------------------------------------------
     def _draw(self, lower: np.ndarray, upper: np.ndarray, limit_probability: float) -> np.ndarray:
@@ -540,15 +528,6 @@ def la_rrt_within(problem: Problem, budget: int, rng: np.random.Generator,
             and problem.model.is_valid(problem.start) and not in_goal(problem, problem.start):
         return _compiled_run(planner, recorder, model), model.queries
     return planner.solve(recorder, until_first=True), model.queries
-
-
-def factor_table(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Each factor's state columns as the compiled loops read them: (F, k) padded with -1, and their counts."""
-    factor_sizes = np.array([len(c) for c in columns], dtype=np.int64)
-    factor_columns = np.full((len(columns), max(factor_sizes, default=1)), -1, dtype=np.int64)
-    for f, factor in enumerate(columns):
-        factor_columns[f, :len(factor)] = factor
-    return factor_columns, factor_sizes
 
 
 def _compiled_loop_applies(settings: LaRrtSettings) -> bool:
