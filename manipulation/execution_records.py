@@ -48,8 +48,9 @@ class ExecutionSettings:
     material: PuzzleMaterial = PuzzleMaterial()
     """Density and joint friction of the puzzle's pieces (masses from their volume)."""
     short_benchmark: ShortBenchmark | None = ShortBenchmark()
-    """Run this benchmark first on a puzzle with no best solution and no benchmark runs given
-    (:mod:`manipulation.source`); None: execute the certificate then."""
+    """On a puzzle with no best solution and no benchmark runs given, solve it first with these runs,
+    in memory (:func:`manipulation.source.solved_runs`; nothing is written); None: execute the
+    certificate then."""
     check_solutions: bool = True
     """Whether every solution is checked at 2 mm (as ``phyrogen check`` checks a certificate) before
     physics, a refuted one refused (False: each goes to the simulation as it is; the negative controls
