@@ -39,6 +39,7 @@ from solver.planning.problem import (
 )
 from solver.validation.blocking import BlockingProver
 from solver.validation.judge import JUDGE_BUDGET, SECOND_JUDGE_BUDGET, Necessity, judge
+from solver.validation.region_proof import proves as region_proves
 
 DEFAULT_BUDGET = 4000
 """Collision queries (motion checks plus single-state checks) RRT-Connect may spend
@@ -414,7 +415,8 @@ class OmplValidator:
         second = max(1, int(self.second_judge_budget * budget_scale)) if self.second_judge_budget else 0
         objects = tuple(objects)
         prover = self.prover
-        proof = None if prover is None else (lambda shrink: prover.proves(objects, goal, fixed, shrink))
+        proof = None if prover is None else (lambda shrink: region_proves(objects, goal, fixed, shrink) or
+                                             prover.proves(objects, goal, fixed, shrink))
         verdict = judge(self._chain(objects), goal, fixed, margin, int(JUDGE_BUDGET * budget_scale), self.rng,
                         second_budget=second, proof=proof)
         self.checks += verdict.queries + verdict.second_checks

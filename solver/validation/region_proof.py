@@ -1,0 +1,398 @@
+"""A geometric proof that objects held fixed keep a target that moves in the plane from its goal.
+
+:class:`~solver.validation.blocking.BlockingProver` proves necessity for objects that move in one
+joint. A target that moves in x and y (Rooms' robot, Move N Times' cuboid) could be anywhere, so it
+leaves that proof out; :func:`proves` follows a single point of it instead, and over-approximates
+where that point can go:
+
+1. *The point.* ``p`` is the centre of a disk of radius ``r`` inside one collision shape of the
+   target (a box's centre and half its smaller side, a cylinder itself). It moves continuously with
+   the target: ``p = (x0 + x, y0 + y) + R(yaw0 + yaw) p_local``.
+2. *Obstacles.* Only objects that cannot move: fixed, static, held fixed by the question, or with
+   every joint of zero width, at their start pose. Every movable object is left out: removing an
+   obstacle only enlarges the free space, so this can only prove less. Only shapes whose z extent
+   overlaps the disk's shape by more than the judge's tolerance take part (the collision model
+   drops the other pairs).
+3. *Blocked cells.* The plane is cut into square cells. A cell is blocked when its centre ``c`` is
+   within ``r - t - h - REGION_SLACK`` of an obstacle (``t`` the judge's tolerance,
+   :func:`~solver.planning.problem.shrunk_tolerance`; ``h`` the cell's half-diagonal): then every
+   ``p`` in the cell is nearer than ``r - t`` to the obstacle, and the collision model finds the
+   target and the obstacle colliding (see below).
+4. *Reach.* From the start cell, a flood fill through unblocked cells (8-connected). If no cell it
+   reaches meets the box where ``p`` can be with the target at its goal (goal joints within the
+   goal's tolerance plus :data:`~solver.planning.problem.GOAL_SLACK`; a joint the goal does not pin
+   anywhere within its limits), no path the judges accept ends at the goal: the objects held fixed
+   are necessary. Cells are tried coarse first, then halved down to :data:`REGION_CELL`; a finer
+   level searches only the children of the cells the coarser one reached (a cell blocked at a
+   coarse level holds only colliding points, so every way through fine cells runs through reached
+   coarse cells too).
+
+Why ``dist(p, O) < r - t`` is a collision in the judges' model
+(:func:`solver.collision.kernels._pair_collides`): a point ``q`` of the obstacle ``O`` lies within
+``r - t`` of ``p``. For an edge of ``O`` (outward normal ``n``, the obstacle's extent ``e`` along it),
+the target's lowest projection is at most ``n.p - r < n.q - t <= e - t``; for an edge of the target
+(extent ``f >= m.p + r``), the obstacle's lowest projection is at most ``m.q < m.p + r - t <= f - t``;
+so no edge line separates them by the tolerance. The bounding circles (each holds its shape, the
+target's holds the disk) have centres nearer than the sum of their radii less ``t``. A circle against
+a polygon or a circle is the same inequality. So the proof is sound for the kernel's one-sided
+separating-axis test, which finds thin obstacles (Move N Times' 0.08 m door at a 0.08 m tolerance)
+colliding where a shrink would not.
+
+Discrete checks: both judges accept a path only when each of its motions holds at
+:data:`~solver.planning.problem.FINE_RESOLUTION` (no point moves more than that per joint between
+two checked states), so ``p`` moves at most :data:`MAX_JUMP` between two checked states: less than
+a cell, so two consecutive states lie in the same or in neighbouring cells, and a path cannot jump
+over a blocked cell.
+
+The proof may fail to prove a necessary object necessary (the judges then decide), never the other
+way round. Its work is bounded by counts (:data:`MAX_CELLS` per level), it makes no random draws
+and spends no collision query of a judge's budget.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from phyrogen_core.chain import Role, pose_matrix
+from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
+from phyrogen_core.objects import Motion, PuzzleObject
+from phyrogen_core.puzzle import Goal
+from solver.planning.problem import FINE_RESOLUTION, GOAL_SLACK, LOCKED_WIDTH, shrunk_tolerance
+
+REGION_CELL = 0.0075
+"""Metres across a cell at the finest level. Rooms' robot (0.375 m) against a door's 0.2 m gaps at
+the top rung (0.04 shrink, 0.08 tolerance) leaves 0.015 m of slack in all, two cells' half-diagonals."""
+REGION_LEVELS = (6, 3, 0)
+"""The levels of cells tried, coarse to fine, as powers of two times :data:`REGION_CELL`: 0.48, 0.06 and
+0.0075 m across. A coarse level settles roomy puzzles (Move N Times' door at any rung) at little cost;
+the finest one is needed where the slack is a few millimetres (Rooms' doors at the top rung)."""
+MAX_CELLS = 4_000_000
+"""The most cells one level's grid may hold; a larger grid ends the proof (no proof)."""
+REGION_SLACK = 1e-6
+"""Metres taken off every distance that proves a collision: far more than the rounding of the
+model's and the proof's arithmetic at puzzle sizes (about 1e-14 m), so a proven overlap is strictly
+more than the judge's tolerance."""
+Z_SLACK = 1e-9
+"""Metres more than the tolerance by which z extents must overlap for an obstacle to count."""
+MAX_JUMP = 3 * FINE_RESOLUTION
+"""Metres ``p`` may move between two states a judge checks: at most FINE_RESOLUTION along each of x
+and y and as much again by the turn, (sqrt(2) + 1) x FINE_RESOLUTION, rounded up."""
+assert REGION_CELL > MAX_JUMP, "a path could jump over a blocked cell"
+
+
+@dataclass(frozen=True)
+class _Disk:
+    """A disk inside one collision shape of the target: its centre in the target's body frame, its
+    radius and the shape's z extent."""
+
+    centre: tuple[float, float]
+    radius: float
+    z_low: float
+    z_high: float
+
+
+@dataclass(frozen=True)
+class _Obstacles:
+    """World outlines of the shapes that cannot move: convex polygons (padded) and circles."""
+
+    vertices: np.ndarray  # (n, k, 2)
+    counts: np.ndarray  # (n,) vertices of each polygon
+    circles: np.ndarray  # (m, 3) centre x, y and radius
+    z: np.ndarray  # (n + m, 2) z extents, polygons first
+
+
+def _convex_ccw(piece: np.ndarray) -> np.ndarray | None:
+    """The polygon counter-clockwise when it is strictly convex, else None (left out)."""
+    edges = np.roll(piece, -1, axis=0) - piece
+    cross = edges[:, 0] * np.roll(edges[:, 1], -1) - edges[:, 1] * np.roll(edges[:, 0], -1)
+    if np.all(cross > 0):
+        return piece
+    if np.all(cross < 0):
+        return piece[::-1]
+    return None
+
+
+def _shapes(obj: PuzzleObject, frame: tuple[float, float, float]):
+    """(polygons, circles) of the object's modelled collision shapes with its frame at ``frame``
+    (x, y, yaw): polygons as ((k, 2) vertices, z low, z high), circles as (x, y, radius, z low, z high).
+    Shapes the collision model reads differently (tilted) are left out."""
+    x, y, yaw = frame
+    c, s = math.cos(yaw), math.sin(yaw)
+    rotation = np.array([[c, -s], [s, c]])
+    polygons, circles = [], []
+    for geometry in obj.collisions:
+        if not geometry.origin.is_planar:
+            continue
+        matrix = pose_matrix(geometry.origin)
+        local_rotation, offset = matrix[:2, :2], matrix[:2, 3]
+        z = obj.pose.xyz[2] + matrix[2, 3]
+        shape = geometry.shape
+        if isinstance(shape, Cylinder):
+            centre = rotation @ offset + (x, y)
+            circles.append((float(centre[0]), float(centre[1]), shape.radius, z - shape.length / 2,
+                            z + shape.length / 2))
+            continue
+        if isinstance(shape, Box):
+            hx, hy = shape.size[0] / 2, shape.size[1] / 2
+            pieces, half = [np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])], shape.size[2] / 2
+        elif isinstance(shape, ConvexPrism):
+            pieces, half = [np.array(piece, dtype=np.float64) for piece in shape.pieces], shape.height / 2
+        else:
+            continue
+        for piece in pieces:
+            convex = _convex_ccw(piece @ local_rotation.T + offset) if len(piece) >= 3 else None
+            if convex is not None:
+                polygons.append((convex @ rotation.T + (x, y), z - half, z + half))
+    return polygons, circles
+
+
+def _disk(target: PuzzleObject, tolerance: float) -> _Disk | None:
+    """The largest disk this finds inside one of the target's shapes (a polygon's vertex mean and its
+    distance to the nearest edge line; a cylinder itself), if wider than ``tolerance``."""
+    polygons, circles = _shapes(target, (0.0, 0.0, 0.0))
+    best = None
+    for x, y, radius, low, high in circles:
+        if best is None or radius > best.radius:
+            best = _Disk((x, y), radius, low, high)
+    for vertices, low, high in polygons:
+        centre = vertices.mean(axis=0)
+        edges = np.roll(vertices, -1, axis=0) - vertices
+        normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1)[:, None]
+        radius = float(np.min(np.sum(normals * (vertices - centre), axis=1)))
+        if best is None or radius > best.radius:
+            best = _Disk((float(centre[0]), float(centre[1])), radius, low, high)
+    return best if best is not None and best.radius > tolerance + REGION_SLACK else None
+
+
+def _start_frame(obj: PuzzleObject) -> tuple[float, float, float]:
+    """The world (x, y, yaw) of the object's frame with its joints at their start (0 within the limits)."""
+    x, y, _ = obj.pose.xyz
+    yaw = obj.pose.yaw
+    values = [min(max(0.0, lo), hi) for lo, hi in obj.limits]
+    if obj.motion is Motion.PRISMATIC:
+        axis = np.asarray(obj.axis[:2], dtype=np.float64) / np.linalg.norm(obj.axis)
+        c, s = math.cos(yaw), math.sin(yaw)
+        return (x + values[0] * (c * axis[0] - s * axis[1]), y + values[0] * (s * axis[0] + c * axis[1]), yaw)
+    if obj.motion is Motion.REVOLUTE:
+        return (x, y, yaw + values[0])
+    if obj.motion in (Motion.SE2, Motion.R2):
+        return (x + values[0], y + values[1], yaw + (values[2] if len(values) > 2 else 0.0))
+    return (x, y, yaw)
+
+
+def _obstacles(objects: Sequence[PuzzleObject], target: PuzzleObject, fixed: set[str], disk: _Disk,
+               tolerance: float) -> _Obstacles:
+    polygons, circles = [], []
+    for obj in objects:
+        if obj is target or obj.role is Role.GOAL_MARKER:
+            continue
+        if obj.is_movable and obj.name not in fixed and not all(hi - lo < LOCKED_WIDTH for lo, hi in obj.limits):
+            continue  # it could step aside: left out, which can only prove less
+        more_polygons, more_circles = _shapes(obj, _start_frame(obj))
+        polygons += more_polygons
+        circles += more_circles
+
+    def counts(low: float, high: float) -> bool:
+        return min(high, disk.z_high) - max(low, disk.z_low) > tolerance + Z_SLACK
+
+    polygons = [p for p in polygons if counts(p[1], p[2])]
+    circles = [c for c in circles if counts(c[3], c[4])]
+    k = max((len(p[0]) for p in polygons), default=3)
+    vertices = np.zeros((len(polygons), k, 2))
+    for i, (v, _, _) in enumerate(polygons):
+        vertices[i, :len(v)] = v
+    counts_ = np.array([len(p[0]) for p in polygons], dtype=np.int64)
+    circle_array = np.array([c[:3] for c in circles], dtype=np.float64).reshape(len(circles), 3)
+    z = np.array([p[1:] for p in polygons] + [c[3:] for c in circles], dtype=np.float64).reshape(-1, 2)
+    return _Obstacles(vertices, counts_, circle_array, z)
+
+
+@njit(cache=True, nogil=True)
+def _chord(vertices, count, y, reach):  # pragma: no cover (compiled)
+    """The x interval of the points on the line at ``y`` within ``reach`` of the convex polygon
+    (``lo > hi`` when none): the hull of the chords of its edges' capsules, which cover the boundary
+    of the polygon grown by ``reach``, a convex set."""
+    lo, hi = np.inf, -np.inf
+    for k in range(count):
+        ax, ay = vertices[k, 0], vertices[k, 1]
+        dy = y - ay
+        if abs(dy) <= reach:
+            d = math.sqrt(reach * reach - dy * dy)
+            lo, hi = min(lo, ax - d), max(hi, ax + d)
+        bx, by = vertices[(k + 1) % count, 0], vertices[(k + 1) % count, 1]
+        length = math.hypot(bx - ax, by - ay)
+        nx, ny = (by - ay) / length * reach, -(bx - ax) / length * reach
+        # The band beside the edge: a parallelogram, corners in order.
+        px = (ax + nx, bx + nx, bx - nx, ax - nx)
+        py = (ay + ny, by + ny, by - ny, ay - ny)
+        for j in range(4):
+            x0, y0, x1, y1 = px[j], py[j], px[(j + 1) % 4], py[(j + 1) % 4]
+            if (y0 - y) * (y1 - y) > 0:
+                continue
+            if y0 == y1:
+                lo, hi = min(lo, x0, x1), max(hi, x0, x1)
+            else:
+                x = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
+                lo, hi = min(lo, x), max(hi, x)
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
+def _fill(blocked, lo, hi, j, origin_x, width):  # pragma: no cover (compiled)
+    """Mark the cells of row ``j`` (``blocked[j]``) whose centres lie in [lo, hi]."""
+    if lo > hi:
+        return
+    first = max(0, int(math.ceil((lo - origin_x) / width - 0.5)))
+    last = min(blocked.shape[1] - 1, int(math.floor((hi - origin_x) / width - 0.5)))
+    for i in range(first, last + 1):
+        blocked[j, i] = True
+
+
+@njit(cache=True, nogil=True)
+def _blocked(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny):  # pragma: no cover (compiled)
+    """(nx, ny) cells whose centres lie within ``reach`` of an obstacle (a transposed view: rows of
+    cells along x are filled, and lie contiguous in memory)."""
+    blocked = np.zeros((ny, nx), dtype=np.bool_)
+    if reach <= 0:
+        return blocked.T
+    for o in range(vertices.shape[0]):
+        count = counts[o]
+        low, high = np.inf, -np.inf
+        for k in range(count):
+            low, high = min(low, vertices[o, k, 1]), max(high, vertices[o, k, 1])
+        first = max(0, int(math.ceil((low - reach - origin_y) / width - 0.5)))
+        last = min(ny - 1, int(math.floor((high + reach - origin_y) / width - 0.5)))
+        for j in range(first, last + 1):
+            lo, hi = _chord(vertices[o], count, origin_y + (j + 0.5) * width, reach)
+            _fill(blocked, lo, hi, j, origin_x, width)
+    for o in range(circles.shape[0]):
+        cx, cy, grown = circles[o, 0], circles[o, 1], circles[o, 2] + reach
+        first = max(0, int(math.ceil((cy - grown - origin_y) / width - 0.5)))
+        last = min(ny - 1, int(math.floor((cy + grown - origin_y) / width - 0.5)))
+        for j in range(first, last + 1):
+            dy = origin_y + (j + 0.5) * width - cy
+            if abs(dy) <= grown:
+                d = math.sqrt(grown * grown - dy * dy)
+                _fill(blocked, cx - d, cx + d, j, origin_x, width)
+    return blocked.T
+
+
+@njit(cache=True, nogil=True)
+def _reach(closed, start_i, start_j):  # pragma: no cover (compiled)
+    """The cells an 8-connected flood fill from the start cell reaches through cells not ``closed``."""
+    nx, ny = closed.shape
+    reached = np.zeros((nx, ny), dtype=np.bool_)
+    stack = np.empty(nx * ny, dtype=np.int64)
+    reached[start_i, start_j] = True
+    stack[0] = start_i * ny + start_j
+    top = 1
+    while top > 0:
+        top -= 1
+        i, j = divmod(stack[top], ny)
+        for di in range(-1, 2):
+            for dj in range(-1, 2):
+                a, b = i + di, j + dj
+                if 0 <= a < nx and 0 <= b < ny and not closed[a, b] and not reached[a, b]:
+                    reached[a, b] = True
+                    stack[top] = a * ny + b
+                    top += 1
+    return reached
+
+
+def _turned(offset: tuple[float, float], angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]])
+
+
+def proves(objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], shrink: float) -> bool:
+    """Whether, with the objects ``fixed`` held at their start pose and every shape shrunk by ``shrink``
+    metres (the judges' model), the target, an object that moves in x and y, cannot reach its goal
+    (see the module docstring). False means no proof, not that the goal can be reached."""
+    target = next((o for o in objects if o.name == goal.target), None)
+    if target is None or target.motion not in (Motion.SE2, Motion.R2) or target.name in fixed:
+        return False
+    if not set(goal.values) <= set(target.joint_names):
+        return False
+    tolerance = shrunk_tolerance(shrink)
+    disk = _disk(target, tolerance)
+    if disk is None:
+        return False
+    obstacles = _obstacles(objects, target, set(fixed), disk, tolerance)
+    if len(obstacles.counts) + len(obstacles.circles) == 0:
+        return False
+    # Where p can be: its frame's box over the limits, the disk's centre turned about it.
+    x0, y0, _ = target.pose.xyz
+    yaw0 = target.pose.yaw
+    offset = disk.centre
+    arm = math.hypot(*offset)
+    near = goal.tolerance + GOAL_SLACK
+    pinned = {j: (v - near, v + near) for j, v in goal.values.items()}
+    start = [min(max(0.0, lo), hi) for lo, hi in target.limits]
+    frame_low = np.array([x0 + target.limits[0][0], y0 + target.limits[1][0]])
+    frame_high = np.array([x0 + target.limits[0][1], y0 + target.limits[1][1]])
+    goal_low, goal_high = frame_low.copy(), frame_high.copy()
+    for axis, name in enumerate(target.joint_names[:2]):
+        if name in pinned:
+            goal_low[axis], goal_high[axis] = (v + (x0, y0)[axis] for v in pinned[name])
+    if target.motion is Motion.R2:  # no turn: p keeps its offset
+        turned = _turned(offset, yaw0)
+        spread = goal_spread = 0.0
+        goal_turned = start_turned = turned
+    else:
+        turned, spread = np.zeros(2), arm
+        start_turned = _turned(offset, yaw0 + start[2])
+        yaw_goal = pinned.get(target.joint_names[2])
+        if yaw_goal is None:
+            goal_turned, goal_spread = turned, arm
+        else:  # an arc of the goal's tolerance lies within arm x near of its middle
+            goal_turned, goal_spread = _turned(offset, yaw0 + sum(yaw_goal) / 2), arm * near + REGION_SLACK
+    low, high = frame_low + turned - spread, frame_high + turned + spread
+    goal_low, goal_high = goal_low + goal_turned - goal_spread, goal_high + goal_turned + goal_spread
+    point = np.array([x0 + start[0], y0 + start[1]]) + start_turned
+    coarsest = REGION_CELL * 2 ** REGION_LEVELS[0]
+    origin = low - coarsest
+    size = np.ceil((high + coarsest - origin) / coarsest).astype(np.int64)
+    window = np.zeros(2, dtype=np.int64)  # the level's first cell (global indices)
+    allowed = None
+    for index, level in enumerate(REGION_LEVELS):
+        width = REGION_CELL * 2 ** level
+        if allowed is not None:
+            size = np.array(allowed.shape, dtype=np.int64)
+        if int(size[0]) * int(size[1]) > MAX_CELLS:
+            return False
+        corner = origin + window * width
+        reach = disk.radius - tolerance - width * math.sqrt(0.5) - REGION_SLACK
+        closed = _blocked(obstacles.vertices, obstacles.counts, obstacles.circles, reach, corner[0], corner[1],
+                          width, int(size[0]), int(size[1]))
+        if allowed is not None:
+            closed |= ~allowed
+        i, j = (int(v) for v in np.floor((point - corner) / width))
+        if not (0 <= i < size[0] and 0 <= j < size[1]) or closed[i, j]:
+            return False  # the start itself collides (or was not reached): the judges decide
+        reached = _reach(closed, i, j)
+        # Every cell that meets the box where p is at the goal (and a cell more).
+        g0 = np.maximum(0, np.floor((goal_low - corner) / width).astype(np.int64) - 1)
+        g1 = np.floor((goal_high - corner) / width).astype(np.int64) + 2
+        if not reached[g0[0]:g1[0], g0[1]:g1[1]].any():
+            return True
+        # The next level: the children of the cells reached, within their bounding box.
+        rows, columns = np.nonzero(reached.any(axis=1))[0], np.nonzero(reached.any(axis=0))[0]
+        first = np.array([rows[0], columns[0]])
+        kept = reached[rows[0]:rows[-1] + 1, columns[0]:columns[-1] + 1]
+        if index + 1 < len(REGION_LEVELS):
+            factor = 2 ** (level - REGION_LEVELS[index + 1])
+            allowed = np.repeat(np.repeat(kept, factor, axis=0), factor, axis=1)
+            window = factor * (window + first)
+    return False
+
+
+def warm_up() -> None:
+    """Load the proof's compiled functions (from numba's cache, or compile them), as a server does before it forks."""
+    square = np.array([[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]])
+    closed = _blocked(square, np.array([4], dtype=np.int64), np.array([[3.0, 3.0, 0.5]]), 0.1, -1.0, -1.0, 0.5, 12, 12)
+    _reach(closed, 0, 0)
