@@ -464,3 +464,132 @@ def nearest_l1(states: np.ndarray, size: int, query: np.ndarray, weights: np.nda
         if distance < best_distance:
             best, best_distance = i, distance
     return best
+
+
+@njit(cache=True, nogil=True)
+def first_colliding_motion(states, begin, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                           shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
+    """Index ``i >= begin`` of the first motion ``states[i] -> states[i + 1]`` that :func:`motion_collision`
+    finds colliding, or -1: the same motion checks, in the same order, in one call."""
+    for i in range(begin, states.shape[0] - 1):
+        hit, _ = _motion_hit(states[i], states[i + 1], steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                             shape_center, shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol,
+                             pair_columns)
+        if hit > 0:
+            return i
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def motion_collides_packed(a, b, steps, ints, floats, pair_columns):
+    """Whether :func:`motion_collision` finds the motion ``a -> b`` colliding, with the model packed as
+    for :func:`state_valid_packed` (a planner's motion query: six arguments instead of sixteen)."""
+    (kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+     shape_extent, pairs, tol, _poses_kept) = _unpacked(ints, floats)
+    hit, _ = _motion_hit(a, b, steps, kin_int, kin_float, ints[0], shape_link, shape_nv, shape_center,
+                         shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns)
+    return hit > 0
+
+
+@njit(cache=True, nogil=True)
+def _pairs_valid(q, kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_link, shape_nv, shape_center,
+                 shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, moving, which):
+    """:func:`_state_valid` over the pairs ``p`` with ``moving[p] == which`` only (the same tests)."""
+    _poses(q, kin_int, kin_float, x, y, c, s, yaws, full)
+    for i in range(shape_link.shape[0]):
+        link = shape_link[i]
+        cx, cy = shape_center[i, 0], shape_center[i, 1]
+        centres[0, i] = x[link] + c[link] * cx - s[link] * cy
+        centres[1, i] = y[link] + s[link] * cx + c[link] * cy
+    for p in range(pairs.shape[0]):
+        if moving[p] == which and _near_pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, centres, shape_link,
+                                                      shape_nv, shape_center, shape_radius, shape_verts,
+                                                      shape_normals, shape_extent, tol):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def path_collisions(states, steps, stop, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+                    shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns):
+    """How many of the points ``solver.planning.problem.segment_points`` puts along the path ``states``
+    (its first state excluded) collide; with ``stop``, 1 at the first colliding one.
+
+    The same points (``a + (b - a) * (k / count)``, ``count`` the most steps a joint needs) and, at
+    each, the same pair tests as :func:`check_states`, but a pair that no joint changing along a
+    segment moves (``pair_columns``) is tested once, at the segment's first point: every point of
+    the segment holds exactly its values there, so its verdict is the same at every one. (A segment's
+    points are written into a block first: the tests then run as fast as :func:`check_states`'.)"""
+    d = states.shape[1]
+    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    centres = np.empty((2, shape_link.shape[0]))
+    moving = np.empty(pairs.shape[0], dtype=np.bool_)
+    bad = 0
+    full = True
+    for i in range(states.shape[0] - 1):
+        a, b = states[i], states[i + 1]
+        most = 0.0
+        for j in range(d):
+            ratio = abs(b[j] - a[j]) / steps[j]
+            if ratio > most:
+                most = ratio
+        count = max(1, int(math.ceil(most)))
+        for p in range(pairs.shape[0]):
+            moving[p] = False
+            for j in range(d):
+                if pair_columns[p, j] and a[j] != b[j]:
+                    moving[p] = True
+                    break
+        block = np.empty((count, d))
+        for k in range(1, count + 1):
+            t = k / count
+            for j in range(d):
+                block[k - 1, j] = a[j] + (b[j] - a[j]) * t
+        if not _pairs_valid(block[0], kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_link, shape_nv,
+                            shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, moving,
+                            False):
+            bad += count
+            if stop:
+                return 1
+            continue
+        full = False
+        for k in range(count):
+            if not _pairs_valid(block[k], kin_int, kin_float, x, y, c, s, yaws, centres, False, shape_link, shape_nv,
+                                shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
+                                moving, True):
+                bad += 1
+                if stop:
+                    return 1
+    return bad
+
+
+@njit(cache=True, nogil=True)
+def pair_hits_changed(states, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
+                      shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns):
+    """:func:`pair_hits`: the pairs that collide at any row of ``states``; a pair is tested again only at
+    a row where a joint that moves it (``pair_columns``) changed since the row before (its shapes stand
+    exactly where they stood, so its verdict is the same), and a row equal to the one before is skipped."""
+    d = states.shape[1]
+    hits = np.zeros(pairs.shape[0], dtype=np.bool_)
+    changed = np.empty(d, dtype=np.bool_)
+    x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
+    for i in range(states.shape[0]):
+        any_changed = i == 0
+        for j in range(d):
+            changed[j] = i == 0 or states[i, j] != states[i - 1, j]
+            any_changed = any_changed or changed[j]
+        if not any_changed:
+            continue
+        _poses(states[i], kin_int, kin_float, x, y, c, s, yaws, i == 0)
+        for p in range(pairs.shape[0]):
+            if hits[p]:
+                continue
+            moved = i == 0
+            for j in range(d):
+                if moved or pair_columns[p, j] and changed[j]:
+                    moved = True
+                    break
+            if moved and _pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, shape_link, shape_nv, shape_center,
+                                        shape_radius, shape_verts, shape_normals, shape_extent, tol, tol):
+                hits[p] = True
+    return hits

@@ -275,6 +275,12 @@ class CollisionModel:
         zero = np.zeros(len(self.joint_order))
         return _kernels.fixed_poses(zero, self._kin_int, self._kin_float, len(self._links))
 
+    @property
+    def packed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The arrays of the packed entry points (:func:`~solver.collision.kernels.state_valid_packed`,
+        :func:`~solver.collision.kernels.motion_collides_packed`): ints, floats and the pairs' columns."""
+        return self._packed_int, self._packed_float, self._pair_columns
+
     # -- queries -----------------------------------------------------------
     @property
     def pair_count(self) -> int:
@@ -312,6 +318,19 @@ class CollisionModel:
         a = np.asarray(start, dtype=np.float64)
         b = np.asarray(end, dtype=np.float64)
         return float(_kernels.motion_collision(a, b, steps, *self._arguments, self._pair_columns))
+
+    def first_colliding_motion(self, states: np.ndarray, steps: np.ndarray, begin: int = 0) -> int:
+        """Index ``i >= begin`` of the first motion ``states[i] -> states[i + 1]`` that :meth:`check_motion`
+        finds colliding, or -1 when none does: the same checks in the same order, in one compiled call.
+        ``states``: a C-contiguous float64 (N, d) array."""
+        return int(_kernels.first_colliding_motion(states, begin, steps, *self._arguments, self._pair_columns))
+
+    def path_collisions(self, states: np.ndarray, steps: np.ndarray, stop: bool = False) -> int:
+        """How many of the points :func:`~solver.planning.problem.segment_points` puts along ``states``
+        (a C-contiguous float64 (N, d) array; its first state excluded) :meth:`check` finds colliding
+        (with ``stop``: 1 at the first), without building them: the same points and verdicts in one
+        compiled call, the pairs a segment does not move tested once per segment."""
+        return int(_kernels.path_collisions(states, steps, stop, *self._arguments, self._pair_columns))
 
     def motion_stop(self, start: np.ndarray, end: np.ndarray, steps: np.ndarray, stop: bool,
                     out: np.ndarray) -> float:
@@ -370,6 +389,17 @@ class CollisionModel:
         else:
             hits = _kernels.pair_hits(self._as_states(states), *self._arguments)
         names = self._pair_names
+        return {names[p] for p in hits.nonzero()[0].tolist()}
+
+    def colliding_objects_with(self, states: np.ndarray, obj: str) -> set[tuple[str, str]]:
+        """The pairs of :meth:`colliding_objects` that hold ``obj``: its pairs' tests alone, each
+        repeated only at a row where a joint that moves it changed (``states``: C-contiguous float64)."""
+        mask = np.array([obj in names for names in self._pair_objects], dtype=np.bool_)
+        if not mask.any():
+            return set()
+        (*arguments, _pairs, tolerance) = self._arguments
+        hits = _kernels.pair_hits_changed(states, *arguments, self._pairs[mask], tolerance, self._pair_columns[mask])
+        names = [n for n, m in zip(self._pair_names, mask.tolist(), strict=True) if m]
         return {names[p] for p in hits.nonzero()[0].tolist()}
 
     def colliding_objects_each(self, states: np.ndarray) -> list[set[tuple[str, str]]]:

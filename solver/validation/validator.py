@@ -92,10 +92,10 @@ class OmplValidator:
         self.resolution = resolution
         self.routed = routed
         self.checks = 0
-        self._solved: dict[tuple[PuzzleObject, ...], tuple[tuple[float, ...], ...]] = {}
-        self._blocked: dict[tuple[PuzzleObject, ...], np.ndarray] = {}
+        self._solved: _ByObjects = _ByObjects()  # objects -> certificate (chain joint order)
+        self._blocked: _ByObjects = _ByObjects()  # (target, *fixed) -> :meth:`_free_cells`' table
         self._alone: tuple[tuple, CollisionModel] | None = None
-        self._fine: set[tuple[PuzzleObject, ...]] = set()
+        self._fine: _ByObjects = _ByObjects()  # objects whose certificate was planned at fine resolution
         self.second_judge_budget = SECOND_JUDGE_BUDGET  # 0: the first judge alone (tests' controls)
         self.verdicts: list[Necessity] = []  # every necessity verdict, in the Maker's order
         self.prover: BlockingProver | None = BlockingProver()  # None: the judges alone (tests' controls)
@@ -133,7 +133,7 @@ class OmplValidator:
                     path = self._replan_routed(objects, goal, problem, extended, FINE_RESOLUTION,
                                                self._new_objects_model(objects, problem))
                     if path is not None:
-                        self._fine.add(objects)
+                        self._fine[objects] = True
             previous = self._previous_with_same_joints(objects) if path is None else None
             if previous is not None:
                 path = self._replan_tail(problem, previous, self.resolution, budget)
@@ -203,9 +203,13 @@ class OmplValidator:
         if not model.is_valid(states[0]) or np.any(np.abs(states[0] - problem.start) > 1e-12):
             return None
         motions = model if motions is None else motions
-        kept = 1
-        while kept < len(states) and motions.check_motion(states[kept - 1], states[kept], steps):
-            kept += 1
+        if type(motions) is CollisionModel:  # the same checks in the same order, in one compiled call
+            first = motions.first_colliding_motion(states, steps)
+            kept = len(states) if first < 0 else first + 1
+        else:
+            kept = 1
+            while kept < len(states) and motions.check_motion(states[kept - 1], states[kept], steps):
+                kept += 1
         self.checks += kept
         return states, kept
 
@@ -448,8 +452,7 @@ class OmplValidator:
             if not goal.is_reached(chain.state_dict(path[-1])):
                 return None
             self.checks += len(path)
-            if all(model.check_motion(a, b, coarse) for a, b in zip(path[:-1], path[1:], strict=True)) and \
-                    path_is_valid(model, path, fine):
+            if model.first_colliding_motion(path, coarse) < 0 and path_is_valid(model, path, fine):
                 return tuple(tuple(float(v) for v in row) for row in path)
         return None
 
@@ -485,6 +488,52 @@ class OmplValidator:
             if repaired is not None and not verify_certificate(chain, repaired, goal):
                 return repaired
         return None
+
+
+class _ByObjects:
+    """A dict keyed by tuples of puzzle objects, compared as tuples are, each object hashed once: a
+    puzzle object's own hash walks all its geometry, and the Maker asks about every prefix of a
+    growing puzzle (Rooms: 10 ms a puzzle)."""
+
+    def __init__(self) -> None:
+        self._items: dict[_Objects, object] = {}
+        self._hashes: dict[int, tuple[PuzzleObject, int]] = {}  # id -> (the object, kept alive; its hash)
+
+    def _key(self, objects: tuple[PuzzleObject, ...]) -> _Objects:
+        hashes = []
+        for o in objects:
+            found = self._hashes.get(id(o))
+            if found is None:
+                found = self._hashes[id(o)] = (o, hash(o))
+            hashes.append(found[1])
+        return _Objects(objects, hash(tuple(hashes)))
+
+    def __contains__(self, objects: tuple[PuzzleObject, ...]) -> bool:
+        return self._key(objects) in self._items
+
+    def __getitem__(self, objects: tuple[PuzzleObject, ...]):
+        return self._items[self._key(objects)]
+
+    def __setitem__(self, objects: tuple[PuzzleObject, ...], value) -> None:
+        self._items[self._key(objects)] = value
+
+    def get(self, objects: tuple[PuzzleObject, ...]):
+        return self._items.get(self._key(objects))
+
+
+class _Objects:
+    """A key of :class:`_ByObjects`: the objects and their hash."""
+
+    __slots__ = ("objects", "hash")
+
+    def __init__(self, objects: tuple[PuzzleObject, ...], hash_: int):
+        self.objects, self.hash = objects, hash_
+
+    def __hash__(self) -> int:
+        return self.hash
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _Objects) and self.objects == other.objects
 
 
 def _footprint(obj: PuzzleObject) -> np.ndarray | None:
