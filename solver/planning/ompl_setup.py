@@ -13,6 +13,7 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from phyrogen_core.maker import SolveResult
+from solver.collision.kernels import motion_collides_packed, state_valid_packed
 from solver.collision.model import CollisionModel
 from solver.planning.problem import DEFAULT_RESOLUTION, Problem, goal_distance
 
@@ -28,13 +29,18 @@ class _MotionValidator(ob.MotionValidator):
         self.calls = 0
         self._a = np.empty(self.dimension)
         self._b = np.empty(self.dimension)
+        # Our own model: its packed arrays straight to the compiled motion check (six arguments, not sixteen).
+        self._packed = model.packed if type(model) is CollisionModel else None
 
     def checkMotion(self, s1, s2) -> bool:  # noqa: N802 (OMPL's name)
         self.calls += 1
+        a, b = self._a, self._b
         for i in range(self.dimension):
-            self._a[i] = s1[i]
-            self._b[i] = s2[i]
-        return self.model.check_motion(self._a, self._b, self.steps)
+            a[i] = s1[i]
+            b[i] = s2[i]
+        if self._packed is not None:
+            return not motion_collides_packed(a, b, self.steps, *self._packed)
+        return self.model.check_motion(a, b, self.steps)
 
 
 class _GoalRegion(ob.GoalSampleableRegion):
@@ -90,11 +96,15 @@ def ompl_setup(problem: Problem, steps: np.ndarray, goal_type: type, rng: np.ran
     buffer = np.empty((1, dimension))
     row = buffer[0]
 
+    ints, floats, _ = model.packed if type(model) is CollisionModel else (None, None, None)
+
     def state_valid(s) -> bool:
         # Counted too: with an invalid goal, RRT-Connect only samples goal states.
         validator.calls += 1
         for i in range(dimension):
             row[i] = s[i]
+        if ints is not None:  # our own model: the packed entry point, the same verdicts
+            return state_valid_packed(row, ints, floats)
         return bool(model.check_prepared(buffer)[0])
 
     si.setStateValidityChecker(state_valid)
