@@ -185,6 +185,21 @@ def _start_frame(obj: PuzzleObject) -> tuple[float, float, float]:
     return (x, y, yaw)
 
 
+_KEPT: dict[int, tuple[PuzzleObject, tuple]] = {}
+""":func:`_shapes` of objects at their start pose, by id (the object kept with them, so no other object
+gets its id while it is here): a puzzle's questions ask about the same walls again and again."""
+_KEPT_MOST = 4096
+
+
+def _start_shapes(obj: PuzzleObject):
+    found = _KEPT.get(id(obj))
+    if found is None or found[0] is not obj:
+        if len(_KEPT) >= _KEPT_MOST:
+            _KEPT.clear()
+        found = _KEPT[id(obj)] = (obj, _shapes(obj, _start_frame(obj)))
+    return found[1]
+
+
 def _obstacles(objects: Sequence[PuzzleObject], target: PuzzleObject, fixed: set[str], disk: _Disk,
                tolerance: float) -> _Obstacles:
     polygons, circles = [], []
@@ -193,7 +208,7 @@ def _obstacles(objects: Sequence[PuzzleObject], target: PuzzleObject, fixed: set
             continue
         if obj.is_movable and obj.name not in fixed and not all(hi - lo < LOCKED_WIDTH for lo, hi in obj.limits):
             continue  # it could step aside: left out, which can only prove less
-        more_polygons, more_circles = _shapes(obj, _start_frame(obj))
+        more_polygons, more_circles = _start_shapes(obj)
         polygons += more_polygons
         circles += more_circles
 
@@ -254,12 +269,21 @@ def _fill(blocked, lo, hi, j, origin_x, width):  # pragma: no cover (compiled)
 
 
 @njit(cache=True, nogil=True)
-def _blocked(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny):  # pragma: no cover (compiled)
-    """(nx, ny) cells whose centres lie within ``reach`` of an obstacle (a transposed view: rows of
-    cells along x are filled, and lie contiguous in memory)."""
-    blocked = np.zeros((ny, nx), dtype=np.bool_)
+def _closed(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny, parent, factor, parent_i,
+            parent_j):  # pragma: no cover (compiled)
+    """(nx, ny) cells a flood fill may not enter: those whose centres lie within ``reach`` of an
+    obstacle, and, with a ``parent`` level (its reached cells, ``factor`` times as wide; its cell
+    (``parent_i``, ``parent_j``) holds this grid's first cell), those whose parent cell was not
+    reached. A transposed view: rows of cells along x are filled, and lie contiguous in memory."""
+    closed = np.zeros((ny, nx), dtype=np.bool_)
+    if parent.shape[0] > 0:
+        for j in range(ny):
+            row = parent_j + j // factor
+            for block in range((nx + factor - 1) // factor):
+                if not parent[parent_i + block, row]:
+                    closed[j, block * factor:min(nx, (block + 1) * factor)] = True
     if reach <= 0:
-        return blocked.T
+        return closed.T
     for o in range(vertices.shape[0]):
         count = counts[o]
         low, high = np.inf, -np.inf
@@ -269,7 +293,7 @@ def _blocked(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny
         last = min(ny - 1, int(math.floor((high + reach - origin_y) / width - 0.5)))
         for j in range(first, last + 1):
             lo, hi = _chord(vertices[o], count, origin_y + (j + 0.5) * width, reach)
-            _fill(blocked, lo, hi, j, origin_x, width)
+            _fill(closed, lo, hi, j, origin_x, width)
     for o in range(circles.shape[0]):
         cx, cy, grown = circles[o, 0], circles[o, 1], circles[o, 2] + reach
         first = max(0, int(math.ceil((cy - grown - origin_y) / width - 0.5)))
@@ -278,22 +302,25 @@ def _blocked(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny
             dy = origin_y + (j + 0.5) * width - cy
             if abs(dy) <= grown:
                 d = math.sqrt(grown * grown - dy * dy)
-                _fill(blocked, cx - d, cx + d, j, origin_x, width)
-    return blocked.T
+                _fill(closed, cx - d, cx + d, j, origin_x, width)
+    return closed.T
 
 
 @njit(cache=True, nogil=True)
 def _reach(closed, start_i, start_j):  # pragma: no cover (compiled)
-    """The cells an 8-connected flood fill from the start cell reaches through cells not ``closed``."""
+    """The cells an 8-connected flood fill from the start cell reaches through cells not ``closed``,
+    and their bounding box (first row, first column, last row, last column)."""
     nx, ny = closed.shape
     reached = np.zeros((nx, ny), dtype=np.bool_)
     stack = np.empty(nx * ny, dtype=np.int64)
     reached[start_i, start_j] = True
     stack[0] = start_i * ny + start_j
     top = 1
+    box = np.array([start_i, start_j, start_i, start_j])
     while top > 0:
         top -= 1
         i, j = divmod(stack[top], ny)
+        box[0], box[1], box[2], box[3] = min(box[0], i), min(box[1], j), max(box[2], i), max(box[3], j)
         for di in range(-1, 2):
             for dj in range(-1, 2):
                 a, b = i + di, j + dj
@@ -301,7 +328,7 @@ def _reach(closed, start_i, start_j):  # pragma: no cover (compiled)
                     reached[a, b] = True
                     stack[top] = a * ny + b
                     top += 1
-    return reached
+    return reached, box
 
 
 def _turned(offset: tuple[float, float], angle: float) -> np.ndarray:
@@ -358,41 +385,38 @@ def proves(objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], sh
     origin = low - coarsest
     size = np.ceil((high + coarsest - origin) / coarsest).astype(np.int64)
     window = np.zeros(2, dtype=np.int64)  # the level's first cell (global indices)
-    allowed = None
+    parent, factor, parent_first = np.zeros((0, 0), dtype=np.bool_), 1, np.zeros(2, dtype=np.int64)
     for index, level in enumerate(REGION_LEVELS):
         width = REGION_CELL * 2 ** level
-        if allowed is not None:
-            size = np.array(allowed.shape, dtype=np.int64)
         if int(size[0]) * int(size[1]) > MAX_CELLS:
             return False
         corner = origin + window * width
         reach = disk.radius - tolerance - width * math.sqrt(0.5) - REGION_SLACK
-        closed = _blocked(obstacles.vertices, obstacles.counts, obstacles.circles, reach, corner[0], corner[1],
-                          width, int(size[0]), int(size[1]))
-        if allowed is not None:
-            closed |= ~allowed
+        closed = _closed(obstacles.vertices, obstacles.counts, obstacles.circles, reach, corner[0], corner[1], width,
+                         int(size[0]), int(size[1]), parent, factor, int(parent_first[0]), int(parent_first[1]))
         i, j = (int(v) for v in np.floor((point - corner) / width))
         if not (0 <= i < size[0] and 0 <= j < size[1]) or closed[i, j]:
             return False  # the start itself collides (or was not reached): the judges decide
-        reached = _reach(closed, i, j)
+        reached, box = _reach(closed, i, j)
         # Every cell that meets the box where p is at the goal (and a cell more).
         g0 = np.maximum(0, np.floor((goal_low - corner) / width).astype(np.int64) - 1)
         g1 = np.floor((goal_high - corner) / width).astype(np.int64) + 2
         if not reached[g0[0]:g1[0], g0[1]:g1[1]].any():
             return True
-        # The next level: the children of the cells reached, within their bounding box.
-        rows, columns = np.nonzero(reached.any(axis=1))[0], np.nonzero(reached.any(axis=0))[0]
-        first = np.array([rows[0], columns[0]])
-        kept = reached[rows[0]:rows[-1] + 1, columns[0]:columns[-1] + 1]
         if index + 1 < len(REGION_LEVELS):
+            # The next level: the children of the cells reached, within their bounding box.
             factor = 2 ** (level - REGION_LEVELS[index + 1])
-            allowed = np.repeat(np.repeat(kept, factor, axis=0), factor, axis=1)
-            window = factor * (window + first)
+            parent = reached
+            parent_first = box[:2]
+            window = factor * (window + box[:2])
+            size = factor * (box[2:] - box[:2] + 1)
     return False
 
 
 def warm_up() -> None:
     """Load the proof's compiled functions (from numba's cache, or compile them), as a server does before it forks."""
     square = np.array([[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]])
-    closed = _blocked(square, np.array([4], dtype=np.int64), np.array([[3.0, 3.0, 0.5]]), 0.1, -1.0, -1.0, 0.5, 12, 12)
-    _reach(closed, 0, 0)
+    closed = _closed(square, np.array([4], dtype=np.int64), np.array([[3.0, 3.0, 0.5]]), 0.1, -1.0, -1.0, 0.5, 12, 12,
+                     np.zeros((0, 0), dtype=np.bool_), 1, 0, 0)
+    reached, _ = _reach(closed, 0, 0)
+    _closed(square, np.array([4], dtype=np.int64), np.zeros((0, 3)), 0.1, -1.0, -1.0, 0.25, 24, 24, reached, 2, 0, 0)
