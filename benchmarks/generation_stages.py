@@ -5,13 +5,14 @@
 Each puzzle is generated as a dataset worker generates it (:func:`solver.pipelines.generation.generate_here`),
 then written, hashed and read back as the dataset does. The stages are timed by wrapping the functions
 that do them (CPU seconds of this process): the first necessity judge (compiled LA-RRT with pushes),
-the geometric proof (:mod:`solver.validation.blocking`), the second judge, the validator's solve per
-candidate, certification at 2 mm, the stored certificate's defragmentation, the dependency graph,
-export, the content hash and the read-back; collision-model construction is counted inside the
-stages that build models and shown apart. The run is made twice on the same seeds: with the proof
-(as generation is) and without it (the judges alone, as before the proof came), and the two puzzle
-sets are compared (they must be the same puzzles). Pool and process start-up are not in this
-process: ``benchmarks/dataset_speed.py`` measures whole dataset runs.
+the geometric proofs (:mod:`solver.validation.blocking`, :mod:`solver.validation.region_proof`), the
+second judge, the validator's solve per candidate, certification at 2 mm, the stored certificate's
+defragmentation, the dependency graph, export, the content hash and the read-back; collision-model
+construction is counted inside the stages that build models and shown apart. The run is made twice
+on the same seeds: with the proofs (as generation is) and without them (the judges alone, as before
+the proofs came), and the two puzzle sets are compared (the same puzzles unless a proof at the top
+rung spared a first judge's draws from the validator's stream: :func:`solver.validation.judge.judge`).
+Pool and start-up are not in this process: ``benchmarks/dataset_speed.py`` measures whole dataset runs.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from solver.validation import blocking
 STAGES = (
     (judge, "attempt_fixed", "first judge (compiled LA-RRT with pushes)"),
     (blocking.BlockingProver, "proves", "geometric proof"),
+    (validator, "region_proves", "geometric proof, a target free in the plane (region_proof)"),
     (judge, "attempt_second", "second judge (LA-RRT, Python, goal sampler)"),
     (validator.OmplValidator, "solve", "validator.solve per candidate (extend / RRT-Connect)"),
     (validator.OmplValidator, "certify", "certification at 2 mm"),
