@@ -5,11 +5,11 @@ budget: evidence, as strong as the search. Many questions the Maker asks have a 
 geometric answer: a fixed box stands where the target's goal pose is, or where an object must
 go to let the target by. :class:`BlockingProver` looks for such an answer, as a proof:
 
-1. Every one-joint object gets its joint range cut into cells, small enough that no point of
-   it moves more than :data:`PROOF_EROSION` metres within a cell. Fixed, locked and static
+1. Every one-joint object gets its joint range cut into cells (at least 1.2 cm of any point's motion wide,
+   wider than a judge's motion-check step, so no judge's motion jumps a cell). Fixed, locked and static
    objects stand at their one pose.
 2. *Reachable cells.* A cell of an object is blocked when the object, anywhere in the cell,
-   overlaps an object that is fixed, or an object in every cell that object can reach. A
+   collides with an object that is fixed, or with an object in every cell that object can reach. A
    one-joint object passes every value between two others, so it can reach only the run of
    unblocked cells around its start; this is repeated until nothing changes.
 3. *Goal states.* With the target's goal joints at their goal values, every object's cells
@@ -17,24 +17,26 @@ go to let the target by. :class:`BlockingProver` looks for such an answer, as a 
    of it left is clear of this one. An object left without cells means no valid goal state
    can be reached: the objects held fixed are necessary.
 
-"Overlaps anywhere in the cell" is proven from the cell's centre, conservatively: two convex
-outlines whose every separating-axis overlap exceeds ``2 c (s + e)`` (``s`` the judge's shrink,
-``e`` how far any point moves within a cell, ``c`` the outlines' corner factor, the largest
-``1 / sin(alpha / 2)`` of an interior angle; 1 for two rectangles whose sides are parallel, which
-share their separating axes) contain outlines eroded by ``s + e`` that meet,
-so the outlines eroded by ``s`` meet wherever in their cells the objects are, and the
-collision model of the judge's problem (every shape shrunk by ``s``,
-:func:`~solver.planning.problem.shrunk_tolerance`) finds them colliding. Shapes the proof does
-not model (cylinders, thin outlines an erosion would collapse) are left out, which can only
-make it find less; objects with more than one free joint take no part (they could be
-anywhere), unless every joint of the target is pinned by its goal. So the prover may fail to
-prove a necessary object necessary (the judges then decide), never the other way round.
+"Collides anywhere in the cell" is the collision kernel's own test (every edge line of either
+convex outline has the other outline more than the tolerance beyond it; the tolerance stands for
+every shape shrunk by ``s``, :func:`~solver.planning.problem.shrunk_tolerance`), shown at the
+cells' centres with a bound for the motion within: in one outline's frame its extent along its own
+edge normal is fixed, and every vertex of the other moves by at most its own object's move plus
+the first frame's (a shift, plus a turn times the point's distance from the pivot), so that
+vertex's projection is raised by that much before the test. A cell pair is tested widest cells
+first; only a pair neither blocked nor apart throughout is halved and tested again, down to the
+finest cells. Shapes the proof does not model (cylinders) are left out, and outline pairs whose
+table would cost more than :data:`PAIR_WORK` projections, which can only make it find less;
+objects with more than one free joint take no part (they could be anywhere), unless every joint
+of the target is pinned by its goal. So the prover may fail to prove a necessary object necessary
+(the judges then decide), never the other way round.
 
 It makes no random draws and spends no collision queries of a judge's budget.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -46,25 +48,21 @@ from phyrogen_core.chain import Role, pose_matrix
 from phyrogen_core.geometry import Box, ConvexPrism
 from phyrogen_core.objects import Motion, PuzzleObject
 from phyrogen_core.puzzle import Goal
-from solver.collision.model import DEFAULT_TOLERANCE
 from solver.planning.problem import GOAL_SLACK, LOCKED_WIDTH, shrunk_tolerance
 
-PROOF_EROSION = 0.03
-"""Metres any point of an object may move within one cell of its joint range."""
-PROOF_SLACK = 1e-4
-"""Metres added to every erosion, so that an overlap proven at a cell's centre is strictly more
-than the judge's tolerance everywhere in the cell."""
-ERODE_HEADROOM = 0.9
-"""An outline takes part in a proof only while eroding it keeps every edge at least a tenth of its
-length (the corner-factor bound needs every vertex to survive the erosion)."""
-PARALLEL = 1e-9
-PAIR_WORK = 50_000
+PROOF_EROSION = 0.06
+"""Metres any point of an object may move from a cell's centre within the cell (cells are twice as wide)."""
+LEAST_EROSION = 0.006
+"""The finest cells: every cell stays wider (1.2 cm of any point's motion) than the judges' motion checks
+step (0.5 cm, 1 cm: :data:`~solver.validation.judge.JUDGE_SETTINGS`, the second judge's), so a judge's
+motion through a cell blocked throughout checks a state in it."""
+PROOF_SLACK = 1e-6
+"""Metres added to the judge's tolerance: a pair proven colliding collides by more than the rounding
+between the proof's and the collision model's coordinates."""
+PAIR_WORK = 3_000_000
 """The most vertex projections one outline pair's table may take (near cell pairs times axes times
 vertices): a pair of many-sided outlines close together over many cells (Lockbox Random's slotted
 discs) is left out rather than paid for; a budget in counts, so the same question gets the same answer."""
-"""Radians within which two rectangles count as parallel (corner factor 1)."""
-MAX_EROSION = 0.2
-"""The largest shrink plus cell erosion a proof is tried with (metres)."""
 
 
 @dataclass(frozen=True)
@@ -73,21 +71,23 @@ class _Outline:
     normals: np.ndarray  # (k, 2) outward unit normals of the edges from each vertex
     z_low: float
     z_high: float
-    corner: float  # the largest 1 / sin(alpha / 2) over its interior angles alpha
     radius: float  # the farthest vertex from the vertices' mean
-    erodible: float  # the largest erosion (metres) that keeps every edge at 1 - ERODE_HEADROOM of its length
-    phase: float | None  # a rectangle's first edge direction in the object's frame; None for other outlines
 
 
 @dataclass(frozen=True)
 class _Cells:
-    """Where an object may stand: frame poses (n, 3) of (x, y, yaw), one per cell, and the joint
-    value at each cell's centre (None for an object at one pose)."""
+    """Where an object may stand: frame poses (n, 3) of (x, y, yaw) at each cell's centre, how far the
+    object may move from there within the cell, ``motions`` (n, 4): its frame's shift (metres), its
+    turn (radians) and the pivot (x, y) of the turn, so that a point at distance r from the pivot moves
+    at most shift + turn r (:func:`_moves`), and the joint value at each cell's centre (None for an
+    object at one pose)."""
 
     poses: np.ndarray
+    motions: np.ndarray
     values: np.ndarray | None
     lower: float = 0.0
     width: float = 0.0  # of one cell, in joint units
+    coarse: tuple[_Cells, ...] = ()  # the same range in cells 2, 4, ... times as wide, widest first
 
 
 def _outline(vertices: np.ndarray, z_low: float, z_high: float) -> _Outline | None:
@@ -108,14 +108,8 @@ def _outline(vertices: np.ndarray, z_low: float, z_high: float) -> _Outline | No
     angles = np.arccos(np.clip(cosines, -1.0, 1.0))  # interior angle at each vertex
     if np.any(angles <= 1e-6) or np.any(angles >= math.pi - 1e-9):
         return None
-    # Erosion by r moves an edge's ends inward along it by r cot(alpha / 2) at each end.
-    shortening = 1 / np.tan(angles / 2) + np.roll(1 / np.tan(angles / 2), -1)
-    erodible = float(np.min(ERODE_HEADROOM * lengths / shortening))
     radius = float(np.max(np.linalg.norm(vertices - vertices.mean(axis=0), axis=1)))
-    rectangle = len(vertices) == 4 and bool(np.all(np.abs(angles - math.pi / 2) < PARALLEL))
-    phase = math.atan2(edges[0, 1], edges[0, 0]) if rectangle else None
-    return _Outline(vertices, normals, z_low, z_high, float(np.max(1 / np.sin(angles / 2))), radius, erodible,
-                    phase)
+    return _Outline(np.ascontiguousarray(vertices), np.ascontiguousarray(normals), z_low, z_high, radius)
 
 
 _OUTLINES: dict[tuple, tuple[_Outline, ...]] = {}
@@ -180,60 +174,104 @@ def _frame_poses(obj: PuzzleObject, values: np.ndarray) -> np.ndarray:
     return poses
 
 
-def _world(outline: _Outline, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The outline's vertices and normals at each of ``poses``: (n, k, 2) each."""
-    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-    rotation = np.stack([np.stack([c, -s], axis=1), np.stack([s, c], axis=1)], axis=1)  # (n, 2, 2)
-    vertices = np.einsum("nij,kj->nki", rotation, outline.vertices) + poses[:, None, :2]
-    normals = np.einsum("nij,kj->nki", rotation, outline.normals)
-    return vertices, normals
+@njit(cache=True, nogil=True, inline='always')
+def _moves(px, py, motion_a, motion_b):
+    """How far the point (px, py) can move, relative to either object's frame, while both objects stay
+    in their cells: each object's own part is its frame's shift plus its turn times the point's distance
+    from its pivot (:class:`_Cells`)."""
+    return (motion_a[0] + motion_a[1] * math.hypot(px - motion_a[2], py - motion_a[3])
+            + motion_b[0] + motion_b[1] * math.hypot(px - motion_b[2], py - motion_b[3]))
+
+
+APART, BLOCKED, UNSURE = 0, 1, 2
+"""A cell pair's verdict: the outlines collide nowhere in it, everywhere in it, or neither is shown."""
+
+
+@njit(cache=True, nogil=True, inline='always')
+def _place(local, frame, out):
+    """``local`` (k, 2) points in the world at ``frame`` (x, y, cos, sin), into ``out``."""
+    for j in range(local.shape[0]):
+        out[j, 0] = frame[0] + frame[2] * local[j, 0] - frame[3] * local[j, 1]
+        out[j, 1] = frame[1] + frame[3] * local[j, 0] + frame[2] * local[j, 1]
 
 
 @njit(cache=True, nogil=True)
-def _pair_overlaps(va, na, vb, nb, first, second, threshold):  # pragma: no cover (compiled)
-    """:func:`_overlaps` of the pairs (``va[first[p]]``, ``vb[second[p]]``), compiled: the same products,
-    sums, extremes and comparison, in a loop instead of numpy's temporaries (the same answers)."""
-    out = np.empty(len(first), dtype=np.bool_)
+def _pair_verdicts(local_a, normals_a, frames_a, ma, local_b, normals_b, frames_b, mb, first, second,
+                   threshold):  # pragma: no cover (compiled)
+    """Whether outline a at cell ``first[p]`` and outline b at cell ``second[p]`` collide wherever in
+    both cells the objects are (:data:`BLOCKED`), nowhere (:data:`APART`) or neither is shown, by the
+    collision kernel's own test: every edge line of either outline has the other outline more than
+    ``threshold`` beyond it (:func:`solver.collision.kernels._pair_collides`).
+
+    Vertices ``local_a`` (k, 2) and outward normals ``normals_a`` are in the object's frame, placed at
+    each cell's centre by ``frames_a`` (cells, 4: x, y, cos, sin); ``ma`` (cells, 4) says how each cell
+    moves the object (:class:`_Cells`). In a's frame a's extent along its own normal is fixed, and each
+    vertex of b moves by at most :func:`_moves` of it, so b's least projection moves by at most that
+    much: the test holds everywhere when it holds at the centres with each of b's projections raised by
+    its vertex's move (and the same in b's frame), and fails everywhere when one edge line fails with
+    them lowered."""
+    out = np.empty(len(first), dtype=np.int8)
+    va, vb = np.empty(local_a.shape), np.empty(local_b.shape)
+    na, nb = np.empty(normals_a.shape), np.empty(normals_b.shape)
+    shift_a, shift_b = np.empty(va.shape[0]), np.empty(vb.shape[0])
     for p in range(len(first)):
         a, b = first[p], second[p]
-        overlap = np.inf
+        _place(local_a, frames_a[a], va)
+        _place(local_b, frames_b[b], vb)
+        for k in range(na.shape[0]):
+            na[k, 0] = frames_a[a, 2] * normals_a[k, 0] - frames_a[a, 3] * normals_a[k, 1]
+            na[k, 1] = frames_a[a, 3] * normals_a[k, 0] + frames_a[a, 2] * normals_a[k, 1]
+        for k in range(nb.shape[0]):
+            nb[k, 0] = frames_b[b, 2] * normals_b[k, 0] - frames_b[b, 3] * normals_b[k, 1]
+            nb[k, 1] = frames_b[b, 3] * normals_b[k, 0] + frames_b[b, 2] * normals_b[k, 1]
+        for j in range(va.shape[0]):
+            shift_a[j] = _moves(va[j, 0], va[j, 1], ma[a], mb[b])
+        for j in range(vb.shape[0]):
+            shift_b[j] = _moves(vb[j, 0], vb[j, 1], ma[a], mb[b])
+        verdict = BLOCKED
         for side in range(2):
-            normals = na[a] if side == 0 else nb[b]
+            own, normals = (va, na) if side == 0 else (vb, nb)
+            other, shift = (vb, shift_b) if side == 0 else (va, shift_a)
             for k in range(normals.shape[0]):
                 nx, ny = normals[k, 0], normals[k, 1]
-                low_a, high_a = np.inf, -np.inf
-                for j in range(va.shape[1]):
-                    v = nx * va[a, j, 0] + ny * va[a, j, 1]
-                    low_a, high_a = min(low_a, v), max(high_a, v)
-                low_b, high_b = np.inf, -np.inf
-                for j in range(vb.shape[1]):
-                    v = nx * vb[b, j, 0] + ny * vb[b, j, 1]
-                    low_b, high_b = min(low_b, v), max(high_b, v)
-                overlap = min(overlap, min(high_a, high_b) - max(low_a, low_b))
-        out[p] = overlap > threshold[p]
+                extent = -np.inf
+                for j in range(own.shape[0]):
+                    extent = max(extent, nx * own[j, 0] + ny * own[j, 1])
+                raised = lowered = np.inf
+                for j in range(other.shape[0]):
+                    projection = nx * other[j, 0] + ny * other[j, 1]
+                    raised = min(raised, projection + shift[j])
+                    lowered = min(lowered, projection - shift[j])
+                if extent - lowered <= threshold:
+                    verdict = APART
+                    break
+                if extent - raised <= threshold:
+                    verdict = UNSURE
+            if verdict == APART:
+                break
+        out[p] = verdict
     return out
 
 
-def _overlaps(va: np.ndarray, na: np.ndarray, vb: np.ndarray, nb: np.ndarray, threshold: float) -> np.ndarray:
-    """Whether outline pairs (``va[i]``, ``vb[i]``) overlap by more than ``threshold`` along every edge
-    normal of both (the separating-axis test of :mod:`solver.collision.kernels`, with ``threshold`` as its
-    tolerance); vertices and normals (p, k, 2)."""
-    overlap = None
-    for normals in (na, nb):
-        on_a = np.einsum("pkd,pjd->pkj", normals, va)
-        on_b = np.einsum("pkd,pjd->pkj", normals, vb)
-        over = np.minimum(on_a.max(axis=2), on_b.max(axis=2)) - np.maximum(on_a.min(axis=2), on_b.min(axis=2))
-        low = over.min(axis=1)
-        overlap = low if overlap is None else np.minimum(overlap, low)
-    return overlap > threshold
+def _centres(outline: _Outline, frames: np.ndarray) -> np.ndarray:
+    """The outline's vertices' mean (the centre of its bounding circle) at each frame: (n, 2)."""
+    x, y = outline.vertices.mean(axis=0)
+    return np.stack([frames[:, 0] + frames[:, 2] * x - frames[:, 3] * y, frames[:, 1] + frames[:, 3] * x
+                     + frames[:, 2] * y], axis=1)
+
+
+def _centre_moves(centres: np.ndarray, cells: _Cells) -> np.ndarray:
+    """How far each cell's outline centre (n, 2) may move within its cell."""
+    return cells.motions[:, 0] + cells.motions[:, 1] * np.linalg.norm(centres - cells.motions[:, 2:], axis=1)
 
 
 class BlockingProver:
     """Proves objects necessary by geometry (see the module docstring). Keeps what it computed about
     each object and each pair of objects, so the questions of one puzzle share it."""
 
-    def __init__(self, erosion: float = PROOF_EROSION):
+    def __init__(self, erosion: float = PROOF_EROSION, fine: float = LEAST_EROSION):
         self.erosion = erosion
+        self.fine = max(fine, LEAST_EROSION)
         self._outlines: dict[PuzzleObject, tuple[_Outline, ...]] = {}
         self._cells: dict[tuple, _Cells] = {}
         self._tables: dict[tuple, np.ndarray] = {}
@@ -255,21 +293,34 @@ class BlockingProver:
         return found
 
     def free_cells(self, obj: PuzzleObject) -> _Cells:
-        """A one-joint object's cells over its whole range."""
+        """A one-joint object's cells over its whole range, and the same range in cells 2, 4, ... times
+        as wide (:attr:`_Cells.coarse`), the widest of which no point moves more than :attr:`erosion`
+        from its centre in; the finest stay at least twice :attr:`fine` wide in any point's motion."""
         key = (self._id(obj), "free")
         found = self._cells.get(key)
         if found is None:
             (lower, upper), = obj.limits
             reach = 1.0 if obj.motion is Motion.PRISMATIC else max(_reach(self.outlines(obj)), 1e-3)
             count = max(1, math.ceil((upper - lower) * reach / (2 * self.erosion)))
-            width = (upper - lower) / count
-            values = lower + width * (np.arange(count) + 0.5)
-            found = self._cells[key] = _Cells(_frame_poses(obj, values), values, lower, width)
+            halvings = max(0, math.floor(math.log2((upper - lower) * reach / count / (2 * self.fine))))
+            levels = [self._range_cells(obj, lower, (upper - lower) / (count << level), count << level)
+                      for level in range(halvings + 1)]
+            found = self._cells[key] = dataclasses.replace(levels[-1], coarse=tuple(levels[:-1]))
         return found
 
-    def placed(self, obj: PuzzleObject, values: tuple[float, ...]) -> _Cells:
-        """An object at one pose: its joints at ``values`` (none for a fixed object)."""
-        key = (self._id(obj), values)
+    @staticmethod
+    def _range_cells(obj: PuzzleObject, lower: float, width: float, count: int) -> _Cells:
+        values = lower + width * (np.arange(count) + 0.5)
+        poses = _frame_poses(obj, values)
+        motions = np.zeros((count, 4))
+        motions[:, 2:] = poses[:, :2]
+        motions[:, 0 if obj.motion is Motion.PRISMATIC else 1] = width / 2
+        return _Cells(poses, motions, values, lower, width)
+
+    def placed(self, obj: PuzzleObject, values: tuple[float, ...], spread: float = 0.0) -> _Cells:
+        """An object at one pose: its joints at ``values`` (none for a fixed object), each joint within
+        ``spread`` of its value (a target at its goal, within the goal's tolerance)."""
+        key = (self._id(obj), values, spread)
         found = self._cells.get(key)
         if found is None:
             x, y, z = obj.pose.xyz
@@ -280,16 +331,21 @@ class BlockingProver:
                 pose = np.array([x + values[0], y + values[1], yaw + (values[2] if len(values) > 2 else 0.0)])
             else:
                 pose = np.array([x, y, yaw])
-            found = self._cells[key] = _Cells(pose[None, :], None)
+            # The frame shifts by at most the spread along each of its translations, and turns by the spread.
+            moves = obj.motion in (Motion.SE2, Motion.R2) or obj.motion is Motion.PRISMATIC
+            turns = obj.motion is Motion.REVOLUTE or obj.motion is Motion.SE2 and len(values) > 2
+            shift = spread * math.sqrt(2.0) if moves else 0.0
+            motion = np.array([[shift, spread if turns else 0.0, pose[0], pose[1]]])
+            found = self._cells[key] = _Cells(pose[None, :], motion, None)
         return found
 
-    def _world(self, obj: PuzzleObject, where: tuple, cells: _Cells, index: int):
-        """Outline ``index`` of the object over its cells: ((vertices, normals), the vertices' means)."""
-        key = (self._id(obj), where, index)
+    def _frames(self, obj: PuzzleObject, where: tuple, cells: _Cells) -> np.ndarray:
+        """The object's frame at each cell's centre: (n, 4) of x, y and the yaw's cosine and sine."""
+        key = (self._id(obj), where)
         found = self._worlds.get(key)
         if found is None:
-            world = _world(self.outlines(obj)[index], cells.poses)
-            found = self._worlds[key] = (world, world[0].mean(axis=1))
+            found = self._worlds[key] = np.ascontiguousarray(np.stack(
+                [cells.poses[:, 0], cells.poses[:, 1], np.cos(cells.poses[:, 2]), np.sin(cells.poses[:, 2])], axis=1))
         return found
 
     # -- per pair ----------------------------------------------------------------
@@ -303,6 +359,52 @@ class BlockingProver:
             high = cells.poses[:, :2].max(axis=0) + rho
             found = self._bounds[key] = np.concatenate([low, high])
         return found
+
+    def _blocked_pairs(self, a, index_a: int, b, index_b: int, table: np.ndarray, threshold: float,
+                       sides: int) -> bool:
+        """Marks in ``table`` the cell pairs where outline ``index_a`` of a and ``index_b`` of b collide
+        throughout, found coarse to fine: a coarse pair blocked throughout marks all its fine pairs, one
+        apart throughout is dropped, and only the rest are halved (each side that has finer cells) and
+        tested again. False when that would take more than :data:`PAIR_WORK` (nothing marked then)."""
+        (obj_a, where_a, cells_a), (obj_b, where_b, cells_b) = a, b
+        levels_a, levels_b = (*cells_a.coarse, cells_a), (*cells_b.coarse, cells_b)
+        depth = max(len(levels_a), len(levels_b))
+        found_i, found_j, spent = [], [], 0
+        i = j = None
+        outline_a, outline_b = self.outlines(obj_a)[index_a], self.outlines(obj_b)[index_b]
+        for step in range(depth):
+            la, lb = min(step, len(levels_a) - 1), min(step, len(levels_b) - 1)
+            frames_a, frames_b = self._frames(obj_a, (la, where_a), levels_a[la]), self._frames(obj_b, (lb, where_b),
+                                                                                                 levels_b[lb])
+            if i is None:  # the widest cells: the pairs whose bounding circles can meet somewhere in them
+                centre_a, centre_b = _centres(outline_a, frames_a), _centres(outline_b, frames_b)
+                reach = (outline_a.radius + outline_b.radius + _centre_moves(centre_a, levels_a[la])[:, None]
+                         + _centre_moves(centre_b, levels_b[lb])[None])
+                i, j = np.nonzero(np.sum((centre_a[:, None] - centre_b[None]) ** 2, axis=2) < reach ** 2)
+            spent += len(i) * sides
+            if spent > PAIR_WORK:
+                return False
+            verdicts = _pair_verdicts(outline_a.vertices, outline_a.normals, frames_a, levels_a[la].motions,
+                                      outline_b.vertices, outline_b.normals, frames_b, levels_b[lb].motions, i, j,
+                                      threshold)
+            blocked = verdicts == BLOCKED
+            scale_a, scale_b = 1 << (len(levels_a) - 1 - la), 1 << (len(levels_b) - 1 - lb)
+            found_i.append((i[blocked], scale_a))
+            found_j.append((j[blocked], scale_b))
+            unsure = verdicts == UNSURE
+            i, j = i[unsure], j[unsure]
+            if step + 1 < depth:
+                split_a, split_b = la + 1 < len(levels_a), lb + 1 < len(levels_b)
+                if split_a:
+                    i, j = np.concatenate([2 * i, 2 * i + 1]), np.concatenate([j, j])
+                if split_b:
+                    i, j = np.concatenate([i, i]), np.concatenate([2 * j, 2 * j + 1])
+        for (rows, scale_a), (columns, scale_b) in zip(found_i, found_j, strict=True):
+            if len(rows):
+                rows = (rows[:, None] * scale_a + np.arange(scale_a)[None])[:, :, None]
+                columns = (columns[:, None] * scale_b + np.arange(scale_b)[None])[:, None, :]
+                table[rows, columns] = True
+        return True
 
     def table(self, a: tuple[PuzzleObject, tuple, _Cells], b: tuple[PuzzleObject, tuple, _Cells],
               shrink: float) -> np.ndarray:
@@ -320,32 +422,14 @@ class BlockingProver:
         box_a, box_b = self._box(obj_a, where_a, cells_a), self._box(obj_b, where_b, cells_b)
         if np.all(box_a[:2] < box_b[2:]) and np.all(box_b[:2] < box_a[2:]):
             tolerance = shrunk_tolerance(shrink)
-            erosion = shrink + self.erosion + PROOF_SLACK
             for index_a, outline_a in enumerate(self.outlines(obj_a)):
                 for index_b, outline_b in enumerate(self.outlines(obj_b)):
                     if min(outline_a.z_high, outline_b.z_high) - max(outline_a.z_low, outline_b.z_low) <= tolerance:
                         continue
-                    if erosion > min(outline_a.erodible, outline_b.erodible):
-                        continue  # too thin for the bound: left out, which can only prove less
-                    world_a, centre_a = self._world(obj_a, where_a, cells_a, index_a)
-                    world_b, centre_b = self._world(obj_b, where_b, cells_b, index_b)
-                    least = max(2 * erosion, DEFAULT_TOLERANCE)
-                    # Only cell pairs whose bounding circles overlap by more than the threshold can.
-                    reach = outline_a.radius + outline_b.radius - least
-                    near = np.sum((centre_a[:, None] - centre_b[None]) ** 2, axis=2) < reach * abs(reach)
-                    i, j = np.nonzero(near & ~table)
-                    sides_a, sides_b = len(outline_a.vertices), len(outline_b.vertices)
-                    if len(i) * (sides_a + sides_b) * max(sides_a, sides_b) > PAIR_WORK:
-                        continue  # too dear: left out, which can only prove less
-                    if len(i):
-                        threshold = np.full(len(i), max(2 * max(outline_a.corner, outline_b.corner) * erosion,
-                                                        DEFAULT_TOLERANCE))
-                        if outline_a.phase is not None and outline_b.phase is not None:
-                            turn = np.mod(cells_a.poses[i, 2] + outline_a.phase - cells_b.poses[j, 2] - outline_b.phase,
-                                          math.pi / 2)
-                            threshold[np.minimum(turn, math.pi / 2 - turn) < PARALLEL] = least
-                        hit = _pair_overlaps(world_a[0], world_a[1], world_b[0], world_b[1], i, j, threshold)
-                        table[i[hit], j[hit]] = True
+                    sides = (len(outline_a.vertices) + len(outline_b.vertices)) * max(len(outline_a.vertices),
+                                                                                     len(outline_b.vertices))
+                    # A pair too dear to tabulate is left out, which can only prove less.
+                    self._blocked_pairs(a, index_a, b, index_b, table, tolerance + PROOF_SLACK, sides)
         self._tables[key] = table
         return table
 
@@ -353,8 +437,6 @@ class BlockingProver:
     def proves(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], shrink: float) -> bool:
         """Whether, with the objects ``fixed`` held at their start pose and every shape shrunk by
         ``shrink`` metres, no valid state with the target at its goal can be reached from the start."""
-        if shrink + self.erosion + PROOF_SLACK > MAX_EROSION:
-            return False
         fixed = set(fixed)
         points: list[tuple[PuzzleObject, tuple, _Cells]] = []
         free: list[tuple[PuzzleObject, tuple, _Cells]] = []
@@ -373,10 +455,9 @@ class BlockingProver:
                     return any(abs(held[j] - v) > goal.tolerance + GOAL_SLACK for j, v in goal.values.items())
                 if len(obj.limits) == 1:
                     target = len(free)
-                elif set(goal.values) == set(obj.joint_names) and goal.tolerance * (2 + _reach(self.outlines(obj))) \
-                        <= self.erosion:
+                elif set(goal.values) == set(obj.joint_names):
                     values = tuple(goal.values[j] for j in obj.joint_names)
-                    goal_point = (obj, values, self.placed(obj, values))
+                    goal_point = (obj, values, self.placed(obj, values, goal.tolerance + GOAL_SLACK))
                     continue
                 else:
                     return False
@@ -462,7 +543,8 @@ class BlockingProver:
 
 def warm_up() -> None:
     """Load the proof's compiled test (from numba's cache, or compile it), as a server does before it forks."""
-    square = np.array([[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]])
-    normals = np.array([[[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]]])
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    normals = np.array([[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
     index = np.zeros(1, dtype=np.int64)
-    _pair_overlaps(square, normals, square, normals, index, index, np.zeros(1))
+    frames, motions = np.array([[0.0, 0.0, 1.0, 0.0]]), np.zeros((1, 4))
+    _pair_verdicts(square, normals, frames, motions, square, normals, frames, motions, index, index, 0.0)
