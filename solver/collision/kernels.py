@@ -467,11 +467,14 @@ def nearest_l1(states: np.ndarray, size: int, query: np.ndarray, weights: np.nda
 
 
 @njit(cache=True, nogil=True)
-def first_colliding_motion(states, begin, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+def first_colliding_motion(states, known, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
                            shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns):
-    """Index ``i >= begin`` of the first motion ``states[i] -> states[i + 1]`` that :func:`motion_collision`
-    finds colliding, or -1: the same motion checks, in the same order, in one call."""
-    for i in range(begin, states.shape[0] - 1):
+    """Index ``i`` of the first motion ``states[i] -> states[i + 1]`` that :func:`motion_collision` finds
+    colliding, or -1: the same motion checks, in the same order, in one call; a motion with
+    ``known[i]`` (known to be free) is not checked."""
+    for i in range(states.shape[0] - 1):
+        if known[i]:
+            continue
         hit, _ = _motion_hit(states[i], states[i + 1], steps, kin_int, kin_float, n_links, shape_link, shape_nv,
                              shape_center, shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol,
                              pair_columns)

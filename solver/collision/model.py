@@ -319,11 +319,14 @@ class CollisionModel:
         b = np.asarray(end, dtype=np.float64)
         return float(_kernels.motion_collision(a, b, steps, *self._arguments, self._pair_columns))
 
-    def first_colliding_motion(self, states: np.ndarray, steps: np.ndarray, begin: int = 0) -> int:
-        """Index ``i >= begin`` of the first motion ``states[i] -> states[i + 1]`` that :meth:`check_motion`
-        finds colliding, or -1 when none does: the same checks in the same order, in one compiled call.
-        ``states``: a C-contiguous float64 (N, d) array."""
-        return int(_kernels.first_colliding_motion(states, begin, steps, *self._arguments, self._pair_columns))
+    def first_colliding_motion(self, states: np.ndarray, steps: np.ndarray, known: np.ndarray | None = None) -> int:
+        """Index ``i`` of the first motion ``states[i] -> states[i + 1]`` that :meth:`check_motion` finds
+        colliding, or -1 when none does: the same checks in the same order, in one compiled call,
+        those with ``known[i]`` (motions the caller knows are free) left out. ``states``: a
+        C-contiguous float64 (N, d) array."""
+        if known is None:
+            known = np.zeros(max(len(states) - 1, 0), dtype=np.bool_)
+        return int(_kernels.first_colliding_motion(states, known, steps, *self._arguments, self._pair_columns))
 
     def path_collisions(self, states: np.ndarray, steps: np.ndarray, stop: bool = False) -> int:
         """How many of the points :func:`~solver.planning.problem.segment_points` puts along ``states``

@@ -56,6 +56,7 @@ class Defragmenter:
         self.steps = steps
         self.max_rounds = max_rounds
         self.validations = 0
+        self._free: set[bytes] = set()  # motions (their two states' bytes) found free
 
     # -- representation ----------------------------------------------------
     def isolate(self, path: np.ndarray) -> list[Action] | None:
@@ -132,9 +133,22 @@ class Defragmenter:
         # Segment by segment: most candidates collide early, and the check stops there.
         self.validations += 1
         if type(self.model) is CollisionModel:  # the same checks in the same order, in one compiled call
-            return self.model.first_colliding_motion(np.ascontiguousarray(states, dtype=np.float64), self.steps) < 0
+            return self._motions_free(np.ascontiguousarray(states, dtype=np.float64))
         check = self.model.check_motion
         return all(check(a, b, self.steps) for a, b in zip(states[:-1], states[1:], strict=True))
+
+    def _motions_free(self, states: np.ndarray) -> bool:
+        """Whether every motion of ``states`` is free, those found free before not checked again: a
+        candidate repeats most of the current path's motions (everything after a collapsed action,
+        after a merge), and a motion's check depends on its two states alone."""
+        width = states.shape[1] * states.itemsize
+        raw = states.tobytes()
+        keys = [raw[i * width:(i + 2) * width] for i in range(len(states) - 1)]
+        free = self._free
+        known = np.array([key in free for key in keys], dtype=np.bool_)
+        first = self.model.first_colliding_motion(states, self.steps, known)
+        free.update(keys[:len(keys) if first < 0 else first])
+        return first < 0
 
     def _accept(self, candidate: list[Action], changed_from: int = 0) -> list[Action] | None:
         """The normalized candidate if it is valid and reaches the goal, else None.
