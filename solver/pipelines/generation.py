@@ -16,24 +16,25 @@ from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, S
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from phyrogen_core import __version__
-from phyrogen_core.actions import count_actions
-from phyrogen_core.maker import GenerationError, make, rng_for
-from phyrogen_core.objects import build_chain
-from phyrogen_core.puzzle import Puzzle
+from phyrogen_core.maker import GenerationError
 from phyrogen_core.registry import ParameterError, get_generator
 from phyrogen_core.seeding import stable_seed
-from solver.benchmark.difficulty import DifficultySettings, measure_difficulty
 from solver.parallel.pool import deferred_signals, fresh_process_pool
-from solver.planning.defragment import defragment_certificate
-from solver.planning.ompl_setup import seed_ompl
-from solver.planning.problem import dependency_graph
-from solver.validation.validator import OmplValidator
 
+if TYPE_CHECKING:
+    from phyrogen_core.puzzle import Puzzle
+    from solver.benchmark.difficulty import DifficultySettings
+
+_WORKER_STACK = ["solver.validation.validator", "solver.planning.defragment", "solver.planning.problem",
+                 "solver.planning.ompl_setup", "solver.benchmark.difficulty"]
+"""What a worker generates with: imported by the workers' server only (:data:`_PRELOAD`), never at this
+module's top, so that the command's process, which only schedules the work, does not load the
+compiled kernels' stack (about 0.3 CPU s of a dataset's start-up)."""
 _PRELOAD = ["numpy", "ompl.base", "ompl.geometric", "phyrogen_core", "phyrogen_core.generators",
-            "phyrogen_core.export", "solver.validation.validator", "solver.pipelines._server_warmup"]
+            "phyrogen_core.actions", "phyrogen_core.export", *_WORKER_STACK, "solver.pipelines._server_warmup"]
 
 
 def ompl_seed(generator: str, seed: int) -> int:
@@ -60,6 +61,14 @@ def generate_here(generator: str, seed: int, params: Any = None, *, stats: dict[
     ``stats``, when given, receives ``validation_checks``: the collision queries the Maker's
     validator spent (planning, necessity judging, certifying), a machine-independent cost.
     """
+    from phyrogen_core.maker import make, rng_for
+    from phyrogen_core.objects import build_chain
+    from phyrogen_core.puzzle import Puzzle
+    from solver.planning.defragment import defragment_certificate
+    from solver.planning.ompl_setup import seed_ompl
+    from solver.planning.problem import dependency_graph
+    from solver.validation.validator import OmplValidator
+
     spec = get_generator(generator)
     params = spec.default_params() if params is None else params
     spec.check(seed, params)
@@ -110,6 +119,9 @@ class Report:
 
 
 def _run_job(job: Job, out_root: str | None) -> Report:
+    from phyrogen_core.actions import count_actions
+    from solver.benchmark.difficulty import measure_difficulty
+
     started = time.perf_counter()
     cpu = time.process_time()
     try:

@@ -10,40 +10,33 @@
 docs/datasets.md walks through a dataset from the command line.
 """
 
-from solver.pipelines.dataset.build import (
-    Backend,
-    BuildResult,
-    EntryOutcome,
-    EntryTask,
-    build_dataset,
-    check_dataset_root,
-    local_backend,
-    ray_backend,
-)
-from solver.pipelines.dataset.manifest import (
-    COLUMNS,
-    MANIFEST_FILE,
-    TIMING_COLUMNS,
-    canonical_hash,
-    content_hash,
-    manifest_rows,
-    read_manifest,
-)
-from solver.pipelines.dataset.manifest_row import ManifestRow
-from solver.pipelines.dataset.request import (
-    DEFAULT_SHARD_SIZE,
-    MAX_ENTRIES,
-    MAX_SHARD_SIZE,
-    DatasetError,
-    DatasetRequest,
-    Entry,
-    make_request,
-)
-from solver.pipelines.dataset.stats import dataset_stats, plot_stats
+import importlib
 
-__all__ = [
-    "COLUMNS", "DEFAULT_SHARD_SIZE", "MANIFEST_FILE", "MAX_ENTRIES", "MAX_SHARD_SIZE", "TIMING_COLUMNS", "Backend",
-    "BuildResult", "DatasetError", "DatasetRequest", "Entry", "EntryOutcome", "EntryTask", "ManifestRow",
-    "build_dataset", "canonical_hash", "check_dataset_root", "content_hash", "dataset_stats", "local_backend",
-    "make_request", "manifest_rows", "plot_stats", "ray_backend", "read_manifest",
-]
+_HOMES = {
+    "build": ("Backend", "BuildResult", "EntryOutcome", "EntryTask", "build_dataset", "check_dataset_root",
+              "local_backend", "ray_backend"),
+    "manifest": ("COLUMNS", "MANIFEST_FILE", "TIMING_COLUMNS", "canonical_hash", "content_hash", "manifest_rows",
+                 "read_manifest"),
+    "manifest_row": ("ManifestRow",),
+    "request": ("DEFAULT_SHARD_SIZE", "MAX_ENTRIES", "MAX_SHARD_SIZE", "DatasetError", "DatasetRequest", "Entry",
+                "make_request"),
+    "stats": ("dataset_stats", "plot_stats"),
+}
+"""Each submodule and the names this package exports from it. They are imported on first use (PEP 562):
+the command's process reads an option's bound from :mod:`.request` without importing :mod:`.build`,
+and with it the generation stack that only the workers' server needs."""
+_HOME_OF = {name: module for module, names in _HOMES.items() for name in names}
+__all__ = sorted(_HOME_OF)
+
+
+def __getattr__(name: str):
+    module = _HOME_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

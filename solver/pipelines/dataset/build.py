@@ -37,15 +37,13 @@ import json
 import math
 import os
 import re
-import shutil
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from phyrogen_core.export.mjcf import mjcf_path
 from phyrogen_core.folder import (
     DATASET_FILE,
     PuzzleFormatError,
@@ -59,7 +57,6 @@ from phyrogen_core.folder import (
 )
 from phyrogen_core.maker import GenerationError
 from phyrogen_core.registry import ParameterError, get_generator
-from solver.benchmark.difficulty import DifficultySettings, measure_difficulty
 from solver.parallel.pool import deferred_signals
 from solver.parallel.ray_pool import LOCAL
 from solver.parallel.tasks import task_pool
@@ -70,16 +67,25 @@ from solver.pipelines.dataset.manifest import (
     part_is_complete,
     part_path,
     puzzle_row,
+    read_parquet,
     write_manifest,
     write_part,
 )
 from solver.pipelines.dataset.manifest_row import ManifestRow
 from solver.pipelines.dataset.request import DatasetError, DatasetRequest, Entry, request_difference
+from solver.pipelines.dataset.shard_files import (
+    RECORDS_FOLDER,
+    exclusive,
+    read_record,
+    remove_records,
+    remove_temporary_files,
+)
 from solver.pipelines.generation import _PRELOAD as GENERATION_PRELOAD
 from solver.pipelines.generation import LOOKAHEAD, generate_here, versions
 
-RECORDS_FOLDER = ".records"
-"""Inside a shard folder: one generation record per finished puzzle, until the shard's part is written."""
+if TYPE_CHECKING:
+    from solver.benchmark.difficulty import DifficultySettings
+
 PRELOAD = [*GENERATION_PRELOAD, "solver.pipelines.dataset.build"]
 
 
@@ -94,6 +100,7 @@ class EntryTask:
     shard_dir: str
     mjcf: bool = False  # also write the puzzle's MJCF
     difficulty: DifficultySettings | None = None  # measure it into puzzle.json
+    shard: int | None = None  # the shard's number: the worker then sends the puzzle's manifest row back
 
     @property
     def name(self) -> str:
@@ -111,6 +118,12 @@ class EntryOutcome:
     seconds: float | None = None
     validation_checks: int | None = None
     lost: bool = False
+    row: ManifestRow | None = None  # the written folder's manifest row, read back by the worker (see make_entry)
+
+    @property
+    def record(self) -> dict[str, Any]:
+        """The generation record's cost columns of a manifest row."""
+        return {"seconds": self.seconds, "validation_checks": self.validation_checks}
 
 
 Backend = Callable[[Iterable[EntryTask], int, Callable[[list[EntryTask]], None] | None], Iterator[EntryOutcome]]
@@ -128,6 +141,8 @@ def make_entry(task: EntryTask) -> EntryOutcome:
     try:
         puzzle = generate_here(task.generator, task.seed, task.params, stats=stats)
         if task.difficulty is not None:
+            from solver.benchmark.difficulty import measure_difficulty
+
             puzzle = replace(puzzle, difficulty=measure_difficulty(puzzle.chain, puzzle.goal, puzzle.name,
                                                                    task.difficulty))
     except (ParameterError, GenerationError) as exc:
@@ -147,7 +162,26 @@ def make_entry(task: EntryTask) -> EntryOutcome:
             folder = write_puzzle(puzzle, shard_dir, versions())
             if task.mjcf:
                 write_mjcf(folder, puzzle.chain, puzzle.name, puzzle.certificate)
+    if puzzle is not None and task.shard is not None:
+        outcome = replace(outcome, row=_written_row(task, outcome))
     return outcome
+
+
+def _written_row(task: EntryTask, outcome: EntryOutcome) -> ManifestRow | None:
+    """The manifest row of the folder this worker has just written, read back from the folder as the
+    command's process reads any folder (:func:`~solver.pipelines.dataset.manifest.puzzle_row`), so the
+    row is the same by construction; that process then needs neither the reader nor its imports.
+    None when the folder cannot be read: the command's process reads it again and reports why."""
+    from solver.pipelines.dataset.request import Entry
+
+    shard_dir = Path(task.shard_dir)
+    entry = Entry(task.index, task.generator, task.seed, task.params)
+    try:
+        return puzzle_row(entry, task.shard, shard_dir.parent, shard_dir / task.generator / task.name, outcome.record)
+    except Exception as exc:
+        if asked_to_stop(exc):
+            raise
+        return None
 
 
 def asked_to_stop(exc: BaseException) -> bool:
@@ -374,17 +408,17 @@ def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *
     root = check_dataset_root(request, root)
     result = BuildResult(root, entries=request.size)
     root.mkdir(parents=True, exist_ok=True)
-    with _exclusive(root):
+    with exclusive(root):
         check_dataset_root(request, root)  # again, now that no other run can write it
         if not (root / DATASET_FILE).is_file():
             stored = json.dumps({**request.to_json(), "versions": versions()}, sort_keys=True, indent=2) + "\n"
             write_file_atomic(root / DATASET_FILE, stored.encode())
-        _remove_temporary_files(root, _ROOT_FILES.__contains__)
-        _remove_temporary_files(root / PARTS_FOLDER, _PART_FILE.fullmatch)
+        remove_temporary_files(root, _ROOT_FILES.__contains__)
+        remove_temporary_files(root / PARTS_FOLDER, _PART_FILE.fullmatch)
         pending = []
         for shard in range(request.shard_count):
             if part_is_complete(part_path(root, shard), request.shard_entries(shard)):
-                _remove_records(request, _clean_shard(request, root, shard), shard)
+                remove_records(request, _clean_shard(request, root, shard), shard)
                 if on_skip is not None:
                     on_skip(len(request.shard_entries(shard)))
             else:
@@ -404,7 +438,7 @@ def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *
                     continue
                 rows = [state.rows[i] for i in request.shard_entries(shard)]
                 write_part(part_path(root, shard), rows)
-                _remove_records(request, root / shard_name(shard), shard)
+                remove_records(request, root / shard_name(shard), shard)
                 del shards[shard]
                 if on_shard is not None:
                     on_shard(shard, rows)
@@ -414,11 +448,12 @@ def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *
                 shard = request.shard_of(outcome.index)
                 state = shards[shard]
                 entry = request.entry(outcome.index)
-                record = {"seconds": outcome.seconds, "validation_checks": outcome.validation_checks}
                 if outcome.ok:
-                    row = puzzle_row(entry, shard, root, _folder(root, shard, entry), record)
+                    row = outcome.row
+                    if row is None or (row.index, row.shard) != (outcome.index, shard):  # none sent: read here
+                        row = puzzle_row(entry, shard, root, _folder(root, shard, entry), outcome.record)
                 else:
-                    row = failed_row(entry, shard, outcome.error or "failed", record)
+                    row = failed_row(entry, shard, outcome.error or "failed", outcome.record)
                 state.rows[outcome.index] = row
                 state.waiting.discard(outcome.index)
                 result.generated += 1
@@ -435,11 +470,8 @@ def build_dataset(request: DatasetRequest, root: str | Path, workers: int = 2, *
 
 
 def _count(result: BuildResult) -> None:
-    import pyarrow.compute as pc
-    import pyarrow.parquet as pq
-
-    status = pq.read_table(result.manifest, columns=["status"]).column("status")
-    result.ok = int(pc.sum(pc.equal(status, "ok")).as_py() or 0)
+    status = read_parquet(result.manifest, ["status"]).column("status").to_pylist()
+    result.ok = status.count("ok")
     result.failed = len(status) - result.ok
 
 
@@ -454,10 +486,10 @@ def _scan_shard(request: DatasetRequest, root: Path, shard: int,
     state = _Shard(shard)
     todo: list[EntryTask] = []
     for entry in request.entries(request.shard_entries(shard)):
-        record = _read_record(shard_dir, entry)
+        record = read_record(shard_dir, entry)
         row = None
         folder = _folder(root, shard, entry)
-        if folder.is_dir() and not (request.mjcf and not mjcf_path(folder, entry.name).is_file()):
+        if folder.is_dir() and not (request.mjcf and not _has_mjcf(folder, entry.name)):
             # (A folder killed between its URDF and its MJCF is made again: the same puzzle, so
             # only the MJCF is new.)
             try:
@@ -473,83 +505,23 @@ def _scan_shard(request: DatasetRequest, root: Path, shard: int,
         else:
             state.waiting.add(entry.index)
             todo.append(EntryTask(entry.index, entry.generator, entry.seed, entry.params, str(shard_dir),
-                                  request.mjcf, request.difficulty))
+                                  request.mjcf, request.difficulty, shard))
     return state, todo
+
+
+def _has_mjcf(folder: Path, name: str) -> bool:
+    from phyrogen_core.export.mjcf import mjcf_path
+
+    return mjcf_path(folder, name).is_file()
 
 
 def _clean_shard(request: DatasetRequest, root: Path, shard: int) -> Path:
     """Remove what killed writers left in a shard's folder; returns the folder."""
     shard_dir = root / shard_name(shard)
     for generator in request.generators:
-        _remove_temporary_files(shard_dir / generator, re.compile(rf"{re.escape(generator)}_\d+").fullmatch)
-    _remove_temporary_files(shard_dir / RECORDS_FOLDER, lambda entry: entry.endswith(".json"))
+        remove_temporary_files(shard_dir / generator, re.compile(rf"{re.escape(generator)}_\d+").fullmatch)
+    remove_temporary_files(shard_dir / RECORDS_FOLDER, lambda entry: entry.endswith(".json"))
     return shard_dir
-
-
-def _remove_records(request: DatasetRequest, shard_dir: Path, shard: int) -> None:
-    """Remove the generation records of a complete shard (its part file holds their rows now):
-    the records of its own entries, by their exact names, then the folder if that left it empty.
-    Anything else in it, a user's file, stays, and so does the folder holding it."""
-    folder = shard_dir / RECORDS_FOLDER
-    if folder.is_symlink() or not folder.is_dir():
-        return
-    own = {f"{entry.name}.json" for entry in request.entries(request.shard_entries(shard))}
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return
-    for name in names:
-        if name in own:
-            with contextlib.suppress(OSError):
-                (folder / name).unlink()
-    with contextlib.suppress(OSError):  # not empty: a user's file is in it
-        folder.rmdir()
-
-
-def _read_record(shard_dir: Path, entry: Entry) -> dict[str, Any] | None:
-    """The generation record of ``entry`` when there is one and it belongs to exactly this entry."""
-    path = shard_dir / RECORDS_FOLDER / f"{entry.name}.json"
-    if not path.is_file():
-        return None
-    try:
-        record = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    if not isinstance(record, dict):
-        return None
-    same = (record.get("index") == entry.index and record.get("generator") == entry.generator
-            and record.get("seed") == entry.seed and record.get("parameters") == entry.parameters_json)
-    return record if same and _record_values_hold(record) else None
-
-
-def _record_values_hold(record: dict[str, Any]) -> bool:
-    """Whether a generation record's values are of the kinds :func:`write_record` writes (a manifest row
-    is made of them): one that is not is made again, as a torn record is."""
-    seconds, checks, error = record.get("seconds"), record.get("validation_checks"), record.get("error")
-    return (isinstance(record.get("ok"), bool) and (error is None or isinstance(error, str))
-            and (seconds is None or type(seconds) in (int, float) and math.isfinite(seconds) and seconds >= 0)
-            and (checks is None or type(checks) is int and checks >= 0))
-
-
-def _remove_temporary_files(folder: Path, own: Callable[[str], object]) -> None:
-    """Remove what killed writers left in ``folder``: the temporary entries of atomic writes
-    (:func:`~phyrogen_core.folder.temporary_entry`: ``.<entry>.<8 random characters>.tmp`` and
-    their ``.old<n>`` asides) of the entries ``own`` names, this stage's own. Nothing else is
-    touched: a user's ``.notes.tmp`` or ``.draft.tmp.tex`` is no temporary of ours."""
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return
-    for name in names:
-        entry = temporary_entry(name)
-        if entry is None or not own(entry):
-            continue
-        path = folder / name
-        if path.is_dir() and not path.is_symlink():
-            shutil.rmtree(path, ignore_errors=True)
-        else:
-            with contextlib.suppress(OSError):
-                path.unlink()
 
 
 _ROOT_FILES = (DATASET_FILE, MANIFEST_FILE)
@@ -559,28 +531,3 @@ _PART_FILE = re.compile(r"shard-\d{5,}\.parquet")
 def _root_temporary(name: str) -> bool:
     """Whether ``name`` in a dataset root is a temporary entry of this stage's own files."""
     return temporary_entry(name) in _ROOT_FILES
-
-
-@contextlib.contextmanager
-def _exclusive(root: Path) -> Iterator[None]:
-    """Hold a lock on the dataset root for the block: two runs never write one dataset at once.
-
-    A lock on the folder itself: nothing is left behind, and the lock ends with its process, even
-    one killed by SIGKILL."""
-    try:
-        import fcntl
-    except ImportError:  # not on POSIX: no lock
-        yield
-        return
-    descriptor = os.open(root, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_CLOEXEC", 0))
-    try:
-        try:
-            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise DatasetError(f"{root}: another `phyrogen dataset` is writing this dataset; wait for it "
-                               "or stop it") from None
-        except OSError:  # a file system without flock
-            pass
-        yield
-    finally:
-        os.close(descriptor)

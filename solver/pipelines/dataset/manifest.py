@@ -255,7 +255,7 @@ def part_is_complete(path: Path, indices: range) -> bool:
     if not path.is_file():
         return False
     try:
-        table = pq.read_table(path, columns=["index"])
+        table = read_parquet(path, ["index"])
         if table.schema.names != ["index"] or pq.read_schema(path) != schema():
             return False
         return table.column("index").to_pylist() == list(indices)
@@ -271,8 +271,17 @@ def write_manifest(root: Path, parts: Sequence[Path]) -> Path:
     final = Path(root) / MANIFEST_FILE
     with atomic_file(final) as temporary, pq.ParquetWriter(temporary, schema()) as writer:
         for part in parts:
-            writer.write_table(pq.read_table(part, schema=schema()))
+            writer.write_table(read_parquet(part).cast(schema()))
     return final
+
+
+def read_parquet(path: Path, columns: Sequence[str] | None = None):
+    """The table of one Parquet file (``columns``, default all). ``pq.read_table`` would read it as a
+    dataset, whose module (with Arrow's compute functions) costs a dataset run's process 0.05 CPU s to import."""
+    import pyarrow.parquet as pq
+
+    with pq.ParquetFile(path) as file:
+        return file.read(columns=None if columns is None else list(columns))
 
 
 def manifest_files(root: Path) -> tuple[list[Path], bool]:

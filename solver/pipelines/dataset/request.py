@@ -30,10 +30,12 @@ import math
 import typing
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from phyrogen_core.registry import MAX_SEED, get_generator, merge_seed_spans
-from solver.benchmark.difficulty import DifficultySettings
+
+if TYPE_CHECKING:  # at run time only where a request measures difficulty: it imports the planners
+    from solver.benchmark.difficulty import DifficultySettings
 
 FORMAT_VERSION = 1
 """The version of ``dataset.json`` and of the manifest's columns; bumped when one changes meaning."""
@@ -379,6 +381,14 @@ def _short(value: Any) -> str:
     return text if len(text) <= 80 else text[:77] + "..."
 
 
+def _difficulty_settings(data: Mapping[str, Any] | None) -> DifficultySettings | None:
+    if data is None:
+        return None
+    from solver.benchmark.difficulty import DifficultySettings
+
+    return DifficultySettings(int(data["runs"]), int(data["budget_checks"]), str(data["planner"]))
+
+
 def load_request(data: Mapping[str, Any]) -> DatasetRequest:
     """A request from the data of a ``dataset.json`` (for reading a dataset; not re-checked)."""
     try:
@@ -389,9 +399,7 @@ def load_request(data: Mapping[str, Any]) -> DatasetRequest:
                               tuple(sorted(data["set"].items())),
                               tuple(Sweep(s["key"], tuple(s["values"])) for s in data["sweeps"]),
                               data["sweep_mode"], int(data["shard_size"]), bool(data.get("mjcf", False)),
-                              None if data.get("difficulty") is None else DifficultySettings(
-                                  int(data["difficulty"]["runs"]), int(data["difficulty"]["budget_checks"]),
-                                  str(data["difficulty"]["planner"])))
+                              _difficulty_settings(data.get("difficulty")))
     except (KeyError, TypeError, AttributeError, ValueError) as exc:
         if isinstance(exc, DatasetError):
             raise
