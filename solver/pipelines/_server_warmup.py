@@ -1,6 +1,6 @@
 """Imported once by the generation server process (see :mod:`solver.pipelines.generation`).
 
-It compiles the collision kernels, the judge's loop and the necessity proof's test there (or loads them
+It compiles the collision kernels, the judge's loop and the necessity proofs' tests there (or loads them
 from numba's cache), with every other signature of them that the cache holds, so every worker forked
 from the server starts with them loaded instead of paying about 0.2 s each. It loads the generator
 registry too (the generators' modules, found through their entry points), which every fresh worker
@@ -17,10 +17,12 @@ from phyrogen_core.registry import registry
 from solver.collision.model import warm_up
 from solver.validation.blocking import warm_up as warm_up_proof
 from solver.validation.judge import warm_up as warm_up_judge
+from solver.validation.region_proof import warm_up as warm_up_region_proof
 
 warm_up()
 warm_up_judge()
 warm_up_proof()
+warm_up_region_proof()
 
 _CALLED_KERNELS = {
     "solver.collision.kernels": ("check_states", "motion_collision", "state_valid_packed", "pair_hits",
@@ -28,6 +30,7 @@ _CALLED_KERNELS = {
     "solver.planning._isolated_step": ("isolated_moves",),
     "solver.planning._judge_loop": ("new_trees", "resume"),
     "solver.validation.blocking": ("_pair_overlaps",),
+    "solver.validation.region_proof": ("_closed", "_reach"),
 }
 """The compiled kernels that generation calls from Python. The warm-ups above call them with one layout
 of arrays; generation also passes others (a view of a state, ``np.nonzero``'s indices) and calls
