@@ -225,17 +225,23 @@ class CollisionModel:
             normals[i, : len(v)] = o.normals
             extent[i, : len(v)] = o.extent
         self._shape_verts, self._shape_normals, self._shape_extent = verts, normals, extent
-        pairs = []
-        for i, a in enumerate(outlines):
-            for j in range(i + 1, count):
-                b = outlines[j]
-                if a.obj == b.obj or a.link == b.link:
-                    continue
-                if a.link not in self._moving and b.link not in self._moving:
-                    continue
-                if min(a.z_high, b.z_high) - max(a.z_low, b.z_low) <= self.tolerance:
-                    continue
-                pairs.append((j, i) if a.is_circle and not b.is_circle else (i, j))  # circles second
+        # Candidate pairs (i < j, in that order): shapes of different objects and links, one of them
+        # moving, whose z intervals overlap by more than the tolerance; a circle always second.
+        obj_ids: dict[str, int] = {}
+        obj = np.array([obj_ids.setdefault(o.obj, len(obj_ids)) for o in outlines], dtype=np.int64)
+        shape_links = np.array([o.link for o in outlines], dtype=np.int64)
+        moves = np.array([o.link in self._moving for o in outlines], dtype=np.bool_)
+        circle = np.array([o.is_circle for o in outlines], dtype=np.bool_)
+        z_low = np.array([o.z_low for o in outlines], dtype=np.float64)
+        z_high = np.array([o.z_high for o in outlines], dtype=np.float64)
+        first, second = np.triu_indices(count, 1)
+        keep = (obj[first] != obj[second]) & (shape_links[first] != shape_links[second])
+        keep &= moves[first] | moves[second]
+        keep &= ~(np.minimum(z_high[first], z_high[second]) - np.maximum(z_low[first], z_low[second])
+                  <= self.tolerance)
+        first, second = first[keep], second[keep]
+        swap = circle[first] & ~circle[second]
+        pairs = np.column_stack([np.where(swap, second, first), np.where(swap, first, second)]).tolist()
         self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
         # Which state columns move each pair's shapes (a joint moves its child link and all below).
         link_columns = np.zeros((len(self._links), len(self.joint_order)), dtype=np.bool_)
@@ -243,9 +249,8 @@ class CollisionModel:
             link_columns[link] = link_columns[parent]
             if column >= 0:
                 link_columns[link, column] = True
-        shape_link = [o.link for o in outlines]
-        self._pair_columns = np.array([link_columns[shape_link[a]] | link_columns[shape_link[b]] for a, b in pairs],
-                                      dtype=np.bool_).reshape(len(pairs), len(self.joint_order))
+        self._pair_columns = np.ascontiguousarray(link_columns[shape_links[self._pairs[:, 0]]] |
+                                                  link_columns[shape_links[self._pairs[:, 1]]])
         self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in pairs]
         self._pair_names = [tuple(sorted(names)) for names in self._pair_objects]
         self._arguments = self._args()

@@ -82,14 +82,36 @@ def problem_for_chain(chain: KinematicChain, goal: Goal, *, fixed: Sequence[str]
         if name in locked_names and abs(locked_at - value) > goal.tolerance:
             raise UnreachableGoalError(f"goal joint {name!r} of chain {chain.name!r} is locked at {locked_at} "
                                        f"(fixed, or limits of zero width), away from its goal value {value}")
-    model = CollisionModel(chain, {j.name: max(min(0.0, j.upper), j.lower) for j in locked},
-                           shrunk_tolerance(shrink))
+    model = collision_model(chain, {j.name: max(min(0.0, j.upper), j.lower) for j in locked},
+                            shrunk_tolerance(shrink))
     order = model.joint_order
     lower = np.array([chain.joint(n).lower for n in order])
     upper = np.array([chain.joint(n).upper for n in order])
     start = np.clip(np.zeros(len(order)), lower, upper)
     columns = {order.index(n): float(v) for n, v in goal.values.items() if n in order}
     return Problem(model, start, columns, lower, upper, goal.tolerance)
+
+
+_MODELS: dict[tuple, tuple[KinematicChain, CollisionModel]] = {}
+_MODELS_KEPT = 16
+
+
+def collision_model(chain: KinematicChain, locked: dict[str, float] | None = None,
+                    tolerance: float = DEFAULT_TOLERANCE) -> CollisionModel:
+    """``CollisionModel(chain, locked, tolerance)``, the last few kept: one puzzle asks for the same
+    model several times (each judge of a candidate, the validator's solve and its certificate check).
+    Kept by the chain's identity (a chain is immutable, and kept alive with its model) and the exact
+    locked values and tolerance, so a kept model is the one that would be built."""
+    key = (id(chain), tuple((name, float(value).hex()) for name, value in (locked or {}).items()),
+           float(tolerance).hex())
+    found = _MODELS.get(key)
+    if found is not None and found[0] is chain:
+        return found[1]
+    model = CollisionModel(chain, locked, tolerance)
+    if len(_MODELS) >= _MODELS_KEPT:
+        del _MODELS[next(iter(_MODELS))]
+    _MODELS[key] = (chain, model)
+    return model
 
 
 def shrunk_tolerance(shrink: float) -> float:
@@ -220,7 +242,7 @@ def verify_certificate(chain: KinematicChain, path, goal: Goal, resolution: floa
                         f"{states[row, column]!r}, limits [{lower[column]!r}, {upper[column]!r}]); "
                         "not checked for collisions")
     else:
-        problems += _collision_problems(CollisionModel(chain), states, resolution)
+        problems += _collision_problems(collision_model(chain), states, resolution)
     if not goal.is_reached(chain.state_dict(states[-1])):
         problems.append("certificate does not end in the goal")
     return problems
@@ -264,7 +286,7 @@ def chain_dependency_graph(chain: KinematicChain, certificate, resolution: float
                            tolerance: float = DEFAULT_TOLERANCE) -> tuple[tuple[str, str], ...]:
     """:func:`dependency_graph` for a chain (one read from a puzzle folder has no generator
     objects), with the collision model's ``tolerance``."""
-    model = CollisionModel(chain, tolerance=tolerance)
+    model = collision_model(chain, tolerance=tolerance)
     states = densify(certificate, model.motion_steps(resolution))
     edges: set[tuple[str, str]] = set()
     for blocker, columns in chain.factors.items():
