@@ -71,8 +71,9 @@ REGION_LEVELS = (6, 3, 0)
 """The levels of cells tried, coarse to fine, as powers of two times :data:`REGION_CELL`: 0.48, 0.06 and
 0.0075 m across. A coarse level settles roomy puzzles (Move N Times' door at any rung) at little cost;
 the finest one is needed where the slack is a few millimetres (Rooms' doors at the top rung)."""
-MAX_CELLS = 4_000_000
-"""The most cells one level's grid may hold; a larger grid ends the proof (no proof)."""
+MAX_CELLS = 8_000_000
+"""The most cells one level's grid may hold; a larger grid ends the proof (no proof). Rooms' largest
+size (6 rooms at scaling 4, a 16 x 16 m walk at worst) needs about 5 million at the finest level."""
 REGION_SLACK = 1e-6
 """Metres taken off every distance that proves a collision: far more than the rounding of the
 model's and the proof's arithmetic at puzzle sizes (about 1e-14 m), so a proven overlap is strictly
