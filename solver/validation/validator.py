@@ -12,15 +12,13 @@ sampler draws from its own seeded numpy Generator.
 
 from __future__ import annotations
 
-import heapq
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from phyrogen_core.chain import KinematicChain, pose_matrix
-from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
+from phyrogen_core.chain import KinematicChain
 from phyrogen_core.maker import Necessary, SolveResult
 from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
@@ -39,7 +37,9 @@ from solver.planning.problem import (
 )
 from solver.validation.blocking import BlockingProver
 from solver.validation.judge import JUDGE_BUDGET, SECOND_JUDGE_BUDGET, Necessity, judge
+from solver.validation.object_keys import ByObjects
 from solver.validation.region_proof import proves as region_proves
+from solver.validation.route_grid import Route, footprint, grid_path
 
 DEFAULT_BUDGET = 4000
 """Collision queries (motion checks plus single-state checks) RRT-Connect may spend
@@ -92,10 +92,10 @@ class OmplValidator:
         self.resolution = resolution
         self.routed = routed
         self.checks = 0
-        self._solved: _ByObjects = _ByObjects()  # objects -> certificate (chain joint order)
-        self._blocked: _ByObjects = _ByObjects()  # (target, *fixed) -> :meth:`_free_cells`' table
+        self._solved: ByObjects = ByObjects()  # objects -> certificate (chain joint order)
+        self._blocked: ByObjects = ByObjects()  # (target, *fixed) -> :meth:`_free_cells`' table
         self._alone: tuple[tuple, CollisionModel] | None = None
-        self._fine: _ByObjects = _ByObjects()  # objects whose certificate was planned at fine resolution
+        self._fine: ByObjects = ByObjects()  # objects whose certificate was planned at fine resolution
         self.second_judge_budget = SECOND_JUDGE_BUDGET  # 0: the first judge alone (tests' controls)
         self.verdicts: list[Necessity] = []  # every necessity verdict, in the Maker's order
         self.prover: BlockingProver | None = BlockingProver()  # None: the judges alone (tests' controls)
@@ -261,7 +261,7 @@ class OmplValidator:
             current = leg_path[-1]
         return chain_path(problem, np.concatenate([*pieces, current[None, :]]))
 
-    def _plan_leg(self, problem: Problem, route: _Route, current: np.ndarray, cells: np.ndarray,
+    def _plan_leg(self, problem: Problem, route: Route, current: np.ndarray, cells: np.ndarray,
                   goal_columns: dict[int, float], tolerance: float, resolution: float) -> np.ndarray | None:
         """One leg of a routed re-plan (problem joint order), or None: the target alone first, every
         other joint held where it is (most legs need nothing else, and the certificate stays
@@ -353,7 +353,7 @@ class OmplValidator:
             if not distance[cell] <= 2 * ROUTE_CELL:
                 return None
             ends.append(cell)
-        cells = _grid_path(free, roomy, ends[0], ends[1])
+        cells = grid_path(free, roomy, ends[0], ends[1])
         if cells is None:
             return None
         points = np.column_stack([xs[cells[:, 0]], ys[cells[:, 1]]])
@@ -366,7 +366,7 @@ class OmplValidator:
             legs.append((points[begin:end + 1], points[end]))
             begin = end
         columns = tuple(order.index(name) for name in names if name in order)
-        return _Route((x, y), columns, legs)
+        return Route((x, y), columns, legs)
 
     def _free_cells(self, target: PuzzleObject, fixed: tuple[PuzzleObject, ...], xs: np.ndarray,
                     ys: np.ndarray) -> np.ndarray:
@@ -381,10 +381,10 @@ class OmplValidator:
             return clear
         clear = clear.copy()
         origin = np.asarray(target.pose.xyz[:2])
-        outline = _footprint(target)
+        outline = footprint(target)
         near = np.zeros(clear.shape[:2], dtype=bool)
         for obj in fixed[known:]:
-            points = _footprint(obj)
+            points = footprint(obj)
             if points is None or outline is None:
                 near[:] = True
                 break
@@ -488,134 +488,6 @@ class OmplValidator:
             if repaired is not None and not verify_certificate(chain, repaired, goal):
                 return repaired
         return None
-
-
-class _ByObjects:
-    """A dict keyed by tuples of puzzle objects, compared as tuples are, each object hashed once: a
-    puzzle object's own hash walks all its geometry, and the Maker asks about every prefix of a
-    growing puzzle (Rooms: 10 ms a puzzle)."""
-
-    def __init__(self) -> None:
-        self._items: dict[_Objects, object] = {}
-        self._hashes: dict[int, tuple[PuzzleObject, int]] = {}  # id -> (the object, kept alive; its hash)
-
-    def _key(self, objects: tuple[PuzzleObject, ...]) -> _Objects:
-        hashes = []
-        for o in objects:
-            found = self._hashes.get(id(o))
-            if found is None:
-                found = self._hashes[id(o)] = (o, hash(o))
-            hashes.append(found[1])
-        return _Objects(objects, hash(tuple(hashes)))
-
-    def __contains__(self, objects: tuple[PuzzleObject, ...]) -> bool:
-        return self._key(objects) in self._items
-
-    def __getitem__(self, objects: tuple[PuzzleObject, ...]):
-        return self._items[self._key(objects)]
-
-    def __setitem__(self, objects: tuple[PuzzleObject, ...], value) -> None:
-        self._items[self._key(objects)] = value
-
-    def get(self, objects: tuple[PuzzleObject, ...]):
-        return self._items.get(self._key(objects))
-
-
-class _Objects:
-    """A key of :class:`_ByObjects`: the objects and their hash."""
-
-    __slots__ = ("objects", "hash")
-
-    def __init__(self, objects: tuple[PuzzleObject, ...], hash_: int):
-        self.objects, self.hash = objects, hash_
-
-    def __hash__(self) -> int:
-        return self.hash
-
-    def __eq__(self, other) -> bool:
-        return isinstance(other, _Objects) and self.objects == other.objects
-
-
-def _footprint(obj: PuzzleObject) -> np.ndarray | None:
-    """World (x, y) points whose hull holds every collision shape of ``obj`` at its creation
-    pose, or None for a shape this does not know."""
-    points = []
-    for geometry in obj.collisions:
-        shape = geometry.shape
-        if isinstance(shape, Box):
-            hx, hy = shape.size[0] / 2, shape.size[1] / 2
-            local = [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)]
-        elif isinstance(shape, Cylinder):
-            r = shape.radius
-            local = [(-r, -r), (r, -r), (r, r), (-r, r)]
-        elif isinstance(shape, ConvexPrism):
-            local = [p for piece in shape.pieces for p in piece]
-        else:
-            return None
-        frame = pose_matrix(obj.pose) @ pose_matrix(geometry.origin)
-        points.append(np.asarray(local, dtype=float) @ frame[:2, :2].T + frame[:2, 3])
-    return np.concatenate(points) if points else None
-
-
-@dataclass(frozen=True)
-class _Route:
-    """A routed re-plan's way: the problem columns of the target's x and y and of all its joints,
-    and its legs, each the route's points (x, y) along the leg and the point where it ends."""
-
-    columns: tuple[int, int]
-    target_columns: tuple[int, ...]
-    legs: list[tuple[np.ndarray, np.ndarray]]
-
-
-_NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
-
-
-def _grid_path(free: np.ndarray, roomy: np.ndarray, start: tuple[int, int], end: tuple[int, int]):
-    """The cheapest 8-connected way between two cells through ``free`` cells (a cell that is not
-    ``roomy`` costs 4x: the way keeps to where the target can turn), as (k, 2) cell indices, or
-    None. Diagonal steps need both cells beside them free, so the way never cuts a corner."""
-    width, height = free.shape
-    cost = np.where(roomy, 1.0, 4.0).ravel().tolist()
-    open_ = free.ravel().tolist()
-    source, sink = start[0] * height + start[1], end[0] * height + end[1]
-
-    def estimate(i: int, j: int) -> float:  # octile distance: never more than the cost left (A*)
-        dx, dy = abs(i - end[0]), abs(j - end[1])
-        return max(dx, dy) + 0.41421356237309515 * min(dx, dy)
-
-    best = {source: 0.0}
-    came: dict[int, int] = {}
-    done: set[int] = set()
-    queue = [(estimate(*start), source)]
-    while queue:
-        _, cell = heapq.heappop(queue)
-        if cell == sink:
-            break
-        if cell in done:
-            continue
-        done.add(cell)
-        i, j = divmod(cell, height)
-        distance = best[cell]
-        for di, dj in _NEIGHBOURS:
-            a, b = i + di, j + dj
-            if not (0 <= a < width and 0 <= b < height):
-                continue
-            other = a * height + b
-            if not open_[other]:
-                continue
-            if di and dj and not (open_[a * height + j] and open_[i * height + b]):
-                continue
-            step = (1.4142135623730951 if di and dj else 1.0) * cost[other]
-            if distance + step < best.get(other, math.inf):
-                best[other] = distance + step
-                came[other] = cell
-                heapq.heappush(queue, (distance + step + estimate(a, b), other))
-    if sink not in best:
-        return None
-    way = [sink]
-    while way[-1] != source:
-        way.append(came[way[-1]])
-    return np.array([divmod(c, height) for c in reversed(way)], dtype=np.int64)
 
 
 def _parking_values(chain, new_joints: list[str]) -> list[float]:
