@@ -24,42 +24,78 @@ warm_up_judge()
 warm_up_proof()
 warm_up_region_proof()
 
-_CALLED_KERNELS = {
-    "solver.collision.kernels": ("check_states", "motion_collision", "state_valid_packed", "pair_hits",
-                                 "pair_hits_packed", "pair_hits_rows", "nearest_l1", "fixed_poses"),
-    "solver.planning._isolated_step": ("isolated_moves",),
-    "solver.planning._judge_loop": ("new_trees", "resume"),
-    "solver.validation.blocking": ("_pair_overlaps",),
-    "solver.validation.region_proof": ("_closed", "_reach"),
-}
-"""The compiled kernels that generation calls from Python. The warm-ups above call them with one layout
-of arrays; generation also passes others (a view of a state, ``np.nonzero``'s indices) and calls
-LA-RRT's kernels, each a signature of its own that a fresh worker loaded from numba's cache before its
-first puzzle (about 5 ms each, up to five a worker)."""
-
-
-def _load_cached_signatures() -> None:
-    """Load every signature of :data:`_CALLED_KERNELS` that numba's cache holds for the current code: no
-    kernel runs, and a call still takes only the signature that matches its arguments exactly (the
-    dispatcher compiles an exact match whenever it may compile), so which are loaded changes no result.
-    A kernel renamed, a numba without these internals or an unreadable cache leaves the loading to the
-    workers: nothing here may stop the server, whose failed import would fail every run."""
-    import importlib
+def _kernels_called_from_python() -> list:
+    """The compiled kernels (numba dispatchers) that the Python code of the solver's modules imported so far
+    calls: a name in a function of a module that the module binds to a kernel, or to a module holding one
+    (``kernels.check_states``). A kernel only other kernels call is compiled into them: loading its own
+    signatures would be wasted. Found from the code, so a kernel added tomorrow is found too; a name that
+    only looks like a call costs a load, never a result."""
+    import sys
+    from types import CodeType, FunctionType, ModuleType
 
     from numba.core.dispatcher import Dispatcher
 
-    for module_name, names in _CALLED_KERNELS.items():
+    def code_names(code: CodeType, names: set[str]) -> None:
+        names.update(code.co_names)
+        for const in code.co_consts:
+            if isinstance(const, CodeType):
+                code_names(const, names)
+
+    def functions(value, module_name: str, seen: set[int]):
+        if id(value) in seen:
+            return
+        seen.add(id(value))
+        if isinstance(value, (staticmethod, classmethod)):
+            yield from functions(value.__func__, module_name, seen)
+        elif isinstance(value, property):
+            for accessor in (value.fget, value.fset, value.fdel):
+                yield from functions(accessor, module_name, seen)
+        elif isinstance(value, FunctionType) and value.__module__ == module_name:
+            yield value
+        elif isinstance(value, type) and value.__module__ == module_name:
+            for member in vars(value).values():
+                yield from functions(member, module_name, seen)
+
+    found: dict[int, Dispatcher] = {}
+    for module_name, module in list(sys.modules.items()):
+        if not module_name.startswith("solver.") or module is None:
+            continue
+        names: set[str] = set()
+        seen: set[int] = set()
+        for value in list(vars(module).values()):
+            for function in functions(value, module_name, seen):
+                code_names(function.__code__, names)
+        scopes = [module, *(v for v in vars(module).values()
+                            if isinstance(v, ModuleType) and v.__name__.startswith("solver."))]
         for name in names:
-            try:
-                kernel = getattr(importlib.import_module(module_name), name, None)
-                if not isinstance(kernel, Dispatcher):
-                    continue
-                cache, codegen = kernel._cache, kernel.targetctx.codegen()
-                for key in cache._cache_file._load_index():
-                    if key == cache._index_key(key[0], codegen) and tuple(key[0]) not in kernel.overloads:
-                        kernel.compile(key[0])
-            except Exception:  # (see the docstring)
-                continue
+            for scope in scopes:
+                kernel = getattr(scope, name, None)
+                if isinstance(kernel, Dispatcher):
+                    found[id(kernel)] = kernel
+    return list(found.values())
+
+
+def _load_cached_signatures() -> None:
+    """Load every signature that numba's cache holds for the current code of the kernels generation calls
+    (:func:`_kernels_called_from_python`). The warm-ups above call each with one layout of arrays;
+    generation passes others too (a view of a state, ``np.nonzero``'s indices) and calls kernels they do
+    not, each a signature of its own that every fresh worker loaded before its first puzzle (about 5 ms
+    each, five to seven a worker). No kernel runs here, and a call still takes only the signature that
+    matches its arguments exactly (a dispatcher compiles an exact match whenever it may compile), so
+    which are loaded changes no result. A numba without these internals or an unreadable cache leaves
+    the loading to the workers: nothing here may stop the server, whose failed import fails every run."""
+    try:
+        kernels = _kernels_called_from_python()
+    except Exception:  # (see the docstring)
+        return
+    for kernel in kernels:
+        try:
+            cache, codegen = kernel._cache, kernel.targetctx.codegen()
+            for key in cache._cache_file._load_index():
+                if key == cache._index_key(key[0], codegen) and tuple(key[0]) not in kernel.overloads:
+                    kernel.compile(key[0])
+        except Exception:  # (see the docstring)
+            continue
 
 
 _load_cached_signatures()
