@@ -107,3 +107,18 @@ def step_arguments(settings, model, columns: list[np.ndarray], steps: np.ndarray
     factor_columns, factor_sizes = factor_table(columns)
     return (counter, settings.factor_order != "fixed", counter is not None and counter.by_length,
             factor_columns, factor_sizes, steps, real._packed_int, real._packed_float, real._pair_columns)
+
+
+def compiled_piece(function, *arguments):
+    """``function(*arguments)``, a compiled call; a signal handler's exception raised as itself.
+
+    A signal that lands while compiled code runs has its Python handler run as the call returns,
+    and numba then reports ``SystemError: ... returned a result with an exception set``, the
+    handler's exception (``phyrogen.cli.Interrupted``) its cause: that is re-raised, so the
+    command ends as interrupted (exit 130 / 143), not as a bug."""
+    try:
+        return function(*arguments)
+    except SystemError as exc:
+        if isinstance(exc.__cause__, KeyboardInterrupt):
+            raise exc.__cause__ from None
+        raise

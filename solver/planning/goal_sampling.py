@@ -56,7 +56,9 @@ import numpy as np
 
 from phyrogen_core.seeding import stable_seed
 from solver.collision.model import CollisionModel
-from solver.planning.anytime import CheckCounter
+from solver.planning import _goal_stream as stream
+from solver.planning._isolated_step import compiled_piece, factor_table
+from solver.planning.anytime import AnytimeRecorder, CheckCounter
 from solver.planning.problem import Problem, problem_factors
 
 GOAL_SAMPLING_VERSION = "2"
@@ -134,9 +136,12 @@ class GoalAccount:
 
 
 class GoalSampler:
-    """The stream of valid goal states of one run (see the module docstring)."""
+    """The stream of valid goal states of one run (see the module docstring). ``compiled``: where it applies
+    (:meth:`_compiled_limits`), :meth:`next` is one compiled call (:mod:`solver.planning._goal_stream`), the same
+    stream; False keeps the Python search (the reference the tests compare with)."""
 
-    def __init__(self, problem: Problem, seed: int, settings: GoalSamplerSettings | None = None):
+    def __init__(self, problem: Problem, seed: int, settings: GoalSamplerSettings | None = None, *,
+                 compiled: bool = True):
         self.problem = problem
         self.settings = settings or DEFAULT_GOAL_SETTINGS
         self.rng = np.random.default_rng(seed)
@@ -159,6 +164,7 @@ class GoalSampler:
         self._budget_spent = False
         self._run: RunLimit | None = None
         self.cut_by_run = False  # a call stopped because the run was over
+        self._tables = self._compiled_tables() if compiled else None
         if isinstance(self.model, CheckCounter):
             # So that the run's result reports this sampler's account (AnytimeRecorder.result).
             self.model.goal_sampler = self
@@ -183,6 +189,11 @@ class GoalSampler:
 
     def next(self) -> np.ndarray | None:
         """The next new goal state of the stream (a copy), or None once it is exhausted."""
+        if self.exhausted:
+            return None
+        limits = self._compiled_limits()
+        if limits is not None:
+            return self._next_compiled(limits)
         while not self.exhausted:
             if self._next == len(self._block):
                 if not self._draw_block():
@@ -207,6 +218,67 @@ class GoalSampler:
         if state is not None or not self.states:
             return state
         return self.states[int(rng.integers(len(self.states)))].copy()
+
+    # -- the compiled search -------------------------------------------------------
+    def _compiled_tables(self) -> tuple | None:
+        """What :func:`~solver.planning._goal_stream.next_state` needs of the model and the objects; None where
+        the model is not ours (counted by a :class:`CheckCounter` or not)."""
+        real = self.model._model if type(self.model) is CheckCounter else self.model
+        if type(real) is not CollisionModel:
+            return None
+        names = sorted({name for pair in real._pair_objects for name in pair})
+        number = {name: i for i, name in enumerate(names)}
+        pair_objects = np.array([(number[a], number[b]) for a, b in real._pair_objects],
+                                dtype=np.int64).reshape(-1, 2)
+        movable = [name for name in names if name in self.free]  # objects a repair may move, in name order
+        object_free = np.array([movable.index(name) if name in self.free else -1 for name in names], dtype=np.int64)
+        free_columns, free_sizes = factor_table([self.free[name] for name in movable])
+        return (self.goal_columns, self.goal_values.astype(np.float64), free_columns, free_sizes, object_free,
+                pair_objects, len(names), real._packed_int, real._packed_float, real._pair_columns)
+
+    def _compiled_limits(self) -> np.ndarray | None:
+        """The settings and the run's limits as the compiled search reads them; None where it does not apply:
+        no tables, or a run whose end a clock may decide (only checks may end a run inside a compiled call)
+        or that does not count this sampler's checks."""
+        if self._tables is None:
+            return None
+        run = self._run if self._run is not None else getattr(self.model, "run", None)
+        settings = self.settings
+        limits = [settings.capacity, settings.budget, settings.batch, settings.repair_rounds, settings.repair_draws,
+                  0, 0, 0]
+        if run is not None:
+            if type(run) is not AnytimeRecorder or run.counter is not self.model or run.budget_cpu is not None \
+                    or run.time_limit != float("inf"):
+                return None
+            limits[stream.HAS_RUN:] = [1, 2**62 if run.budget_checks is None else run.budget_checks,
+                                       run.end is not None]
+        return np.array(limits, dtype=np.int64)
+
+    def _next_compiled(self, limits: np.ndarray) -> np.ndarray | None:
+        counters = np.zeros(stream.COUNTERS, dtype=np.int64)
+        counters[[stream.NEXT, stream.ROWS, stream.CANDIDATES, stream.CHECKED, stream.REPAIRED, stream.STATES]] = \
+            [self._next, len(self._block), self.candidates, self.checked, self.repaired, len(self.states)]
+        run = self._run if self._run is not None else getattr(self.model, "run", None)
+        counters[stream.RUN_SPENT] = run.checks() if run is not None else 0
+        block = np.empty((self.settings.batch, len(self.problem.start)))
+        block[:len(self._block)] = self._block
+        valid = np.zeros(self.settings.batch, dtype=np.bool_)
+        valid[:len(self._valid)] = self._valid
+        state = compiled_piece(stream.next_state, self.rng, block, valid, counters, limits, self.problem.lower,
+                               self.problem.upper, *self._tables)
+        rows = int(counters[stream.ROWS])
+        self._block, self._valid, self._next = block[:rows], valid[:rows], int(counters[stream.NEXT])
+        self.candidates, self.checked = int(counters[stream.CANDIDATES]), int(counters[stream.CHECKED])
+        self.repaired, self._budget_spent = int(counters[stream.REPAIRED]), bool(counters[stream.BUDGET_SPENT])
+        if type(self.model) is CheckCounter:
+            self.model.checks += int(counters[stream.SPENT])
+        if counters[stream.CUT] and not self.cut_by_run:
+            self.cut_by_run = True
+            run.expired()  # as the Python search asked it at the refused check (it records why the run ended)
+        if not len(state):
+            return None
+        self.states.append(state.copy())
+        return state.copy()
 
     # -- finding states -----------------------------------------------------------
     def _spend(self, states: int) -> bool:

@@ -124,18 +124,20 @@ def attempt_fixed(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrin
 
 
 def attempt_second(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrink: float, budget: int,
-                   seed: int) -> Attempt:
+                   seed: int, *, compiled: bool = True) -> Attempt:
     """The second judge's try at ``chain`` with ``fixed`` held and shapes shrunk by ``shrink``: until
     its first solution or until ``budget`` collision checks are spent, goal sampling included
-    (the sampler's stream is seeded apart from the planner's, both from ``seed``)."""
+    (the sampler's stream is seeded apart from the planner's, both from ``seed``). The loop and the
+    goal sampler run compiled (:mod:`solver.planning._paper_loop`, :mod:`solver.planning._goal_stream`);
+    ``compiled`` False runs both in Python, the same run (the reference the tests compare with)."""
     fixed = tuple(fixed)
     try:
         problem = problem_for_chain(chain, goal, fixed=fixed, shrink=shrink)
     except UnreachableGoalError:  # the target itself is fixed: no goal state can exist
         return Attempt(fixed, shrink, False, judge=SECOND_JUDGE, goals=GoalAccount(0, 0, 0, False, False))
     problem = count_checks(problem)
-    goals = GoalSampler(problem, stable_seed("second judge goals", seed), SECOND_JUDGE_GOALS)
-    planner = LaRrt(problem, np.random.default_rng(seed), SECOND_JUDGE_SETTINGS, goals)
+    goals = GoalSampler(problem, stable_seed("second judge goals", seed), SECOND_JUDGE_GOALS, compiled=compiled)
+    planner = LaRrt(problem, np.random.default_rng(seed), SECOND_JUDGE_SETTINGS, goals, compiled_loop=compiled)
     # No clock: the run ends on its checks (an infinite time limit is never reached).
     recorder = AnytimeRecorder(SECOND_JUDGE, problem, math.inf, math.inf, budget)
     goals.bind(recorder)
@@ -259,3 +261,4 @@ def warm_up() -> None:
                                       geometry, limits=((0.0, 1.0),)) for i in range(2)])
     goal = Goal("obj_00", {chain.joint_order[0]: 1.0})
     attempt_fixed(chain, goal, ["obj_01"], 0.0, 50, np.random.default_rng(0))
+    attempt_second(chain, goal, [], 0.0, 200, 0)  # the second judge's compiled loop and goal sampler
