@@ -129,8 +129,10 @@ def test_a_closed_room_is_proven_and_an_opening_or_walls_above_the_target_are_no
             assert region_proof.proves(objects, goal, [], shrink)
         # Control: a doorway wider than the target's disk (0.4 m across) in the east wall.
         assert not region_proof.proves(*_room(gap=0.5, motion=motion), [], 0.0)
-        # Walls from 0.5 m up: their z extents meet the target's (0 .. 0.5 m) by nothing.
-        assert not region_proof.proves(*_room(wall_z=0.75, motion=motion), [], 0.0)
+        # Walls from 0.5 m up: their z extents meet the target's (0 .. 0.5 m) by nothing; the judge walks out.
+        lifted, goal = _room(wall_z=0.75, motion=motion)
+        assert not region_proof.proves(lifted, goal, [], 0.0)
+        assert not _judge_fails(lifted, goal, [], 0.0)
         # Walls that overlap the target's height by exactly the tolerance are dropped by the model too.
         assert not region_proof.proves(*_room(wall_z=0.75 - 0.02, motion=motion), [], 0.01)
 
