@@ -153,3 +153,36 @@ def test_a_target_turning_about_a_frame_off_its_centre_is_proven_only_in_a_close
     opened, goal = _room(gap=0.8, offset=0.3, motion=Motion.SE2)
     assert not region_proof.proves(opened, goal, [], 0.01)
     assert not _judge_fails(opened, goal, [], 0.01)  # control: the judge finds the way out
+
+
+def test_the_flood_fill_reaches_exactly_the_8_connected_component_of_the_start():
+    """The proof's scanline fill against a plain breadth-first search, on random grids (a control: a fill
+    that forgot diagonal steps reaches less on the same grids)."""
+    from collections import deque
+
+    def component(closed, start, steps):
+        seen, queue = {start}, deque([start])
+        while queue:
+            i, j = queue.popleft()
+            for di, dj in steps:
+                a, b = i + di, j + dj
+                if 0 <= a < closed.shape[0] and 0 <= b < closed.shape[1] and not closed[a, b] and (a, b) not in seen:
+                    seen.add((a, b))
+                    queue.append((a, b))
+        return seen
+
+    eight = [(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj]
+    rng = np.random.default_rng(7466)
+    fewer = 0
+    for _ in range(40):
+        nx, ny = (int(v) for v in rng.integers(3, 40, size=2))
+        closed = (rng.random((ny, nx)) < rng.uniform(0.2, 0.6)).T  # laid out as the proof lays its grids
+        start = (int(rng.integers(nx)), int(rng.integers(ny)))
+        closed[start] = False
+        reached, box = region_proof._reach(closed, *start)
+        expected = component(closed, start, eight)
+        assert {tuple(c) for c in np.argwhere(reached)} == expected
+        rows, columns = zip(*expected, strict=True)
+        assert list(box) == [min(rows), min(columns), max(rows), max(columns)]
+        fewer += len(component(closed, start, [(1, 0), (-1, 0), (0, 1), (0, -1)])) < len(expected)
+    assert fewer > 0

@@ -310,25 +310,46 @@ def _closed(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny,
 @njit(cache=True, nogil=True)
 def _reach(closed, start_i, start_j):  # pragma: no cover (compiled)
     """The cells an 8-connected flood fill from the start cell reaches through cells not ``closed``,
-    and their bounding box (first row, first column, last row, last column)."""
+    and their bounding box (first row, first column, last row, last column; -1 first: the fill gave
+    up, no answer). A scanline fill: each run of open cells along x is marked at once, and seeds the
+    runs beside it in the rows above and below (one cell further at either end: diagonal steps). The
+    result is a transposed view, as ``closed`` is, so that runs lie contiguous in memory."""
     nx, ny = closed.shape
-    reached = np.zeros((nx, ny), dtype=np.bool_)
-    stack = np.empty(nx * ny, dtype=np.int64)
-    reached[start_i, start_j] = True
+    reached = np.zeros((ny, nx), dtype=np.bool_).T
+    # Every run marked is a whole run of open cells of its row, and seeds each run beside it at most once
+    # before that one is marked, so seeds come in pairs of touching runs of neighbouring rows: about
+    # 2 nx ny at most. Should a grid need more, the fill stops with no box (no proof: sound).
+    stack = np.empty(2 * nx * ny + 4 * ny + 1, dtype=np.int64)
     stack[0] = start_i * ny + start_j
     top = 1
     box = np.array([start_i, start_j, start_i, start_j])
     while top > 0:
         top -= 1
         i, j = divmod(stack[top], ny)
-        box[0], box[1], box[2], box[3] = min(box[0], i), min(box[1], j), max(box[2], i), max(box[3], j)
-        for di in range(-1, 2):
-            for dj in range(-1, 2):
-                a, b = i + di, j + dj
-                if 0 <= a < nx and 0 <= b < ny and not closed[a, b] and not reached[a, b]:
-                    reached[a, b] = True
+        if reached[i, j]:
+            continue
+        left = i
+        while left > 0 and not closed[left - 1, j] and not reached[left - 1, j]:
+            left -= 1
+        right = i
+        while right < nx - 1 and not closed[right + 1, j] and not reached[right + 1, j]:
+            right += 1
+        for a in range(left, right + 1):
+            reached[a, j] = True
+        box[0], box[1], box[2], box[3] = min(box[0], left), min(box[1], j), max(box[2], right), max(box[3], j)
+        for b in (j - 1, j + 1):
+            if b < 0 or b >= ny:
+                continue
+            run = False
+            for a in range(max(0, left - 1), min(nx, right + 2)):
+                open_ = not closed[a, b] and not reached[a, b]
+                if open_ and not run:
+                    if top == stack.shape[0]:
+                        box[0] = -1
+                        return reached, box
                     stack[top] = a * ny + b
                     top += 1
+                run = open_
     return reached, box
 
 
@@ -399,6 +420,8 @@ def proves(objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], sh
         if not (0 <= i < size[0] and 0 <= j < size[1]) or closed[i, j]:
             return False  # the start itself collides (or was not reached): the judges decide
         reached, box = _reach(closed, i, j)
+        if box[0] < 0:
+            return False
         # Every cell that meets the box where p is at the goal (and a cell more).
         g0 = np.maximum(0, np.floor((goal_low - corner) / width).astype(np.int64) - 1)
         g1 = np.floor((goal_high - corner) / width).astype(np.int64) + 2
