@@ -513,7 +513,7 @@ def _pairs_valid(q, kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_l
 
 
 @njit(cache=True, nogil=True)
-def path_collisions(states, steps, stop, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
+def path_collisions(states, steps, stop, held_only, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
                     shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns):
     """How many of the points ``solver.planning.problem.segment_points`` puts along the path ``states``
     (its first state excluded) collide; with ``stop``, 1 at the first colliding one.
@@ -521,8 +521,9 @@ def path_collisions(states, steps, stop, kin_int, kin_float, n_links, shape_link
     The same points (``a + (b - a) * (k / count)``, ``count`` the most steps a joint needs) and, at
     each, the same pair tests as :func:`check_states`, but a pair that no joint changing along a
     segment moves (``pair_columns``) is tested once, at the segment's first point: every point of
-    the segment holds exactly its values there, so its verdict is the same at every one. (A segment's
-    points are written into a block first: the tests then run as fast as :func:`check_states`'.)"""
+    the segment holds exactly its values there, so its verdict is the same at every one. With
+    ``held_only`` only those pairs are tested. (A segment's points go into a block first: the tests
+    then run as fast as :func:`check_states`'.)"""
     d = states.shape[1]
     x, y, c, s, yaws = np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links), np.empty(n_links)
     centres = np.empty((2, shape_link.shape[0]))
@@ -543,8 +544,9 @@ def path_collisions(states, steps, stop, kin_int, kin_float, n_links, shape_link
                 if pair_columns[p, j] and a[j] != b[j]:
                     moving[p] = True
                     break
-        block = np.empty((count, d))
-        for k in range(1, count + 1):
+        points = 1 if held_only else count
+        block = np.empty((points, d))
+        for k in range(1, points + 1):
             t = k / count
             for j in range(d):
                 block[k - 1, j] = a[j] + (b[j] - a[j]) * t
@@ -556,7 +558,7 @@ def path_collisions(states, steps, stop, kin_int, kin_float, n_links, shape_link
                 return 1
             continue
         full = False
-        for k in range(count):
+        for k in range(0 if held_only else count):
             if not _pairs_valid(block[k], kin_int, kin_float, x, y, c, s, yaws, centres, False, shape_link, shape_nv,
                                 shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
                                 moving, True):

@@ -82,6 +82,22 @@ def _outlines_of_geometry(geometry, link_index: int, obj: str, frame: np.ndarray
     return [_Outline(link_index, obj, *shape) for shape in found]
 
 
+_ORIGINS: dict[tuple[str, ...], tuple[float, float, float]] = {}
+"""A joint origin's planar x, y and yaw, by the exact numbers of its pose (a puzzle's models are built
+from the same joints many times): what :func:`_planar` computes of its matrix, so no model changes."""
+
+
+def _joint_origin(joint: Joint) -> tuple[float, float, float]:
+    key = tuple(float(v).hex() for v in (*joint.origin.xyz, *joint.origin.rpy))
+    found = _ORIGINS.get(key)
+    if found is None:
+        ox, oy, _, oyaw = _planar(pose_matrix(joint.origin), f"joint {joint.name!r} origin")
+        if len(_ORIGINS) >= _SHAPES_KEPT:
+            _ORIGINS.clear()
+        found = _ORIGINS[key] = (ox, oy, oyaw)
+    return found
+
+
 def _edge_normals(v: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
     """A polygon's outward unit edge normals and its extent along each (None, None for a circle)."""
     if v is None:
@@ -169,7 +185,7 @@ class CollisionModel:
         steps = []
         for name in self._links[1:]:
             joint: Joint = self.chain.parent_joint(name)  # type: ignore[assignment]
-            ox, oy, _, oyaw = _planar(pose_matrix(joint.origin), f"joint {joint.name!r} origin")
+            ox, oy, oyaw = _joint_origin(joint)
             column, ax, ay, rate, offset = -1, 0.0, 0.0, 0.0, 0.0
             if joint.is_active:
                 if joint.type is JointType.PRISMATIC:
@@ -338,7 +354,17 @@ class CollisionModel:
         (a C-contiguous float64 (N, d) array; its first state excluded) :meth:`check` finds colliding
         (with ``stop``: 1 at the first), without building them: the same points and verdicts in one
         compiled call, the pairs a segment does not move tested once per segment."""
-        return int(_kernels.path_collisions(states, steps, stop, *self._arguments, self._pair_columns))
+        return int(_kernels.path_collisions(states, steps, stop, False, *self._arguments, self._pair_columns))
+
+    def path_free(self, states: np.ndarray, steps: np.ndarray) -> bool:
+        """Whether :meth:`path_collisions` is 0, found faster: the pairs a segment does not move tested at
+        its first point, the others by :meth:`motion_ends` (the same points; those where a pair is
+        proven apart skipped, so a colliding point is found whatever is skipped)."""
+        if len(states) < 2:
+            return True
+        if _kernels.path_collisions(states, steps, True, True, *self._arguments, self._pair_columns):
+            return False
+        return bool((self.motion_ends(states[:-1], states[1:], steps, False)[1] < 0).all())
 
     def motion_stop(self, start: np.ndarray, end: np.ndarray, steps: np.ndarray, stop: bool,
                     out: np.ndarray) -> float:

@@ -192,7 +192,7 @@ def path_is_valid(model: CollisionModel, states: np.ndarray, steps: np.ndarray) 
     if len(states) < 2:
         return True
     if type(model) is CollisionModel:  # the same points and verdicts, in one compiled call
-        return model.path_collisions(np.ascontiguousarray(states, dtype=np.float64), steps, stop=True) == 0
+        return model.path_free(np.ascontiguousarray(states, dtype=np.float64), steps)
     points, _ = segment_points(states, steps)
     return bool(model.check_prepared(points).all())
 
@@ -264,7 +264,9 @@ def _collision_problems(model: CollisionModel, states: np.ndarray, resolution: f
         return [f"certificate needs {total:.3g} checked states at resolution {resolution} m, more than the "
                 f"{MAX_CHECKED_STATES} a check may take; not checked for collisions"]
     bad = 0 if model.is_valid(states[0]) else 1
-    bad += model.path_collisions(np.ascontiguousarray(states), steps)  # every point, none held in memory
+    states = np.ascontiguousarray(states)
+    if not model.path_free(states, steps):  # then counted point by point, none held in memory
+        bad += model.path_collisions(states, steps)
     if bad:
         return [f"certificate collides at {bad} of {int(total)} checked states"]
     return []
