@@ -5,9 +5,10 @@ nothing written and no process left, at moments a random Ctrl-C rarely hits but 
   builds hundreds of enums); a KeyboardInterrupt raised there crossed its C++ and aborted the
   process (``terminate called after throwing an instance of 'nanobind::python_error'``, exit
   -6), or was swallowed, and the command went on. Seen in 1 of 25 random Ctrl-Cs 1.3-1.7 s into
-  ``generate``. Here the signal is sent from inside that initialisation, at the k-th Python call
-  it makes (a trace function, set only for the import of ``ompl._ompl``, sees the calls), so the
-  moment is the same on any machine.
+  ``generate``, whose own process no longer imports OMPL (its workers' server does, ignoring
+  SIGINT); ``replan`` plans in its own process. Here the signal is sent from inside that
+  initialisation, at the k-th Python call it makes (a trace function, set only for the import of
+  ``ompl._ompl``, sees the calls), so the moment is the same on any machine.
 - **Before ``main`` installs its handlers.** The command's imports take a tenth of a second;
   a Ctrl-C then printed Python's KeyboardInterrupt traceback. Here the signal is sent as the
   command's process first looks for ``phyrogen_core`` (by a ``sitecustomize`` of the test's).
@@ -81,19 +82,65 @@ sys.exit(main(sys.argv[4:]))
 """
 
 
+@pytest.fixture(scope="module")
+def puzzle_folder(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("puzzle")
+    subprocess.run([sys.executable, "-m", "phyrogen", *GENERATE, "--out", str(out)], cwd=ROOT, check=True,
+                   capture_output=True)
+    return out / "simple_slider" / "simple_slider_31"
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(path.relative_to(folder)): path.read_bytes() for path in sorted(folder.rglob("*")) if path.is_file()}
+
+
 @pytest.mark.parametrize("signum, at", [(signal.SIGINT, 20), (signal.SIGINT, 300), (signal.SIGTERM, 100)],
                          ids=["ctrl-c early", "ctrl-c late", "sigterm"])
-def test_a_signal_inside_ompls_import_ends_the_command_cleanly(signum, at, tmp_path):
-    marker, out = tmp_path / "signalled", tmp_path / "out"
+def test_a_signal_inside_ompls_import_ends_the_command_cleanly(signum, at, puzzle_folder, tmp_path):
+    marker = tmp_path / "signalled"
+    before = _files(puzzle_folder)
     process = subprocess.Popen([sys.executable, "-c", INSIDE_OMPL_INIT, str(marker), str(int(signum)), str(at),
-                                *GENERATE, "--out", str(out)], cwd=ROOT, stdout=subprocess.PIPE,
+                                "replan", str(puzzle_folder)], cwd=ROOT, stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True, start_new_session=True)
     stdout, stderr = finish(process)
     assert marker.is_file(), "the signal was not sent inside OMPL's initialisation"
     assert (process.returncode, stdout, stderr) == (128 + signum, "", INTERRUPTED), (process.returncode, stdout,
                                                                                      stderr, marker.read_text())
-    assert not out.exists()  # stopped before any puzzle, not after it
+    assert _files(puzzle_folder) == before  # stopped before it planned, nothing written
     assert_nothing_left(process)
+
+
+IMPORTED = """
+import sys
+
+from phyrogen.cli import main
+
+code = main(sys.argv[2:])
+print(sorted(name for name in ("ompl", "numba") if name in sys.modules),
+      file=open(sys.argv[1], "w"))
+sys.exit(code)
+"""
+
+
+@pytest.mark.parametrize("command", ["generate", "dataset", "replan (control)"])
+def test_the_generating_commands_leave_ompl_and_numba_to_the_workers_server(command, puzzle_folder, tmp_path):
+    """``generate`` and ``dataset`` only schedule and write in their own process: OMPL, numba's kernels and the
+    solver are imported (about 0.3 CPU s) by the server their workers fork from. Control: ``replan``, which
+    plans in its own process, is seen importing them."""
+    argv = {"generate": [*GENERATE, "--out", str(tmp_path / "out")],
+            "dataset": ["dataset", "--generator", "simple_slider", "--set", "n_objects=2", "--seeds", "31",
+                        "--workers", "1", "--quiet", "--out", str(tmp_path / "out")],
+            "replan (control)": ["replan", str(puzzle_folder)]}[command]
+    seen = tmp_path / "imported"
+    done = subprocess.run([sys.executable, "-c", IMPORTED, str(seen), *argv], cwd=ROOT, capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stderr
+    imported = seen.read_text().strip()
+    if command == "replan (control)":
+        assert imported == "['numba', 'ompl']"
+    else:
+        assert imported == "[]"
+        assert (tmp_path / "out").is_dir()  # the workers made the puzzle
 
 
 HELD_SERVER = """
