@@ -108,14 +108,11 @@ class _Obstacles:
 
 
 def _convex_ccw(piece: np.ndarray) -> np.ndarray | None:
-    """The polygon counter-clockwise when it is strictly convex, else None (left out)."""
+    """The polygon when it is strictly convex and counter-clockwise, as the collision model reads it
+    (its edge normals point out only then), else None (left out)."""
     edges = np.roll(piece, -1, axis=0) - piece
     cross = edges[:, 0] * np.roll(edges[:, 1], -1) - edges[:, 1] * np.roll(edges[:, 0], -1)
-    if np.all(cross > 0):
-        return piece
-    if np.all(cross < 0):
-        return piece[::-1]
-    return None
+    return piece if np.all(cross > 0) else None
 
 
 def _shapes(obj: PuzzleObject, frame: tuple[float, float, float]):
