@@ -22,9 +22,9 @@ where that point can go:
    reaches meets the box where ``p`` can be with the target at its goal (goal joints within the
    goal's tolerance plus :data:`~solver.planning.problem.GOAL_SLACK`; a joint the goal does not pin
    anywhere within its limits), no path the judges accept ends at the goal: the objects held fixed
-   are necessary. Cells are tried coarse first, then halved down to :data:`REGION_CELL`; a finer
-   level searches only the children of the cells the coarser one reached (a cell blocked at a
-   coarse level holds only colliding points, so every way through fine cells runs through reached
+   are necessary. Cells are tried coarse first (:data:`REGION_LEVELS`, down to :data:`REGION_CELL`);
+   a finer level searches only the children of the cells the coarser one reached (a cell blocked at
+   a coarse level holds only colliding points, so every way through fine cells runs through reached
    coarse cells too).
 
 Why ``dist(p, O) < r - t`` is a collision in the judges' model
@@ -421,7 +421,7 @@ def proves(objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], sh
             return False
         # Every cell that meets the box where p is at the goal (and a cell more).
         g0 = np.maximum(0, np.floor((goal_low - corner) / width).astype(np.int64) - 1)
-        g1 = np.floor((goal_high - corner) / width).astype(np.int64) + 2
+        g1 = np.maximum(0, np.floor((goal_high - corner) / width).astype(np.int64) + 2)
         if not reached[g0[0]:g1[0], g0[1]:g1[1]].any():
             return True
         if index + 1 < len(REGION_LEVELS):
