@@ -107,15 +107,15 @@ class Defragmenter:
         counts = moved.sum(axis=1)
         if np.any(counts > 1):
             raise ValueError(f"segment {int(np.argmax(counts > 1))} moves several factors; isolate the path first")
-        actions: list[Action] = []
-        for segment in np.flatnonzero(counts):
-            f = int(np.argmax(moved[segment]))
+        segments = np.flatnonzero(counts)
+        groups: list[tuple[int, list[np.ndarray]]] = []
+        for segment, f in zip(segments.tolist(), moved[segments].argmax(axis=1).tolist(), strict=True):
             value = states[segment + 1, self.columns[f]]
-            if actions and actions[-1][0] == f:
-                actions[-1] = (f, (*actions[-1][1], value))
+            if groups and groups[-1][0] == f:
+                groups[-1][1].append(value)
             else:
-                actions.append((f, (value,)))
-        return actions
+                groups.append((f, [value]))
+        return [(f, tuple(values)) for f, values in groups]
 
     def replay(self, actions: Sequence[Action]) -> np.ndarray:
         current = np.array(self.problem.start, dtype=float)

@@ -52,7 +52,7 @@ class _GoalRegion(ob.GoalSampleableRegion):
         self.columns = problem.goal_columns
         self.lower, self.upper = problem.lower, problem.upper
         self.rng = rng
-        self._block = np.empty((0, len(self.lower)))
+        self._block: list[list[float]] = []
         self._next = 0
         self.setThreshold(problem.tolerance)
 
@@ -62,10 +62,11 @@ class _GoalRegion(ob.GoalSampleableRegion):
     def sampleGoal(self, state) -> None:  # noqa: N802
         # Uniform draws come in blocks: one numpy call per state would dominate the cost.
         if self._next == len(self._block):
-            self._block = self.lower + (self.upper - self.lower) * self.rng.random((256, len(self.lower)))
-            self._block[:, list(self.columns)] = list(self.columns.values())
+            block = self.lower + (self.upper - self.lower) * self.rng.random((256, len(self.lower)))
+            block[:, list(self.columns)] = list(self.columns.values())
+            self._block = block.tolist()
             self._next = 0
-        values = self._block[self._next].tolist()
+        values = self._block[self._next]
         self._next += 1
         for i, v in enumerate(values):
             state[i] = v
