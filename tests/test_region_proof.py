@@ -10,6 +10,8 @@ claims a Rooms door blocks at a shrink where the judge gets through). Work is bo
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -27,9 +29,15 @@ from solver.validation.validator import OmplValidator
 TOP = MARGIN_LEVELS[0]
 
 
+@functools.cache
+def _made(generator: str, seed: int, params: tuple[tuple[str, str], ...]):
+    return generate_here(generator, seed, get_generator(generator).parse_params(dict(params)))
+
+
 def _puzzle(generator: str, seed: int, **params):
+    """A fresh puzzle (made once per test session), its doors and its interlock margin."""
     spec = get_generator(generator)
-    puzzle = generate_here(generator, seed, spec.parse_params({k: str(v) for k, v in params.items()}))
+    puzzle = _made(generator, seed, tuple(sorted((k, str(v)) for k, v in params.items())))
     doors = [o.name for o in puzzle.objects if o.is_movable and o.name != puzzle.goal.target]
     return puzzle, doors, spec.parse_params({k: str(v) for k, v in params.items()}).interlock_margin
 
