@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from phyrogen_core.chain import Joint, JointType, KinematicChain, Role, pose_matrix
+from phyrogen_core.chain import Joint, JointType, KinematicChain, Role, joint_motion, pose_matrix
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from solver.collision import kernels as _kernels
 from solver.collision import skipping_move as _skipping
@@ -98,6 +98,34 @@ def _joint_origin(joint: Joint) -> tuple[float, float, float]:
     return found
 
 
+_MATRICES: dict[tuple, np.ndarray] = {}
+
+
+def _rest_transforms(chain: KinematicChain, locked: Mapping[str, float]) -> dict[str, np.ndarray]:
+    """``chain.link_transforms`` at every joint 0 but the ``locked`` ones: the same products of the same
+    matrices, each joint's origin and motion matrix kept by its exact numbers (building them is most of
+    the cost, and a puzzle's models are built from the same joints many times)."""
+    world = {chain.root: np.eye(4)}
+    for link_name in chain.links_in_tree_order[1:]:
+        joint = chain.parent_joint(link_name)
+        assert joint is not None
+        q = float(locked.get(joint.name, 0.0)) if joint.is_active else 0.0
+        origin = _kept(("origin", *(float(v).hex() for v in (*joint.origin.xyz, *joint.origin.rpy))),
+                       pose_matrix, joint.origin)
+        motion = _kept(("motion", joint.type, *(float(v).hex() for v in joint.axis), q.hex()), joint_motion, joint, q)
+        world[link_name] = (world[joint.parent] @ origin) @ motion
+    return world
+
+
+def _kept(key: tuple, build, *arguments) -> np.ndarray:
+    found = _MATRICES.get(key)
+    if found is None:
+        if len(_MATRICES) >= _SHAPES_KEPT:
+            _MATRICES.clear()
+        found = _MATRICES[key] = _read_only(build(*arguments))
+    return found
+
+
 def _edge_normals(v: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
     """A polygon's outward unit edge normals and its extent along each (None, None for a circle)."""
     if v is None:
@@ -164,7 +192,7 @@ class CollisionModel:
         self._link_index = {name: i for i, name in enumerate(self._links)}
         self._joint_steps = self._compile_kinematics()
         self._moving = self._moving_links()
-        rest = self._rest = chain.link_transforms({**{j: 0.0 for j in chain.joint_order}, **locked})
+        rest = self._rest = _rest_transforms(chain, locked)
         self._reach: np.ndarray | None = None
         outlines: list[_Outline] = []
         for name in self._links:
