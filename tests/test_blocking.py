@@ -123,8 +123,8 @@ def test_every_cell_pair_the_prover_finds_blocked_collides_at_states_drawn_in_bo
                 for fraction in (0.0, 1.0, *rng.uniform(0, 1, 3)):
                     state = np.zeros(len(order))
                     for obj, where, cell in ((by_id[id_a], where_a, cell_a), (by_id[id_b], where_b, cell_b)):
-                        if where == "free":
-                            cells = prover.free_cells(obj)
+                        if where[0] == "level":  # a free object's cells at that level
+                            cells = prover.free_cells(obj, where[1])
                             state[order.index(obj.joint_names[0])] = cells.lower + cells.width * (cell + fraction)
                         else:
                             state[[order.index(n) for n in obj.joint_names]] = where
@@ -149,10 +149,10 @@ def test_every_cell_pair_the_prover_finds_blocked_collides_at_states_drawn_in_bo
     assert total > 1000
 
     class CentresOnly(BlockingProver):  # unsound: a cell pair blocked at the centres counts as blocked throughout
-        @staticmethod
-        def _range_cells(obj, lower, width, count):
-            cells = BlockingProver._range_cells(obj, lower, width, count)
-            return dataclasses.replace(cells, motions=np.concatenate([np.zeros((count, 2)), cells.motions[:, 2:]], 1))
+        def free_cells(self, obj, level=None):
+            cells = super().free_cells(obj, level)
+            still = np.concatenate([0 * cells.motions[:, :2], cells.motions[:, 2:]], axis=1)
+            return dataclasses.replace(cells, motions=still)
 
     caught = sum(misses(CentresOnly(), *question, rng)[1] for question in questions)
     assert caught > 0

@@ -36,7 +36,6 @@ It makes no random draws and spends no collision queries of a judge's budget.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -72,6 +71,7 @@ class _Outline:
     z_low: float
     z_high: float
     radius: float  # the farthest vertex from the vertices' mean
+    centre: tuple[float, float]  # the vertices' mean
 
 
 @dataclass(frozen=True)
@@ -87,7 +87,7 @@ class _Cells:
     values: np.ndarray | None
     lower: float = 0.0
     width: float = 0.0  # of one cell, in joint units
-    coarse: tuple[_Cells, ...] = ()  # the same range in cells 2, 4, ... times as wide, widest first
+    level: int = 0  # the range cut into 2 ** level times as many cells as the widest (0 for one pose too)
 
 
 def _outline(vertices: np.ndarray, z_low: float, z_high: float) -> _Outline | None:
@@ -109,7 +109,9 @@ def _outline(vertices: np.ndarray, z_low: float, z_high: float) -> _Outline | No
     if np.any(angles <= 1e-6) or np.any(angles >= math.pi - 1e-9):
         return None
     radius = float(np.max(np.linalg.norm(vertices - vertices.mean(axis=0), axis=1)))
-    return _Outline(np.ascontiguousarray(vertices), np.ascontiguousarray(normals), z_low, z_high, radius)
+    centre = vertices.mean(axis=0)
+    return _Outline(np.ascontiguousarray(vertices), np.ascontiguousarray(normals), z_low, z_high, radius,
+                    (float(centre[0]), float(centre[1])))
 
 
 _OUTLINES: dict[tuple, tuple[_Outline, ...]] = {}
@@ -253,16 +255,16 @@ def _pair_verdicts(local_a, normals_a, frames_a, ma, local_b, normals_b, frames_
     return out
 
 
-def _centres(outline: _Outline, frames: np.ndarray) -> np.ndarray:
-    """The outline's vertices' mean (the centre of its bounding circle) at each frame: (n, 2)."""
-    x, y = outline.vertices.mean(axis=0)
-    return np.stack([frames[:, 0] + frames[:, 2] * x - frames[:, 3] * y, frames[:, 1] + frames[:, 3] * x
-                     + frames[:, 2] * y], axis=1)
+def _centres(outline: _Outline, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The outline's vertices' mean (the centre of its bounding circle) at each frame: x (n,), y (n,)."""
+    x, y = outline.centre
+    return frames[:, 0] + frames[:, 2] * x - frames[:, 3] * y, frames[:, 1] + frames[:, 3] * x + frames[:, 2] * y
 
 
-def _centre_moves(centres: np.ndarray, cells: _Cells) -> np.ndarray:
-    """How far each cell's outline centre (n, 2) may move within its cell."""
-    return cells.motions[:, 0] + cells.motions[:, 1] * np.linalg.norm(centres - cells.motions[:, 2:], axis=1)
+def _centre_moves(centres: tuple[np.ndarray, np.ndarray], cells: _Cells) -> np.ndarray:
+    """How far each cell's outline centre (x (n,), y (n,)) may move within its cell."""
+    return cells.motions[:, 0] + cells.motions[:, 1] * np.hypot(centres[0] - cells.motions[:, 2],
+                                                                centres[1] - cells.motions[:, 3])
 
 
 class BlockingProver:
@@ -292,30 +294,35 @@ class BlockingProver:
             found = self._outlines[key] = _outlines(obj)
         return found
 
-    def free_cells(self, obj: PuzzleObject) -> _Cells:
-        """A one-joint object's cells over its whole range, and the same range in cells 2, 4, ... times
-        as wide (:attr:`_Cells.coarse`), the widest of which no point moves more than :attr:`erosion`
-        from its centre in; the finest stay at least twice :attr:`fine` wide in any point's motion."""
-        key = (self._id(obj), "free")
+    def free_cells(self, obj: PuzzleObject, level: int | None = None) -> _Cells:
+        """A one-joint object's cells over its whole range at ``level`` (None: the finest): level 0 the
+        widest, in which no point moves more than :attr:`erosion` from a cell's centre, each next level
+        halving every cell, down to cells at least twice :attr:`fine` wide in any point's motion."""
+        key = (self._id(obj), "levels")
         found = self._cells.get(key)
+        (lower, upper), = obj.limits
         if found is None:
-            (lower, upper), = obj.limits
             reach = 1.0 if obj.motion is Motion.PRISMATIC else max(_reach(self.outlines(obj)), 1e-3)
             count = max(1, math.ceil((upper - lower) * reach / (2 * self.erosion)))
             halvings = max(0, math.floor(math.log2((upper - lower) * reach / count / (2 * self.fine))))
-            levels = [self._range_cells(obj, lower, (upper - lower) / (count << level), count << level)
-                      for level in range(halvings + 1)]
-            found = self._cells[key] = dataclasses.replace(levels[-1], coarse=tuple(levels[:-1]))
-        return found
+            found = self._cells[key] = (count, [None] * (halvings + 1))
+        count, levels = found
+        level = len(levels) - 1 if level is None else level
+        if levels[level] is None:
+            count <<= level
+            width = (upper - lower) / count
+            values = lower + width * (np.arange(count) + 0.5)
+            poses = _frame_poses(obj, values)
+            motions = np.zeros((count, 4))
+            motions[:, 2:] = poses[:, :2]
+            motions[:, 0 if obj.motion is Motion.PRISMATIC else 1] = width / 2
+            levels[level] = _Cells(poses, motions, values, lower, width, level)
+        return levels[level]
 
-    @staticmethod
-    def _range_cells(obj: PuzzleObject, lower: float, width: float, count: int) -> _Cells:
-        values = lower + width * (np.arange(count) + 0.5)
-        poses = _frame_poses(obj, values)
-        motions = np.zeros((count, 4))
-        motions[:, 2:] = poses[:, :2]
-        motions[:, 0 if obj.motion is Motion.PRISMATIC else 1] = width / 2
-        return _Cells(poses, motions, values, lower, width)
+    def _levels(self, obj: PuzzleObject, cells: _Cells) -> tuple[_Cells, ...]:
+        """The object's cells at every level down to ``cells``', widest first (one pose: itself)."""
+        return tuple(self.free_cells(obj, level) for level in range(cells.level + 1)) if cells.values is not None \
+            else (cells,)
 
     def placed(self, obj: PuzzleObject, values: tuple[float, ...], spread: float = 0.0) -> _Cells:
         """An object at one pose: its joints at ``values`` (none for a fixed object), each joint within
@@ -367,20 +374,21 @@ class BlockingProver:
         apart throughout is dropped, and only the rest are halved (each side that has finer cells) and
         tested again. False when that would take more than :data:`PAIR_WORK` (nothing marked then)."""
         (obj_a, where_a, cells_a), (obj_b, where_b, cells_b) = a, b
-        levels_a, levels_b = (*cells_a.coarse, cells_a), (*cells_b.coarse, cells_b)
+        levels_a, levels_b = self._levels(obj_a, cells_a), self._levels(obj_b, cells_b)
         depth = max(len(levels_a), len(levels_b))
         found_i, found_j, spent = [], [], 0
         i = j = None
         outline_a, outline_b = self.outlines(obj_a)[index_a], self.outlines(obj_b)[index_b]
         for step in range(depth):
             la, lb = min(step, len(levels_a) - 1), min(step, len(levels_b) - 1)
-            frames_a, frames_b = self._frames(obj_a, (la, where_a), levels_a[la]), self._frames(obj_b, (lb, where_b),
-                                                                                                 levels_b[lb])
+            frames_a = self._frames(obj_a, ("level", la) if cells_a.values is not None else where_a, levels_a[la])
+            frames_b = self._frames(obj_b, ("level", lb) if cells_b.values is not None else where_b, levels_b[lb])
             if i is None:  # the widest cells: the pairs whose bounding circles can meet somewhere in them
                 centre_a, centre_b = _centres(outline_a, frames_a), _centres(outline_b, frames_b)
                 reach = (outline_a.radius + outline_b.radius + _centre_moves(centre_a, levels_a[la])[:, None]
                          + _centre_moves(centre_b, levels_b[lb])[None])
-                i, j = np.nonzero(np.sum((centre_a[:, None] - centre_b[None]) ** 2, axis=2) < reach ** 2)
+                dx, dy = centre_a[0][:, None] - centre_b[0][None], centre_a[1][:, None] - centre_b[1][None]
+                i, j = np.nonzero(dx * dx + dy * dy < reach * reach)
             spent += len(i) * sides
             if spent > PAIR_WORK:
                 return False
@@ -464,10 +472,20 @@ class BlockingProver:
             if locked:
                 points.append((obj, start, self.placed(obj, start)))
             elif len(obj.limits) == 1:
-                free.append((obj, "free", self.free_cells(obj)))
+                free.append((obj, ("level", self.free_cells(obj).level), self.free_cells(obj)))
             # an object free in several joints could be anywhere: it takes no part
         if target is None and goal_point is None:
             return False
+        if goal_point is not None:
+            points = [*points, goal_point]
+        # The widest cells first: most proofs that hold (every one of Grid World's) hold there, at a
+        # fraction of the finest cells' cost.
+        widest = [(obj, ("level", 0), self.free_cells(obj, 0)) for obj, _, _ in free]
+        return any(self._settled(entries, points, target, goal, shrink)
+                   for entries in ((widest, free) if any(cells.level for _, _, cells in free) else (free,)))
+
+    def _settled(self, free, points, target: int | None, goal: Goal, shrink: float) -> bool:
+        """Steps 2 and 3 of the module docstring over the cells of ``free``: whether no goal state is left."""
         reach = self._reachable(free, points, shrink)
         if reach is None:
             return False
@@ -478,8 +496,6 @@ class BlockingProver:
             near = goal.tolerance + GOAL_SLACK
             low = cells.lower + cells.width * np.arange(len(domains[target]))
             domains[target] &= (low <= value + near) & (low + cells.width >= value - near)
-        if goal_point is not None:
-            points = [*points, goal_point]
         return self._emptied(free, points, domains, shrink)
 
     def _reachable(self, free, points, shrink: float) -> list[np.ndarray] | None:
