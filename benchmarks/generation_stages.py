@@ -39,7 +39,7 @@ STAGES = (
     (judge, "attempt_fixed", "first judge (compiled LA-RRT with pushes)"),
     (blocking.BlockingProver, "proves", "geometric proof"),
     (validator, "region_proves", "geometric proof, a target free in the plane (region_proof)"),
-    (judge, "attempt_second", "second judge (LA-RRT, Python, goal sampler)"),
+    (judge, "attempt_second", "second judge (compiled LA-RRT, goal sampler)"),
     (validator.OmplValidator, "solve", "validator.solve per candidate (extend / RRT-Connect)"),
     (validator.OmplValidator, "certify", "certification at 2 mm"),
     (generation, "defragment_certificate", "defragmenting the stored certificate"),
