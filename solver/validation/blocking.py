@@ -278,7 +278,8 @@ class BlockingProver:
         self._cells: dict[tuple, _Cells] = {}
         self._tables: dict[tuple, np.ndarray] = {}
         self._bounds: dict[tuple, np.ndarray] = {}
-        self._worlds: dict[tuple, tuple] = {}
+        self._worlds: dict[tuple, np.ndarray] = {}
+        self._widest: dict[tuple, tuple] = {}
         self._kept: dict[int, PuzzleObject] = {}  # keys hold objects by id (hashing one costs more than a check)
 
     def _id(self, obj: PuzzleObject) -> int:
@@ -383,18 +384,29 @@ class BlockingProver:
             la, lb = min(step, len(levels_a) - 1), min(step, len(levels_b) - 1)
             frames_a = self._frames(obj_a, ("level", la) if cells_a.values is not None else where_a, levels_a[la])
             frames_b = self._frames(obj_b, ("level", lb) if cells_b.values is not None else where_b, levels_b[lb])
-            if i is None:  # the widest cells: the pairs whose bounding circles can meet somewhere in them
-                centre_a, centre_b = _centres(outline_a, frames_a), _centres(outline_b, frames_b)
-                reach = (outline_a.radius + outline_b.radius + _centre_moves(centre_a, levels_a[la])[:, None]
-                         + _centre_moves(centre_b, levels_b[lb])[None])
-                dx, dy = centre_a[0][:, None] - centre_b[0][None], centre_a[1][:, None] - centre_b[1][None]
-                i, j = np.nonzero(dx * dx + dy * dy < reach * reach)
+            if i is None:  # the widest cells (their verdicts kept: the widest proof asks them first)
+                key = (self._id(obj_a), cells_a.values is None and where_a, self._id(obj_b), cells_b.values is None
+                       and where_b, index_a, index_b, threshold)
+                widest = self._widest.get(key)
+                if widest is None:
+                    # The pairs whose bounding circles can meet somewhere in their cells.
+                    centre_a, centre_b = _centres(outline_a, frames_a), _centres(outline_b, frames_b)
+                    reach = (outline_a.radius + outline_b.radius + _centre_moves(centre_a, levels_a[la])[:, None]
+                             + _centre_moves(centre_b, levels_b[lb])[None])
+                    dx, dy = centre_a[0][:, None] - centre_b[0][None], centre_a[1][:, None] - centre_b[1][None]
+                    i, j = np.nonzero(dx * dx + dy * dy < reach * reach)
+                    verdicts = None if len(i) * sides > PAIR_WORK else _pair_verdicts(
+                        outline_a.vertices, outline_a.normals, frames_a, levels_a[la].motions, outline_b.vertices,
+                        outline_b.normals, frames_b, levels_b[lb].motions, i, j, threshold)
+                    widest = self._widest[key] = (i, j, verdicts)
+                i, j, verdicts = widest
+            else:
+                verdicts = _pair_verdicts(outline_a.vertices, outline_a.normals, frames_a, levels_a[la].motions,
+                                          outline_b.vertices, outline_b.normals, frames_b, levels_b[lb].motions, i, j,
+                                          threshold)
             spent += len(i) * sides
             if spent > PAIR_WORK:
                 return False
-            verdicts = _pair_verdicts(outline_a.vertices, outline_a.normals, frames_a, levels_a[la].motions,
-                                      outline_b.vertices, outline_b.normals, frames_b, levels_b[lb].motions, i, j,
-                                      threshold)
             blocked = verdicts == BLOCKED
             scale_a, scale_b = 1 << (len(levels_a) - 1 - la), 1 << (len(levels_b) - 1 - lb)
             found_i.append((i[blocked], scale_a))
@@ -525,12 +537,9 @@ class BlockingProver:
                 if blocked[start]:
                     return None
                 run = np.zeros_like(blocked)
-                left = start
-                while left > 0 and not blocked[left - 1]:
-                    left -= 1
-                right = start
-                while right < len(blocked) - 1 and not blocked[right + 1]:
-                    right += 1
+                before, after = np.flatnonzero(blocked[:start]), np.flatnonzero(blocked[start + 1:])
+                left = before[-1] + 1 if len(before) else 0
+                right = start + after[0] if len(after) else len(blocked) - 1
                 run[left:right + 1] = True
                 run &= reach[i]
                 if not np.array_equal(run, reach[i]):
