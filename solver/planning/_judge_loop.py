@@ -58,6 +58,21 @@ def _branch(states, parents, tree, node):
 
 
 @njit(cache=True, nogil=True)
+def connection_path(states, parents, growing, new, other, reached):
+    """The path through a connection (LaRrt._path): the start tree's branch to its node, then the goal
+    tree's branch from its node back to its root, the joined node once."""
+    a = _branch(states, parents, growing, new)
+    b = _branch(states, parents, other, reached)
+    if growing == 1:
+        a, b = b, a
+    path = np.empty((a.shape[0] + b.shape[0] - 1, states.shape[2]))
+    path[:a.shape[0]] = a
+    for i in range(b.shape[0] - 1):
+        path[a.shape[0] + i] = b[b.shape[0] - 2 - i]
+    return path
+
+
+@njit(cache=True, nogil=True)
 def new_trees(start, capacity):
     """The two trees of a run (states, parents, sizes): the start tree holds ``start``, the goal tree nothing."""
     states = np.empty((2, capacity, start.shape[0]))
@@ -147,14 +162,7 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
                 shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
                 pair_columns)
             if status == _REACHED:
-                a = _branch(states, parents, growing, new)
-                b = _branch(states, parents, other, reached)
-                if growing == 1:
-                    a, b = b, a
-                path = np.empty((a.shape[0] + b.shape[0] - 1, d))
-                path[:a.shape[0]] = a
-                for i in range(b.shape[0] - 1):
-                    path[a.shape[0] + i] = b[b.shape[0] - 2 - i]
+                path = connection_path(states, parents, growing, new, other, reached)
                 holds = True
                 for i in range(path.shape[0] - 1):
                     queries += 1
