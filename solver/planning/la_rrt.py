@@ -361,10 +361,11 @@ class LaRrt(TreeRun):
         (docs/benchmark/README.md, "One restart rule"): fresh trees from the start, the random
         stream where it is, the goal roots drawn so far again in their order, iterations added up.
 
-        Otherwise the Maker's judges' rule, which the compiled loop (:mod:`solver.planning._judge_loop`)
-        mirrors, so that generated puzzles do not change: with ``until_first`` the first raw path that
-        holds at fine resolution is returned undefragmented; a clipped path is counted and the trees
-        grow on; in limit mode each connection's raw path and then its defragmented form are offered."""
+        Otherwise the Maker's judges' rule, which the compiled loops (:mod:`solver.planning._judge_loop`, and
+        :mod:`solver.planning._paper_loop` for the second judge) mirror, so that generated puzzles do not
+        change: with ``until_first`` the first raw path that holds at fine resolution is returned
+        undefragmented; a clipped path is counted and the trees grow on; in limit mode each connection's
+        raw path and then its defragmented form are offered."""
         problem = self.problem
         if not self.model.is_valid(problem.start):
             return recorder.result(0, "Invalid start")

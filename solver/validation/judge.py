@@ -73,7 +73,7 @@ SECOND_JUDGE_BUDGET = 2000
 """Collision checks one second-judge run may spend in the Maker, goal sampling included (each state
 checked counts, a batch of 64 goal candidates 64), so it is a smaller search than the first judge's
 4000 queries. With 4000 the Maker took 2.0-2.1x the CPU time of the first judge alone on the paper's
-24 puzzles (its loop is Python, the first judge's compiled); with 2000 and 4 goal states, 1.6x
+24 puzzles (its loop was Python then, the first judge's compiled); with 2000 and 4 goal states, 1.6x
 (3.5 -> 5.5 CPU s). The audit gives it 50x this (:func:`solver.pipelines.audit.second_budget`)."""
 SECOND_JUDGE_GOALS = GoalSamplerSettings(capacity=4)
 """The second judge's goal sampler: at most 4 goal states (the benchmark's 16 cost a first-solution
