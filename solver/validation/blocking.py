@@ -525,25 +525,28 @@ class BlockingProver:
             for point in points:
                 blocked |= self.table(entry, point, shrink)[:, 0]
             fixed_blocks.append(blocked)
+        # Each reach is one run of cells (spans: first and last); a table with no cell pair blocked blocks nothing.
+        spans = [(0, len(mask) - 1) for mask in reach]
+        tables = {(i, k): table for i, entry in enumerate(free) for k, other in enumerate(free)
+                  if k != i and (table := self.table(entry, other, shrink)).any()}
         changed = True
         while changed:
             changed = False
-            for i, entry in enumerate(free):
+            for i in range(len(free)):
                 blocked = fixed_blocks[i].copy()
-                for k, other in enumerate(free):
-                    if k != i:
-                        blocked |= self.table(entry, other, shrink)[:, reach[k]].all(axis=1)
+                for k in range(len(free)):
+                    if (i, k) in tables:
+                        blocked |= tables[i, k][:, spans[k][0]:spans[k][1] + 1].all(axis=1)
                 start = starts[i]
                 if blocked[start]:
                     return None
-                run = np.zeros_like(blocked)
                 before, after = np.flatnonzero(blocked[:start]), np.flatnonzero(blocked[start + 1:])
-                left = before[-1] + 1 if len(before) else 0
-                right = start + after[0] if len(after) else len(blocked) - 1
-                run[left:right + 1] = True
-                run &= reach[i]
-                if not np.array_equal(run, reach[i]):
-                    reach[i], changed = run, True
+                left = max(spans[i][0], before[-1] + 1 if len(before) else 0)
+                right = min(spans[i][1], start + after[0] if len(after) else len(blocked) - 1)
+                if (left, right) != spans[i]:
+                    spans[i], changed = (left, right), True
+                    reach[i] = np.zeros_like(blocked)
+                    reach[i][left:right + 1] = True
         return reach
 
     def _emptied(self, free, points, domains: list[np.ndarray], shrink: float) -> bool:
