@@ -191,7 +191,7 @@ def path_is_valid(model: CollisionModel, states: np.ndarray, steps: np.ndarray) 
     """Whether every segment of ``states`` is collision-free at ``steps`` (the first state is assumed valid)."""
     if len(states) < 2:
         return True
-    if type(model) is CollisionModel:  # the same points and verdicts, in one compiled call
+    if type(model) is CollisionModel:  # the same points, those where every pair is proven apart skipped
         return model.path_free(np.ascontiguousarray(states, dtype=np.float64), steps)
     points, _ = segment_points(states, steps)
     return bool(model.check_prepared(points).all())
