@@ -17,6 +17,7 @@ distance). That is why no ``link_shrink`` is needed.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -82,13 +83,13 @@ def _outlines_of_geometry(geometry, link_index: int, obj: str, frame: np.ndarray
     return [_Outline(link_index, obj, *shape) for shape in found]
 
 
-_ORIGINS: dict[tuple[str, ...], tuple[float, float, float]] = {}
+_ORIGINS: dict[bytes, tuple[float, float, float]] = {}
 """A joint origin's planar x, y and yaw, by the exact numbers of its pose (a puzzle's models are built
 from the same joints many times): what :func:`_planar` computes of its matrix, so no model changes."""
 
 
 def _joint_origin(joint: Joint) -> tuple[float, float, float]:
-    key = tuple(float(v).hex() for v in (*joint.origin.xyz, *joint.origin.rpy))
+    key = _exact(*joint.origin.xyz, *joint.origin.rpy)
     found = _ORIGINS.get(key)
     if found is None:
         ox, oy, _, oyaw = _planar(pose_matrix(joint.origin), f"joint {joint.name!r} origin")
@@ -110,11 +111,15 @@ def _rest_transforms(chain: KinematicChain, locked: Mapping[str, float]) -> dict
         joint = chain.parent_joint(link_name)
         assert joint is not None
         q = float(locked.get(joint.name, 0.0)) if joint.is_active else 0.0
-        origin = _kept(("origin", *(float(v).hex() for v in (*joint.origin.xyz, *joint.origin.rpy))),
-                       pose_matrix, joint.origin)
-        motion = _kept(("motion", joint.type, *(float(v).hex() for v in joint.axis), q.hex()), joint_motion, joint, q)
+        origin = _kept(("origin", _exact(*joint.origin.xyz, *joint.origin.rpy)), pose_matrix, joint.origin)
+        motion = _kept(("motion", joint.type, _exact(*joint.axis, q)), joint_motion, joint, q)
         world[link_name] = (world[joint.parent] @ origin) @ motion
     return world
+
+
+def _exact(*values: float) -> bytes:
+    """The numbers' exact bits as a key (``-0.0`` apart from ``0.0``, which a tuple of floats would not keep)."""
+    return struct.pack(f"{len(values)}d", *values)
 
 
 def _kept(key: tuple, build, *arguments) -> np.ndarray:
