@@ -473,8 +473,11 @@ class CollisionModel:
         """:meth:`colliding_objects` of each row of ``states`` (a C-contiguous float64 (N, d) array), the
         same pair test in one compiled call: one set of colliding object pairs per state."""
         names = self._pair_names
-        hits = _kernels.pair_hits_rows(states, self._packed_int, self._packed_float)
-        return [{names[p] for p in row.nonzero()[0].tolist()} for row in hits]
+        rows, pairs = _kernels.pair_hits_rows(states, self._packed_int, self._packed_float).nonzero()
+        found: list[set[tuple[str, str]]] = [set() for _ in range(len(states))]
+        for row, p in zip(rows.tolist(), pairs.tolist(), strict=True):  # each row's pairs in order, as before
+            found[row].add(names[p])
+        return found
 
     def joint_reach(self) -> np.ndarray:
         """Per state joint: how far (metres) a unit of motion can move any collision point.
