@@ -318,7 +318,7 @@ def test_failure_while_replacing_keeps_the_old_folder(tmp_path, monkeypatch):
     folder = write_puzzle(sample_puzzle(), tmp_path)
     before = all_files(folder)
 
-    def broken(puzzle, versions=None):
+    def broken(puzzle, versions=None, **_):
         raise RuntimeError("interrupted")
 
     monkeypatch.setattr(output_module, "metadata_json", broken)

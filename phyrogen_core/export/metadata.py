@@ -25,14 +25,16 @@ from ..record import FORMAT_VERSION, DependencyGraph, JointLimit, ObjectRecord, 
 __all__ = ["FORMAT_VERSION", "metadata_json", "puzzle_metadata", "puzzle_record", "record_for_chain", "start_state"]
 
 
-def puzzle_record(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> PuzzleRecord:
+def puzzle_record(puzzle: Puzzle, versions: Mapping[str, str] | None = None, *,
+                  chain: KinematicChain | None = None) -> PuzzleRecord:
     """The record of ``puzzle``.
 
     ``versions`` names the package versions to record; by default only
-    PhyRoGen's own. Raises ValueError when the goal or the certificate do not
-    fit the puzzle's joints, or a parameter cannot be written as JSON.
+    PhyRoGen's own. ``chain`` is ``puzzle.chain`` when the caller has built it
+    already (each access builds it anew). Raises ValueError when the goal or the
+    certificate do not fit the puzzle's joints, or a parameter cannot be written as JSON.
     """
-    chain = puzzle.chain
+    chain = puzzle.chain if chain is None else chain
     joint_order = tuple(puzzle.joint_order)
     for joint_name in puzzle.goal.values:
         if joint_name not in joint_order:
@@ -83,9 +85,11 @@ def _object_record(obj, margins: Mapping[str, float], necessity: Mapping[str, st
                         necessity.get(obj.name) if margin is not None else None)
 
 
-def metadata_json(puzzle: Puzzle, versions: Mapping[str, str] | None = None) -> str:
-    """The text of ``puzzle.json`` for ``puzzle`` (:meth:`PuzzleRecord.to_json`)."""
-    return puzzle_record(puzzle, versions).to_json()
+def metadata_json(puzzle: Puzzle, versions: Mapping[str, str] | None = None, *,
+                  chain: KinematicChain | None = None) -> str:
+    """The text of ``puzzle.json`` for ``puzzle`` (:meth:`PuzzleRecord.to_json`; ``chain``: see
+    :func:`puzzle_record`)."""
+    return puzzle_record(puzzle, versions, chain=chain).to_json()
 
 
 def _phyrogen_version() -> str:

@@ -39,7 +39,8 @@ def write_puzzle(puzzle: Puzzle, out_root: Path, versions: Mapping[str, str] | N
     """
     place = PuzzleFolder.at(out_root, puzzle.generator, puzzle.name)
     with stage_directory(place.path, Stage.EXPORT, puzzle.name, notices) as folder:
-        write_export_files(PuzzleFolder(folder, puzzle.name), puzzle.chain, metadata_json(puzzle, versions))
+        chain = puzzle.chain  # built once for both
+        write_export_files(PuzzleFolder(folder, puzzle.name), chain, metadata_json(puzzle, versions, chain=chain))
     return place.path
 
 
