@@ -33,6 +33,7 @@ from phyrogen_core.export import read_puzzle_dir, write_puzzle
 from phyrogen_core.registry import get_generator
 from solver.collision import model
 from solver.pipelines.dataset import manifest
+from solver.planning import defragment, problem
 from solver.validation import blocking
 
 STAGES = (
@@ -42,8 +43,8 @@ STAGES = (
     (judge, "attempt_second", "second judge (compiled LA-RRT, goal sampler)"),
     (validator.OmplValidator, "solve", "validator.solve per candidate (extend / RRT-Connect)"),
     (validator.OmplValidator, "certify", "certification at 2 mm"),
-    (generation, "defragment_certificate", "defragmenting the stored certificate"),
-    (generation, "dependency_graph", "dependency graph"),
+    (defragment, "defragment_certificate", "defragmenting the stored certificate"),
+    (problem, "dependency_graph", "dependency graph"),
     (model.CollisionModel, "__init__", "(collision-model construction, inside the stages above)"),
 )
 
