@@ -150,3 +150,71 @@ def _grid_path(free, roomy, start_i, start_j, end_i, end_j):
         way[k, 0], way[k, 1] = c // height, c % height
         c = came[c]
     return way
+
+
+
+
+def leg_walks(start: np.ndarray, points: np.ndarray, end: np.ndarray, xy: tuple[int, int],
+              first: tuple[dict[int, float], ...]) -> list[np.ndarray]:
+    """The ways a routed re-plan tries along a leg before any search, each a C-contiguous (m, d) array
+    of states: the moves of ``first`` in turn (each sets a few joints, the others staying), then the
+    straight motion to ``end``; or the same with straight motions through the route's ``points``
+    ((k, 2) x, y) in turn. ``end`` takes the moves' values too: the moves set no joint that ``end``
+    must reach, and the target's x and y (the columns ``xy``) only change on the way to it."""
+    moved, end = [start.copy()], end.copy()
+    for move in first:
+        moved.append(moved[-1].copy())
+        moved[-1][list(move)] = end[list(move)] = list(move.values())
+    through = np.repeat(moved[-1][None, :], len(points), axis=0)
+    through[:, xy[0]], through[:, xy[1]] = points[:, 0], points[:, 1]
+    return [_without_stays(np.stack([*moved, end])), _without_stays(np.concatenate([moved, through, end[None, :]]))]
+
+
+def _without_stays(states: np.ndarray) -> np.ndarray:
+    """``states`` without any state equal to the one before it (no motion of zero length)."""
+    keep = np.ones(len(states), dtype=bool)
+    keep[1:] = np.any(np.abs(np.diff(states, axis=0)) > 1e-12, axis=1)
+    return np.ascontiguousarray(states[keep], dtype=np.float64)
+
+
+def walk_leg(model, start: np.ndarray, points: np.ndarray, end: np.ndarray, xy: tuple[int, int],
+             turns: list[dict[int, float]], doors: list[dict[int, float]], steps: np.ndarray,
+             screen: np.ndarray) -> tuple[np.ndarray | None, int]:
+    """A leg without search, or None, and the motions checked. Tried in turn, the first whose every
+    motion ``model`` finds free at ``steps`` kept: :func:`leg_walks`' ways as they are, then after
+    one of ``turns`` (the target's other joints set where it stands), then after one of ``doors``
+    (another object's joints set) and perhaps a turn; then the way through the route's ``points``
+    (as it is, turned first or with a door set first) with one turn or door more at one of the
+    last three states the target reaches on it, where a diagonal between cells clips a corner or
+    the door has to move out of its way. A way found here holds as a planned one does (the same
+    checks); each is screened at the coarser ``screen`` steps first: most that fail, fail there,
+    at a fraction of the cost."""
+    checked = 0
+
+    def colliding(states: np.ndarray) -> int:
+        nonlocal checked
+        for each in (screen, steps):
+            first = model.first_colliding_motion(states, each)
+            checked += len(states) - 1 if first < 0 else first + 1
+            if first >= 0:
+                return first
+        return -1
+
+    throughs = []
+    for moves in [(), *((turn,) for turn in turns), *((door, turn) for door in doors for turn in ({}, *turns))]:
+        moves = tuple(move for move in moves if move)
+        for states in leg_walks(start, points, end, xy, moves):
+            first = colliding(states)
+            if first < 0:
+                return states, checked
+        if len(moves) < 2:
+            throughs.append((states, first, len(moves)))
+    for through, first, moved_first in throughs:
+        for k in range(first, max(moved_first, first - 2) - 1, -1):
+            for move in (*turns, *doors):
+                moved = np.concatenate([through[:k + 1], through[k:]])
+                moved[k + 1:, list(move)] = list(move.values())
+                moved = _without_stays(moved)
+                if len(moved) == len(through) + 1 and colliding(moved) < 0:
+                    return moved, checked
+    return None, checked
