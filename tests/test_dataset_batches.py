@@ -1,7 +1,8 @@
 """How a dataset's cheap entries are cut into worker processes' batches (solver.pipelines.dataset.build).
 
 A fresh process costs about two Grid World puzzles, so long requests run 32 entries a process; a short
-one is cut into four batches a worker, so that no worker is left idle while another makes them all.
+one is cut into four batches a worker, so that no worker is left idle while another makes them all, and
+larger puzzles run in shorter batches, so that none is left with a long queue at the end.
 Every entry is made exactly once, in its order, whatever the cut.
 """
 
@@ -30,15 +31,40 @@ def test_a_short_request_gives_every_worker_a_share():
     assert [len(b) for b in _batches(iter(tasks), BATCH_SIZE, 1)] == [3] * 4
 
 
-def test_costly_entries_run_alone():
+def _move_n_times(n: str, count: int, first: int = 7410000) -> list[EntryTask]:
     from phyrogen_core.registry import get_generator
 
-    spec = get_generator("move_n_times")
+    params = get_generator("move_n_times").parse_params({"n": n})
+    return [EntryTask(i, "move_n_times", first + i, params, "/nonexistent") for i in range(count)]
 
-    def cut(n: str) -> list[int]:
-        params = spec.parse_params({"n": n})
-        tasks = [EntryTask(i, "move_n_times", 7410000 + i, params, "/nonexistent") for i in range(8)]
-        return [len(b) for b in _batches(iter(tasks), BATCH_SIZE, 1)]
 
-    assert cut("3") == [1] * 8  # a validation budget scaled up (5x at n = 3): one a process
-    assert cut("1") == [2] * 4  # control: unscaled at n = 1, the same entries share processes
+def test_larger_puzzles_run_in_shorter_batches():
+    def cut(n: str, count: int, workers: int = 1) -> list[int]:
+        tasks = _move_n_times(n, count)
+        batches = list(_batches(iter(tasks), BATCH_SIZE, workers))
+        assert sorted(t.index for b in batches for t in b) == list(range(count))  # each once
+        return [len(b) for b in batches]
+
+    # Up to Grid World's five objects (n = 3: four) full batches, as for any generator of that size.
+    assert cut("3", 2 * BATCH_SIZE) == [BATCH_SIZE] * 2
+    assert cut("4", 2 * BATCH_SIZE) == [BATCH_SIZE] * 2
+    # Larger ones in shorter batches: n = 8 (9 objects) nine a batch, n = 20 (21 objects) alone.
+    assert cut("8", 2 * BATCH_SIZE) == [9] * 7 + [1]
+    assert cut("20", BATCH_SIZE) == [1] * BATCH_SIZE
+    # A short request of any size: four batches a worker, at most (never more entries than a long one).
+    assert cut("3", 8) == [2] * 4
+    assert cut("8", 20, workers=2) == [3] * 6 + [2]
+
+
+def test_entries_of_other_costs_never_share_a_batch():
+    from solver.pipelines.dataset.build import _batch_cost
+
+    big, small = _move_n_times("8", BATCH_SIZE, 7420000), _tasks(BATCH_SIZE)
+    mixed = [t for pair in zip(small, big, strict=True) for t in pair]  # interleaved, as sweeps are
+    batches = list(_batches(iter(mixed), BATCH_SIZE, 1))
+    assert all(len({t.generator for t in b}) == 1 for b in batches)
+    assert sorted(len(b) for b in batches if b[0].generator == "move_n_times") == [5] + [9] * 3
+    assert [len(b) for b in batches if b[0].generator == "grid_world"] == [BATCH_SIZE]
+    # The costliest start first: a batch's priority is its entries' validation budget scale.
+    assert {_batch_cost(b) for b in batches if b[0].generator == "move_n_times"} == {20480.0}
+    assert {_batch_cost(b) for b in batches if b[0].generator == "grid_world"} == {1.0}

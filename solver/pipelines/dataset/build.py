@@ -210,13 +210,15 @@ def write_record(shard_dir: Path, task: EntryTask, outcome: EntryOutcome) -> Pat
 
 # -- backends ------------------------------------------------------------------------
 BATCH_SIZE = 32
-"""Cheap entries (a validation budget scale of at most 1) that one worker process makes in a row.
-Every puzzle seeds its random sources itself (OMPL's included, :func:`solver.planning.ompl_setup.seed_ompl`),
-so a batch gives the puzzles single processes give. A fresh worker costs about 0.05 CPU s before its
-first puzzle (the forked server's pages it touches), two Grid World puzzles since the necessity proof
-(0.025 CPU s each): batches of 32 keep that near 5 %, where 8 left it at 20 %. A request of fewer than
-32 cheap entries per worker is cut into four batches per worker instead, so that every worker gets a
-share. Costlier entries run alone, so that no worker is left with a long queue at the end."""
+"""Entries of Grid World's size that one worker process makes in a row. Every puzzle seeds its random
+sources itself (OMPL's included, :func:`solver.planning.ompl_setup.seed_ompl`), so a batch gives the
+puzzles single processes give. A fresh worker costs about 0.05 CPU s before its first puzzle (the forked
+server's pages it touches), two Grid World puzzles since the necessity proof (0.025 CPU s each): batches
+of 32 keep that near 5 %, where 8 left it at 20 %. A request of fewer than 32 entries per worker is cut
+into four batches per worker instead, so that every worker gets a share. Larger puzzles run in shorter
+batches (:func:`_batch_length`), so that no worker is left with a long queue at the end."""
+REFERENCE_OBJECTS = 5
+"""The objects of the puzzle :data:`BATCH_SIZE` is sized for (Grid World's five boxes)."""
 
 
 def make_batch(batch: list[EntryTask]) -> list[EntryOutcome]:
@@ -258,33 +260,43 @@ def _run_batches(pool, tasks: Iterable[EntryTask], on_running: Callable[[list[En
 
 
 def _batches(tasks: Iterable[EntryTask], size: int, workers: int = 1) -> Iterator[list[EntryTask]]:
+    """``tasks`` cut into batches of entries of one cost (:func:`_cost_hint`), each in the order read."""
     tasks = iter(tasks)
     head = list(itertools.islice(tasks, size * workers))
+    short = size
     if len(head) < size * workers:  # a small request: four batches a worker (see BATCH_SIZE)
-        size = min(size, max(1, math.ceil(len(head) / (4 * workers))))
-    batch: list[EntryTask] = []
+        short = min(size, max(1, math.ceil(len(head) / (4 * workers))))
+    open_batches: dict[tuple[float, int], list[EntryTask]] = {}
     for task in itertools.chain(head, tasks):
-        if _cost_hint(task) > 1.0:
-            yield [task]
-            continue
+        scale, objects = _cost_hint(task)
+        key = (scale, min(short, _batch_length(size, objects)))
+        batch = open_batches.setdefault(key, [])
         batch.append(task)
-        if len(batch) == size:
-            yield batch
-            batch = []
-    if batch:
-        yield batch
+        if len(batch) == key[1]:
+            yield open_batches.pop(key)
+    yield from open_batches.values()
+
+
+def _batch_length(size: int, objects: int) -> int:
+    """How many entries of ``objects`` objects a batch holds: ``size`` up to Grid World's size, fewer for
+    larger puzzles, whose cost grows with the square of their objects (Move N Times, n = 2..5, 3..6
+    objects: 5.0-5.3 ms x objects^2 a puzzle, 2-core dev machine), so that a batch holds no more
+    work than one of ``size`` Grid World puzzles; the largest run alone."""
+    return max(1, min(size, size * REFERENCE_OBJECTS ** 2 // max(1, objects) ** 2))
 
 
 def _batch_cost(batch: list[EntryTask]) -> float:
-    return _cost_hint(batch[0]) if len(batch) == 1 else 1.0  # (a batch holds cheap entries only)
+    return _cost_hint(batch[0])[0]  # (a batch holds entries of one cost)
 
 
-def _cost_hint(task: EntryTask) -> float:
-    """The generator's validation budget scale for the task: the costliest puzzles start first."""
+def _cost_hint(task: EntryTask) -> tuple[float, int]:
+    """The generator's validation budget scale for the task (the costliest puzzles start first) and the
+    puzzle's objects (the Maker's iterations)."""
     try:
-        return float(get_generator(task.generator).build(task.seed, task.params).budget_scale)
+        made = get_generator(task.generator).build(task.seed, task.params)
+        return float(made.budget_scale), int(made.n_objects)
     except Exception:  # the worker runs the task and reports what is wrong with it
-        return 1.0
+        return 1.0, REFERENCE_OBJECTS
 
 
 def _lost(batch: list[EntryTask], how: str) -> list[EntryOutcome]:
