@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 
 import numpy as np
 import pytest
@@ -156,6 +157,116 @@ def test_every_cell_pair_the_prover_finds_blocked_collides_at_states_drawn_in_bo
 
     caught = sum(misses(CentresOnly(), *question, rng)[1] for question in questions)
     assert caught > 0
+
+
+def _levels_of(pose, prismatic, lower, upper, count, levels):
+    """Frames (x, y, cos, sin) and motions of a one-joint object's cells at ``levels`` levels (count, 2 count,
+    ...), as :meth:`BlockingProver.free_cells` makes them: prismatic along x, or revolute about ``pose``."""
+    out = []
+    for level in range(levels):
+        n = count << level
+        width = (upper - lower) / n
+        values = lower + width * (np.arange(n) + 0.5)
+        x = pose[0] + (values if prismatic else 0.0 * values)
+        yaw = pose[2] + (0.0 * values if prismatic else values)
+        frames = np.ascontiguousarray(np.stack([x, pose[1] + 0.0 * values, np.cos(yaw), np.sin(yaw)], axis=1))
+        motions = np.zeros((n, 4))
+        motions[:, 0 if prismatic else 1] = width / 2
+        motions[:, 2], motions[:, 3] = x, pose[1]
+        out.append((frames, motions))
+    return out
+
+
+def _reference_table(outline_a, levels_a, outline_b, levels_b, threshold, sides, budget):
+    """The table written out pair by pair with :func:`blocking._pair_verdicts` (every widest pair tested),
+    breadth first as the prover did before its compiled refinement: None past the budget."""
+    from solver.validation import blocking
+
+    depth = max(len(levels_a), len(levels_b))
+    table = np.zeros((len(levels_a[-1][0]), len(levels_b[-1][0])), dtype=bool)
+    i, j = (index.ravel() for index in np.meshgrid(np.arange(len(levels_a[0][0])), np.arange(len(levels_b[0][0])),
+                                                   indexing="ij"))
+    spent, marks = 0, []
+    for step in range(depth):
+        la, lb = min(step, len(levels_a) - 1), min(step, len(levels_b) - 1)
+        spent += len(i) * sides
+        if spent > budget:
+            return None
+        verdicts = blocking._pair_verdicts(outline_a.vertices, outline_a.normals, *levels_a[la], outline_b.vertices,
+                                           outline_b.normals, *levels_b[lb], i, j, threshold)
+        scale_a, scale_b = 1 << (len(levels_a) - 1 - la), 1 << (len(levels_b) - 1 - lb)
+        marks += [(a * scale_a, b * scale_b, scale_a, scale_b) for a, b in zip(*(x[verdicts == blocking.BLOCKED]
+                                                                                 for x in (i, j)), strict=True)]
+        i, j = i[verdicts == blocking.UNSURE], j[verdicts == blocking.UNSURE]
+        if la + 1 < len(levels_a):
+            i, j = np.concatenate([2 * i, 2 * i + 1]), np.concatenate([j, j])
+        if lb + 1 < len(levels_b):
+            i, j = np.concatenate([i, i]), np.concatenate([2 * j, 2 * j + 1])
+    for a, b, scale_a, scale_b in marks:
+        table[a:a + scale_a, b:b + scale_b] = True
+    return table
+
+
+def test_the_compiled_refinement_marks_what_the_pair_by_pair_test_marks():
+    """The tables the prover builds (cells prepared once, edge lines stopped early, the finest pairs asked
+    only blocked or not, pairs another outline pair already blocked skipped) are the pair-by-pair test's,
+    cell for cell, on random slotted-disc pieces, boxes and poses, turning and sliding, at several levels;
+    the widest verdicts are its verdicts, apart, blocked and unsure all occurring. Controls: a budget too small
+    gives no table in both, and tables at a tolerance 1 mm larger differ."""
+    from phyrogen_core.geometry import slot_disc
+    from solver.validation import blocking
+
+    rng = np.random.default_rng(7451)
+    radius = 1.5
+    disc = [blocking._outline(np.array(piece), 0.0, 1.0) for piece in slot_disc(radius, 1.0).pieces]
+    box = blocking._outline(np.array([[-0.7, -0.1], [0.7, -0.1], [0.7, 0.1], [-0.7, 0.1]]), 0.0, 1.0)
+    seen, differ, refused = set(), 0, 0
+    for trial in range(12):
+        turning = _levels_of((0.0, 0.0, rng.uniform(-3, 3)), False, -math.pi, math.pi, int(rng.integers(20, 60)),
+                             int(rng.integers(1, 4)))
+        sliding = _levels_of((rng.uniform(-radius - 0.7, 0.0), rng.uniform(-0.5, 0.5), 0.0), True, 0.0, 1.0,
+                             int(rng.integers(4, 10)), int(rng.integers(1, 4)))
+        threshold = float(rng.choice([0.002, 0.02, 0.08])) + 1e-6
+        disc_first = trial % 2 == 0
+        table = np.zeros((len(turning[-1][0]), len(sliding[-1][0])) if disc_first else
+                         (len(sliding[-1][0]), len(turning[-1][0])), dtype=bool)
+        expected = np.zeros_like(table)
+        for piece in disc:
+            (outline_a, levels_a), (outline_b, levels_b) = ((piece, turning), (box, sliding))[::1 if disc_first else -1]
+            sides = (len(outline_a.vertices) + len(outline_b.vertices)) * max(len(outline_a.vertices),
+                                                                             len(outline_b.vertices))
+            shapes = []
+            for outline, levels in ((outline_a, levels_a), (outline_b, levels_b)):
+                frames, motions = (np.concatenate([level[k] for level in levels]) for k in (0, 1))
+                n, k = len(frames), len(outline.vertices)
+                shapes.append(((outline.vertices, outline.normals, frames, motions, np.empty((n, k, 2)),
+                                np.empty((n, k, 2)), np.empty((n, k)), np.empty((n, k)), np.zeros(n, dtype=bool)),
+                               np.cumsum([0, *(len(level[0]) for level in levels[:-1])]).astype(np.int64),
+                               blocking._one_pivot(motions)))
+            (shape_a, bases_a, one_a), (shape_b, bases_b, one_b) = shapes
+            i, j = (index.ravel() for index in np.meshgrid(np.arange(len(levels_a[0][0])),
+                                                           np.arange(len(levels_b[0][0])), indexing="ij"))
+            widest = blocking._widest_verdicts(shape_a, shape_b, one_a, one_b, i, j, threshold)
+            reference = blocking._pair_verdicts(outline_a.vertices, outline_a.normals, *levels_a[0],
+                                                outline_b.vertices, outline_b.normals, *levels_b[0], i, j, threshold)
+            assert np.array_equal(widest, reference)
+            seen |= set(reference.tolist())
+            moved = _reference_table(outline_a, levels_a, outline_b, levels_b, threshold + 1e-3, sides, 3_000_000)
+            differ += not np.array_equal(moved, _reference_table(outline_a, levels_a, outline_b, levels_b,
+                                                                 threshold, sides, 3_000_000))
+            for budget in (3_000_000, len(i) * sides + 1):
+                marked = blocking._refine(shape_a, bases_a, shape_b, bases_b, one_a, one_b, i, j, widest, threshold,
+                                          sides, len(i) * sides, budget, table)
+                written = _reference_table(outline_a, levels_a, outline_b, levels_b, threshold, sides, budget)
+                assert marked == (written is not None)
+                refused += not marked
+                if written is not None:
+                    expected |= written
+                    assert np.array_equal(table, expected)
+        assert np.array_equal(table, expected)
+    assert seen == {blocking.APART, blocking.BLOCKED, blocking.UNSURE}
+    assert differ >= 6  # control: tables 1 mm of tolerance apart are told apart
+    assert refused >= 6  # the budget's refusal is met and agreed on
 
 
 def _questions(seeds, generator="grid_world", params=None):

@@ -25,7 +25,11 @@ edge normal is fixed, and every vertex of the other moves by at most its own obj
 the first frame's (a shift, plus a turn times the point's distance from the pivot), so that
 vertex's projection is raised by that much before the test. A cell pair is tested widest cells
 first; only a pair neither blocked nor apart throughout is halved and tested again, down to the
-finest cells. Shapes the proof does not model (cylinders) are left out, and outline pairs whose
+finest cells. (What the test computes of one outline at one cell is computed once for all the pairs the
+cell takes part in, an edge line stops at the first vertex that shows it decides nothing, and at the finest
+cells only "blocked throughout or not" is asked: the same numbers compared, fewer of them;
+:func:`_pair_verdicts` is the test written out pair by pair, which the tests hold the tables to.)
+Shapes the proof does not model (cylinders) are left out, and outline pairs whose
 table would cost more than :data:`PAIR_WORK` projections, which can only make it find less;
 objects with more than one free joint take no part (they could be anywhere), unless every joint
 of the target is pinned by its goal. So the prover may fail to prove a necessary object necessary
@@ -255,6 +259,212 @@ def _pair_verdicts(local_a, normals_a, frames_a, ma, local_b, normals_b, frames_
     return out
 
 
+@njit(cache=True, nogil=True)
+def _ready(local, normals, frames, motions, vertices, turned, extents, turns, done, c):
+    """Prepares cell ``c`` of an outline's shape (:meth:`BlockingProver._shape`) when first asked: what
+    :func:`_pair_verdicts` computes of the outline at a cell, kept for every pair the cell takes part in (its
+    vertices and normals in the world, its extent along each of its own normals, each vertex's own turn part
+    of :func:`_moves`), by the same expressions, so the verdicts compare the very same numbers. (Arrays one
+    by one and cells by index: a tuple unpacked or a row taken costs reference counts in every call.)"""
+    if done[c]:
+        return
+    k = local.shape[0]
+    for j in range(k):
+        vertices[c, j, 0] = frames[c, 0] + frames[c, 2] * local[j, 0] - frames[c, 3] * local[j, 1]
+        vertices[c, j, 1] = frames[c, 1] + frames[c, 3] * local[j, 0] + frames[c, 2] * local[j, 1]
+        turned[c, j, 0] = frames[c, 2] * normals[j, 0] - frames[c, 3] * normals[j, 1]
+        turned[c, j, 1] = frames[c, 3] * normals[j, 0] + frames[c, 2] * normals[j, 1]
+    for m in range(k):
+        extent = -np.inf
+        for j in range(k):
+            extent = max(extent, turned[c, m, 0] * vertices[c, j, 0] + turned[c, m, 1] * vertices[c, j, 1])
+        extents[c, m] = extent
+    for j in range(k):
+        turns[c, j] = motions[c, 1] * math.hypot(vertices[c, j, 0] - motions[c, 2], vertices[c, j, 1] - motions[c, 3])
+    done[c] = True
+
+
+@njit(cache=True, nogil=True)
+def _away(vertices, c, j, motions, cell, one_pivot, memo, done):
+    """The distance of vertex ``j`` at cell ``c`` from the other object's pivot at its ``cell``; kept per
+    cell in ``memo`` when that object turns about one pivot in every cell (a revolute joint's axis)."""
+    if not one_pivot:
+        return math.hypot(vertices[c, j, 0] - motions[cell, 2], vertices[c, j, 1] - motions[cell, 3])
+    if not done[c]:
+        for m in range(vertices.shape[1]):
+            memo[c, m] = math.hypot(vertices[c, m, 0] - motions[0, 2], vertices[c, m, 1] - motions[0, 3])
+        done[c] = True
+    return memo[c, j]
+
+
+@njit(cache=True, nogil=True)
+def _side(turned, extents, c, vertices, d, threshold, hint, shift, known, tag, own_turns, of_first, first, second,
+          cross, motions, cell, one_pivot, memo, done, verdict, blocked_only):  # pragma: no cover (compiled)
+    """One outline's edge lines (at cell ``c``) against the other's vertices (at cell ``d``) raised and
+    lowered by their moves: :data:`APART` when one line has them all beyond it even lowered, else
+    :data:`UNSURE` when one fails raised, else :data:`BLOCKED` (:func:`_pair_verdicts`' test). A line with
+    one vertex raised deeper than the threshold decides nothing (every least projection only falls as
+    more vertices come, and rounding keeps that order), so its other vertices are not projected; once the
+    pair is unsure (``verdict`` says what is known already), only a line apart can change it, and a line
+    with one vertex lowered deeper than the threshold is not apart; where only blocked or not matters
+    (``blocked_only``: the finest cells' pairs, whose verdict marks a table or nothing) the first line that
+    is not deep ends the test. ``hint`` keeps, per line, the vertex that ended it last, tried first.
+
+    A vertex's move is summed when first needed for the pair ``tag`` (kept in ``shift``, ``known``) in
+    :func:`_moves`' order: ``first`` (the first object's shift), the first object's turn part, ``second``
+    (the second's shift), the second's turn part; the vertices' own object's part is ``own_turns`` (made
+    by :func:`_ready`), the other's is ``cross`` times the distance from its pivot (:func:`_away`; a turn
+    of 0 adds 0 and is left out); ``of_first``: the vertices are the first object's."""
+    count = vertices.shape[1]
+    for m in range(turned.shape[1]):
+        nx, ny, extent = turned[c, m, 0], turned[c, m, 1], extents[c, m]
+        raised = lowered = np.inf
+        deep = False
+        start = hint[m]
+        for step in range(count):
+            j = start + step
+            if j >= count:
+                j -= count
+            if known[j] != tag:
+                if cross == 0.0:
+                    part = 0.0
+                else:
+                    part = cross * _away(vertices, d, j, motions, cell, one_pivot, memo, done)
+                if of_first:  # own turn, then the second object's shift and turn
+                    shift[j] = first + own_turns[d, j] + second + part if cross != 0.0 else \
+                        first + own_turns[d, j] + second
+                else:  # the first object's turn, then the second's (own) shift and turn
+                    shift[j] = (first + part if cross != 0.0 else first) + second + own_turns[d, j]
+                known[j] = tag
+            projection = nx * vertices[d, j, 0] + ny * vertices[d, j, 1]
+            raised = min(raised, projection + shift[j])
+            lowered = min(lowered, projection - shift[j])
+            if extent - (lowered if verdict == UNSURE else raised) > threshold:
+                hint[m] = j
+                deep = True
+                break
+        if deep:
+            continue
+        if extent - lowered <= threshold:
+            return APART
+        if extent - raised <= threshold:
+            if blocked_only:
+                return UNSURE
+            verdict = UNSURE
+    return verdict
+
+
+@njit(cache=True, nogil=True)
+def _verdicts(sa, sb, base_a, base_b, first, second, threshold, one_a, one_b, memo_a, done_a, memo_b, done_b,
+              table, last):  # pragma: no cover (compiled)
+    """:func:`_pair_verdicts` of the cell pairs (``first``, ``second``) of two outline shapes
+    (:meth:`BlockingProver._shape`; the cells of the level asked start at ``base_a``, ``base_b``). The
+    verdict does not hang on the order the edge lines are tried in (any line apart makes it apart), so one
+    side is tried at a time (:func:`_side`). At the ``last`` level a pair already blocked in ``table`` (by
+    another outline pair of the same objects) is not tested: its verdict marks nothing new."""
+    local_a, normals_a, frames_a, ma, va, na, ea, ta, ready_a = sa
+    local_b, normals_b, frames_b, mb, vb, nb, eb, tb, ready_b = sb
+    out = np.empty(len(first), dtype=np.int8)
+    shift_a, shift_b = np.empty(va.shape[1]), np.empty(vb.shape[1])
+    known_a, known_b = np.full(va.shape[1], -1, dtype=np.int64), np.full(vb.shape[1], -1, dtype=np.int64)
+    hint_a, hint_b = np.zeros(na.shape[1], dtype=np.int64), np.zeros(nb.shape[1], dtype=np.int64)
+    for p in range(len(first)):
+        if last and table[first[p], second[p]]:
+            out[p] = APART
+            continue
+        a, b = base_a + first[p], base_b + second[p]
+        _ready(local_a, normals_a, frames_a, ma, va, na, ea, ta, ready_a, a)
+        _ready(local_b, normals_b, frames_b, mb, vb, nb, eb, tb, ready_b, b)
+        ma0, ma1, mb0, mb1 = ma[a, 0], ma[a, 1], mb[b, 0], mb[b, 1]
+        verdict = _side(na, ea, a, vb, b, threshold, hint_a, shift_b, known_b, p, tb, False, ma0, mb0, ma1, ma, a,
+                        one_a, memo_b, done_b, BLOCKED, last)
+        if verdict == BLOCKED or verdict == UNSURE and not last:
+            verdict = _side(nb, eb, b, va, a, threshold, hint_b, shift_a, known_a, p, ta, True, ma0, mb0, mb1, mb, b,
+                            one_b, memo_a, done_a, verdict, last)
+        out[p] = verdict
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _memos(sa, sb, one_a, one_b):  # pragma: no cover (compiled)
+    """Room for :func:`_away`'s distances: of a's vertices from b's one pivot, and of b's from a's."""
+    memo_a = np.empty(sa[4].shape[:2]) if one_b else np.empty((0, 0))
+    done_a = np.zeros(sa[4].shape[0] if one_b else 0, dtype=np.bool_)
+    memo_b = np.empty(sb[4].shape[:2]) if one_a else np.empty((0, 0))
+    done_b = np.zeros(sb[4].shape[0] if one_a else 0, dtype=np.bool_)
+    return memo_a, done_a, memo_b, done_b
+
+
+@njit(cache=True, nogil=True)
+def _refine(sa, bases_a, sb, bases_b, one_a, one_b, first, second, widest, threshold, sides, spent, budget,
+            table):  # pragma: no cover (compiled)
+    """:meth:`BlockingProver._blocked_pairs` from the widest cells' verdicts on: each pair neither blocked
+    nor apart halved (each side with finer levels: ``bases_a`` holds where each level's cells start in
+    ``sa``) and tested again, down to the finest; the pairs blocked at any level marked in ``table`` at the
+    finest. False, nothing marked, when the pairs tested would exceed ``budget`` (counting ``sides`` each,
+    ``spent`` already)."""
+    levels_a, levels_b = len(bases_a), len(bases_b)
+    depth = max(levels_a, levels_b)
+    memo_a, done_a, memo_b, done_b = _memos(sa, sb, one_a, one_b)
+    rows, columns = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)  # blocked pairs' first fine cells
+    ends = np.zeros(depth, dtype=np.int64)  # per step: where its pairs end in rows and columns, their scales
+    scales_a, scales_b = np.zeros(depth, dtype=np.int64), np.zeros(depth, dtype=np.int64)
+    i, j, verdicts = first, second, widest
+    for step in range(depth):
+        la, lb = min(step, levels_a - 1), min(step, levels_b - 1)
+        if step:
+            verdicts = _verdicts(sa, sb, bases_a[la], bases_b[lb], i, j, threshold, one_a, one_b, memo_a, done_a,
+                                 memo_b, done_b, table, step + 1 == depth)
+        blocked = verdicts == BLOCKED
+        scales_a[step], scales_b[step] = 1 << (levels_a - 1 - la), 1 << (levels_b - 1 - lb)
+        rows = np.concatenate((rows, i[blocked] * scales_a[step]))
+        columns = np.concatenate((columns, j[blocked] * scales_b[step]))
+        ends[step] = len(rows)
+        if step + 1 == depth:
+            break
+        unsure = verdicts == UNSURE
+        i, j = i[unsure], j[unsure]
+        split_a, split_b = la + 1 < levels_a, lb + 1 < levels_b
+        if split_a:
+            i, j = np.concatenate((2 * i, 2 * i + 1)), np.concatenate((j, j))
+        if split_b:
+            i, j = np.concatenate((i, i)), np.concatenate((2 * j, 2 * j + 1))
+        spent += len(i) * sides
+        if spent > budget:
+            return False
+    step = 0
+    for p in range(len(rows)):
+        while p >= ends[step]:
+            step += 1
+        table[rows[p]:rows[p] + scales_a[step], columns[p]:columns[p] + scales_b[step]] = True
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _widest_verdicts(sa, sb, one_a, one_b, first, second, threshold):  # pragma: no cover (compiled)
+    """:func:`_verdicts` of the widest cells' pairs (the first level of both shapes)."""
+    memo_a, done_a, memo_b, done_b = _memos(sa, sb, one_a, one_b)
+    return _verdicts(sa, sb, 0, 0, first, second, threshold, one_a, one_b, memo_a, done_a, memo_b, done_b,
+                     np.zeros((1, 1), dtype=np.bool_), False)
+
+
+@njit(cache=True, nogil=True)
+def _or_throughout(table, first, last, blocked):  # pragma: no cover (compiled)
+    """Sets ``blocked[r]`` where ``table[r, first:last + 1]`` is all true (each row left at its first false)."""
+    for r in range(table.shape[0]):
+        if not blocked[r]:
+            for c in range(first, last + 1):
+                if not table[r, c]:
+                    break
+            else:
+                blocked[r] = True
+
+
+def _one_pivot(motions: np.ndarray) -> bool:
+    """Whether cells with these motions (:class:`_Cells`) all turn about the same pivot."""
+    return bool(np.all(motions[:, 2:] == motions[0, 2:]))
+
+
 def _centres(outline: _Outline, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The outline's vertices' mean (the centre of its bounding circle) at each frame: x (n,), y (n,)."""
     x, y = outline.centre
@@ -280,6 +490,10 @@ class BlockingProver:
         self._bounds: dict[tuple, np.ndarray] = {}
         self._worlds: dict[tuple, np.ndarray] = {}
         self._widest: dict[tuple, tuple] = {}
+        self._runs: dict[tuple, tuple] = {}
+        self._finest_first = False  # the order the two proofs are tried in (the same answer either way)
+        self._reaches: dict[int, float] = {}
+        self._blocks: dict[tuple, np.ndarray | None] = {}
         self._kept: dict[int, PuzzleObject] = {}  # keys hold objects by id (hashing one costs more than a check)
 
     def _id(self, obj: PuzzleObject) -> int:
@@ -295,6 +509,14 @@ class BlockingProver:
             found = self._outlines[key] = _outlines(obj)
         return found
 
+    def _reach(self, obj: PuzzleObject) -> float:
+        """:func:`_reach` of the object's outlines, kept."""
+        key = self._id(obj)
+        found = self._reaches.get(key)
+        if found is None:
+            found = self._reaches[key] = _reach(self.outlines(obj))
+        return found
+
     def free_cells(self, obj: PuzzleObject, level: int | None = None) -> _Cells:
         """A one-joint object's cells over its whole range at ``level`` (None: the finest): level 0 the
         widest, in which no point moves more than :attr:`erosion` from a cell's centre, each next level
@@ -303,7 +525,7 @@ class BlockingProver:
         found = self._cells.get(key)
         (lower, upper), = obj.limits
         if found is None:
-            reach = 1.0 if obj.motion is Motion.PRISMATIC else max(_reach(self.outlines(obj)), 1e-3)
+            reach = 1.0 if obj.motion is Motion.PRISMATIC else max(self._reach(obj), 1e-3)
             count = max(1, math.ceil((upper - lower) * reach / (2 * self.erosion)))
             halvings = max(0, math.floor(math.log2((upper - lower) * reach / count / (2 * self.fine))))
             found = self._cells[key] = (count, [None] * (halvings + 1))
@@ -362,69 +584,76 @@ class BlockingProver:
         key = (self._id(obj), where)
         found = self._bounds.get(key)
         if found is None:
-            rho = _reach(self.outlines(obj))
+            rho = self._reach(obj)
             low = cells.poses[:, :2].min(axis=0) - rho
             high = cells.poses[:, :2].max(axis=0) + rho
             found = self._bounds[key] = np.concatenate([low, high])
         return found
+
+    def _shape(self, obj: PuzzleObject, where: tuple, cells: _Cells, index: int) -> tuple:
+        """The object's outline ``index`` at all its ``cells``, every level from the widest down to theirs in
+        one run (a free object) or at its one pose, as :func:`_ready` and :func:`_verdicts` take it, each cell
+        prepared when a pair first asks it; where each level's cells start; whether every cell turns about
+        one pivot. Kept for the prover's questions."""
+        free = cells.values is not None
+        key = (self._id(obj), where)
+        run = self._runs.get(key)
+        if run is None or run[0] is not cells:  # a level once made stays: the deepest stands for all
+            levels = self._levels(obj, cells)
+            frames = np.concatenate([self._frames(obj, ("level", level.level) if free else where, level)
+                                     for level in levels])
+            motions = np.concatenate([level.motions for level in levels])
+            bases = np.cumsum([0, *(len(level.poses) for level in levels[:-1])]).astype(np.int64)
+            run = self._runs[key] = (cells, frames, motions, bases, _one_pivot(motions), {})
+        _, frames, motions, bases, one, shapes = run
+        shape = shapes.get(index)
+        if shape is None:
+            outline = self.outlines(obj)[index]
+            n, k = len(frames), len(outline.vertices)
+            shape = shapes[index] = (outline.vertices, outline.normals, frames, motions, np.empty((n, k, 2)),
+                                     np.empty((n, k, 2)), np.empty((n, k)), np.empty((n, k)),
+                                     np.zeros(n, dtype=np.bool_))
+        return shape, bases, one
 
     def _blocked_pairs(self, a, index_a: int, b, index_b: int, table: np.ndarray, threshold: float,
                        sides: int) -> bool:
         """Marks in ``table`` the cell pairs where outline ``index_a`` of a and ``index_b`` of b collide
         throughout, found coarse to fine: a coarse pair blocked throughout marks all its fine pairs, one
         apart throughout is dropped, and only the rest are halved (each side that has finer cells) and
-        tested again. False when that would take more than :data:`PAIR_WORK` (nothing marked then)."""
+        tested again (:func:`_refine`). False when that would take more than :data:`PAIR_WORK` (nothing
+        marked then)."""
         (obj_a, where_a, cells_a), (obj_b, where_b, cells_b) = a, b
-        levels_a, levels_b = self._levels(obj_a, cells_a), self._levels(obj_b, cells_b)
-        depth = max(len(levels_a), len(levels_b))
-        found_i, found_j, spent = [], [], 0
-        i = j = None
-        outline_a, outline_b = self.outlines(obj_a)[index_a], self.outlines(obj_b)[index_b]
-        for step in range(depth):
-            la, lb = min(step, len(levels_a) - 1), min(step, len(levels_b) - 1)
-            frames_a = self._frames(obj_a, ("level", la) if cells_a.values is not None else where_a, levels_a[la])
-            frames_b = self._frames(obj_b, ("level", lb) if cells_b.values is not None else where_b, levels_b[lb])
-            if i is None:  # the widest cells (their verdicts kept: the widest proof asks them first)
-                key = (self._id(obj_a), cells_a.values is None and where_a, self._id(obj_b), cells_b.values is None
-                       and where_b, index_a, index_b, threshold)
-                widest = self._widest.get(key)
-                if widest is None:
-                    # The pairs whose bounding circles can meet somewhere in their cells.
-                    centre_a, centre_b = _centres(outline_a, frames_a), _centres(outline_b, frames_b)
-                    reach = (outline_a.radius + outline_b.radius + _centre_moves(centre_a, levels_a[la])[:, None]
-                             + _centre_moves(centre_b, levels_b[lb])[None])
-                    dx, dy = centre_a[0][:, None] - centre_b[0][None], centre_a[1][:, None] - centre_b[1][None]
-                    i, j = np.nonzero(dx * dx + dy * dy < reach * reach)
-                    verdicts = None if len(i) * sides > PAIR_WORK else _pair_verdicts(
-                        outline_a.vertices, outline_a.normals, frames_a, levels_a[la].motions, outline_b.vertices,
-                        outline_b.normals, frames_b, levels_b[lb].motions, i, j, threshold)
-                    widest = self._widest[key] = (i, j, verdicts)
-                i, j, verdicts = widest
-            else:
-                verdicts = _pair_verdicts(outline_a.vertices, outline_a.normals, frames_a, levels_a[la].motions,
-                                          outline_b.vertices, outline_b.normals, frames_b, levels_b[lb].motions, i, j,
-                                          threshold)
-            spent += len(i) * sides
-            if spent > PAIR_WORK:
-                return False
-            blocked = verdicts == BLOCKED
-            scale_a, scale_b = 1 << (len(levels_a) - 1 - la), 1 << (len(levels_b) - 1 - lb)
-            found_i.append((i[blocked], scale_a))
-            found_j.append((j[blocked], scale_b))
-            unsure = verdicts == UNSURE
-            i, j = i[unsure], j[unsure]
-            if step + 1 < depth:
-                split_a, split_b = la + 1 < len(levels_a), lb + 1 < len(levels_b)
-                if split_a:
-                    i, j = np.concatenate([2 * i, 2 * i + 1]), np.concatenate([j, j])
-                if split_b:
-                    i, j = np.concatenate([i, i]), np.concatenate([2 * j, 2 * j + 1])
-        for (rows, scale_a), (columns, scale_b) in zip(found_i, found_j, strict=True):
-            if len(rows):
-                rows = (rows[:, None] * scale_a + np.arange(scale_a)[None])[:, :, None]
-                columns = (columns[:, None] * scale_b + np.arange(scale_b)[None])[:, None, :]
-                table[rows, columns] = True
-        return True
+        key = (self._id(obj_a), cells_a.values is None and where_a, self._id(obj_b), cells_b.values is None
+               and where_b, index_a, index_b, threshold)
+        widest = self._widest.get(key)
+        if widest is None:  # the widest cells' verdicts, kept: the widest proof asks them first
+            ends = []
+            for obj, where, cells, index in ((obj_a, where_a, cells_a, index_a), (obj_b, where_b, cells_b, index_b)):
+                top = self.free_cells(obj, 0) if cells.values is not None else cells
+                at = ("level", 0) if cells.values is not None else where
+                ends.append((self.outlines(obj)[index], top, self._frames(obj, at, top)))
+            (outline_a, top_a, frames_a), (outline_b, top_b, frames_b) = ends
+            # The pairs whose bounding circles can meet somewhere in their cells.
+            centre_a, centre_b = _centres(outline_a, frames_a), _centres(outline_b, frames_b)
+            reach = (outline_a.radius + outline_b.radius + _centre_moves(centre_a, top_a)[:, None]
+                     + _centre_moves(centre_b, top_b)[None])
+            dx, dy = centre_a[0][:, None] - centre_b[0][None], centre_a[1][:, None] - centre_b[1][None]
+            i, j = np.nonzero(dx * dx + dy * dy < reach * reach)
+            verdicts = None
+            if len(i) * sides <= PAIR_WORK:
+                (shape_a, _, one_a), (shape_b, _, one_b) = (self._shape(obj_a, where_a, cells_a, index_a),
+                                                            self._shape(obj_b, where_b, cells_b, index_b))
+                verdicts = _widest_verdicts(shape_a, shape_b, one_a, one_b, i, j, threshold)
+            widest = self._widest[key] = (i, j, verdicts, verdicts is not None and not np.any(verdicts))
+        i, j, verdicts, apart = widest
+        if verdicts is None:  # more than PAIR_WORK at the widest cells alone
+            return False
+        if apart:  # every widest pair apart (or none near): nothing to halve, nothing marked
+            return True
+        shape_a, bases_a, one_a = self._shape(obj_a, where_a, cells_a, index_a)
+        shape_b, bases_b, one_b = self._shape(obj_b, where_b, cells_b, index_b)
+        return _refine(shape_a, bases_a, shape_b, bases_b, one_a, one_b, i, j, verdicts, threshold, sides,
+                       len(i) * sides, PAIR_WORK, table)
 
     def table(self, a: tuple[PuzzleObject, tuple, _Cells], b: tuple[PuzzleObject, tuple, _Cells],
               shrink: float) -> np.ndarray:
@@ -452,6 +681,14 @@ class BlockingProver:
                     self._blocked_pairs(a, index_a, b, index_b, table, tolerance + PROOF_SLACK, sides)
         self._tables[key] = table
         return table
+
+    def _blocking(self, a, b, shrink: float) -> np.ndarray | None:
+        """:meth:`table` in one run of memory (a flipped one copied), or None when it blocks no cell pair. Kept."""
+        key = (self._id(a[0]), a[1], self._id(b[0]), b[1], shrink)
+        if key not in self._blocks:
+            table = self.table(a, b, shrink)
+            self._blocks[key] = np.ascontiguousarray(table) if table.any() else None
+        return self._blocks[key]
 
     # -- the proof ---------------------------------------------------------------
     def proves(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], shrink: float) -> bool:
@@ -490,11 +727,22 @@ class BlockingProver:
             return False
         if goal_point is not None:
             points = [*points, goal_point]
-        # The widest cells first: most proofs that hold (every one of Grid World's) hold there, at a
-        # fraction of the finest cells' cost.
+        if not any(cells.level for _, _, cells in free):
+            return self._settled(free, points, target, goal, shrink)
+        # A proof holds at the widest cells or at the finest (either will do: the answer is the same in either
+        # order). The widest first, where most proofs that hold hold (every one of Grid World's), at a
+        # fraction of the finest cells' cost; after a proof that held only at the finest, the finest first
+        # (Lockbox Random's hold there, and the finest tables' widest verdicts are the widest tables').
         widest = [(obj, ("level", 0), self.free_cells(obj, 0)) for obj, _, _ in free]
-        return any(self._settled(entries, points, target, goal, shrink)
-                   for entries in ((widest, free) if any(cells.level for _, _, cells in free) else (free,)))
+        if self._finest_first:
+            if self._settled(free, points, target, goal, shrink):
+                return True
+            self._finest_first = not self._settled(widest, points, target, goal, shrink)
+            return not self._finest_first
+        if self._settled(widest, points, target, goal, shrink):
+            return True
+        self._finest_first = self._settled(free, points, target, goal, shrink)
+        return self._finest_first
 
     def _settled(self, free, points, target: int | None, goal: Goal, shrink: float) -> bool:
         """Steps 2 and 3 of the module docstring over the cells of ``free``: whether no goal state is left."""
@@ -528,7 +776,7 @@ class BlockingProver:
         # Each reach is one run of cells (spans: first and last); a table with no cell pair blocked blocks nothing.
         spans = [(0, len(mask) - 1) for mask in reach]
         tables = {(i, k): table for i, entry in enumerate(free) for k, other in enumerate(free)
-                  if k != i and (table := self.table(entry, other, shrink)).any()}
+                  if k != i and (table := self._blocking(entry, other, shrink)) is not None}
         changed = True
         while changed:
             changed = False
@@ -536,7 +784,7 @@ class BlockingProver:
                 blocked = fixed_blocks[i].copy()
                 for k in range(len(free)):
                     if (i, k) in tables:
-                        blocked |= tables[i, k][:, spans[k][0]:spans[k][1] + 1].all(axis=1)
+                        _or_throughout(tables[i, k], spans[k][0], spans[k][1], blocked)
                 start = starts[i]
                 if blocked[start]:
                     return None
@@ -570,9 +818,14 @@ class BlockingProver:
 
 
 def warm_up() -> None:
-    """Load the proof's compiled test (from numba's cache, or compile it), as a server does before it forks."""
+    """Load the proof's compiled tests (from numba's cache, or compile them), as a server does before it forks."""
     square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     normals = np.array([[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
-    index = np.zeros(1, dtype=np.int64)
+    index, base = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
     frames, motions = np.array([[0.0, 0.0, 1.0, 0.0]]), np.zeros((1, 4))
-    _pair_verdicts(square, normals, frames, motions, square, normals, frames, motions, index, index, 0.0)
+    shape = (square, normals, frames, motions, np.empty((1, 4, 2)), np.empty((1, 4, 2)), np.empty((1, 4)),
+             np.empty((1, 4)), np.zeros(1, dtype=np.bool_))
+    verdicts = _widest_verdicts(shape, shape, True, False, index, index, 0.0)
+    _refine(shape, base, shape, base, True, False, index, index, verdicts, 0.0, 1, 1, 1,
+            np.zeros((1, 1), dtype=np.bool_))
+    _or_throughout(np.zeros((1, 1), dtype=np.bool_), 0, 0, np.zeros(1, dtype=np.bool_))
