@@ -519,20 +519,24 @@ class _BudgetRecorder(AnytimeRecorder):
         return self.model.queries >= self.budget
 
 
-def la_rrt_within(problem: Problem, budget: int, rng: np.random.Generator,
-                  settings: LaRrtSettings | None = None, *, compiled: bool = True) -> tuple[PlanResult, int]:
+def la_rrt_within(problem: Problem, budget: int, rng: np.random.Generator, settings: LaRrtSettings | None = None,
+                  *, compiled: bool = True, nodes: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+                  ) -> tuple[PlanResult, int]:
     """LA-RRT until its first solution or until ``budget`` collision queries are spent
     (deterministic: no clock decides anything). Returns the result and the queries spent.
 
     The run is the compiled loop of :mod:`solver.planning._judge_loop` where it applies
-    (:func:`_compiled_loop_applies`) and ``compiled``; the same run either way."""
+    (:func:`_compiled_loop_applies`) and ``compiled``; the same run either way. ``nodes`` (compiled loop
+    only), a warm start: (states, parents) the start tree, then the goal tree, holds from the outset after the
+    start (a parent is a node's index in its tree, the start 0 in the start tree; -1: a root, goal states only);
+    each state valid, and each motion from its parent."""
     model = _CountingModel(problem.model)
     counted = replace(problem, model=model)
     planner = LaRrt(counted, rng, settings)
     recorder = _BudgetRecorder(counted, model, budget)
     if compiled and _compiled_loop_applies(planner.settings) \
             and problem.model.is_valid(problem.start) and not in_goal(problem, problem.start):
-        return _compiled_run(planner, recorder, model), model.queries
+        return _compiled_run(planner, recorder, model, nodes), model.queries
     return planner.solve(recorder, until_first=True), model.queries
 
 
@@ -549,7 +553,7 @@ COMPILED_PIECE_QUERIES = 2_000
 largest puzzles, about 50 microseconds of Python between pieces."""
 
 
-def _compiled_run(planner: LaRrt, recorder: _BudgetRecorder, model: _CountingModel) -> PlanResult:
+def _compiled_run(planner: LaRrt, recorder: _BudgetRecorder, model: _CountingModel, nodes=()) -> PlanResult:
     from solver.planning import _judge_loop
 
     problem, settings, real = planner.problem, planner.settings, model._model
@@ -561,8 +565,11 @@ def _compiled_run(planner: LaRrt, recorder: _BudgetRecorder, model: _CountingMod
     goal_columns = np.array(list(problem.goal_columns), dtype=np.int64)
     goal_values = np.array(list(problem.goal_columns.values()), dtype=np.float64)
     # Nodes never outnumber queries, and one iteration adds at most this many beyond the budget.
-    capacity = recorder.budget + 2 + 4 * (len(factor_sizes) + settings.max_pushes)
+    capacity = recorder.budget + 2 + 4 * (len(factor_sizes) + settings.max_pushes) + sum(len(p) for _, p in nodes)
     states, parents, sizes = _judge_loop.new_trees(np.ascontiguousarray(problem.start, dtype=np.float64), capacity)
+    for tree, (given, parent) in enumerate(nodes):
+        for state, up in zip(np.asarray(given, dtype=np.float64), parent, strict=True):
+            _judge_loop._add(states, parents, sizes, tree, state, int(up))
     iterations, clipped, growing, other, queries = 0, 0, 0, 1, model.queries
     while True:
         # In pieces of COMPILED_PIECE_QUERIES: between them Python runs, so Ctrl-C and SIGTERM stop

@@ -57,7 +57,16 @@ from phyrogen_core.seeding import stable_seed
 from solver.planning.anytime import AnytimeRecorder, count_checks
 from solver.planning.goal_sampling import GoalAccount, GoalSampler, GoalSamplerSettings
 from solver.planning.la_rrt import PAPER_SETTINGS, LaRrt, LaRrtSettings, la_rrt_within
-from solver.planning.problem import Path, UnreachableGoalError, chain_path, problem_for_chain
+from solver.planning.problem import (
+    FINE_RESOLUTION,
+    Path,
+    Problem,
+    UnreachableGoalError,
+    chain_path,
+    path_is_valid,
+    problem_for_chain,
+    segment_points,
+)
 
 JUDGE_BUDGET = 4000
 """Collision queries (motions and batches of states) one judge run may spend in the Maker; the
@@ -69,6 +78,24 @@ MARGINAL_BUDGET_SCALE = 8
 """The budget of the run at the required margin, for objects already solved at every rung above:
 in Continuous Space seed 500 a bar that blocks by less than the margin needed 600-10 000 queries
 to be found superfluous, so 4000 missed it about half the time."""
+WARM_RESTARTS = 4
+"""Warm-started runs (:func:`attempt_warm`, each with the rung's base budget, on seeds of their own) at the
+required margin where both judges' longer searches failed and the rung above was solved. A failed search of
+LA-RRT is heavy-tailed: on a sliver blocker a run either solves within a few thousand queries or wanders for
+tens of thousands (Continuous Space 9940007: 2 of 10 runs of the first judge unsolved at 100 000 queries, 8
+solved within 9 100), so several short runs started on both sides of the rung above's solution miss far
+less often than one long cold run (docs/generators.md#interlock-margin has the measured rates)."""
+GOAL_REPAIR_SCALES = (0.5, 1.0, 2.0, 4.0)
+"""Sizes of the moves, in shrinks of metres of motion, tried in turn to find a valid goal state near the rung
+above's (:func:`goal_repair`)."""
+GOAL_REPAIR_DRAWS = 512
+"""Goal states checked a batch in :func:`goal_repair`."""
+SHIFT_REPAIR_POINTS = 24
+"""Points of a colliding run of the rung above's witness checked per offset before the run is checked whole
+(:func:`shift_repair`)."""
+GOAL_REPAIR_ROOTS = 8
+"""Goal roots :func:`goal_repair` gives at most: the valid goal states of a batch can lie in pockets of slack
+apart, of which only one may connect."""
 SECOND_JUDGE_BUDGET = 2000
 """Collision checks one second-judge run may spend in the Maker, goal sampling included (each state
 checked counts, a batch of 64 goal candidates 64), so it is a smaller search than the first judge's
@@ -84,6 +111,8 @@ SECOND_JUDGE_SETTINGS = PAPER_SETTINGS
 goal roots by the half-tree rule from its own goal sampler)."""
 FIRST_JUDGE = "la_rrt_push"
 SECOND_JUDGE = "la_rrt_paper"
+WARM_JUDGE = "la_rrt_push_warm"
+"""The first judge warm-started from the rung above's solution (:func:`attempt_warm`)."""
 GEOMETRY = "geometry"
 """The judge of an attempt settled by :class:`~solver.validation.blocking.BlockingProver`, not by a search."""
 NO_GOAL_STATE = "no valid goal state"
@@ -121,6 +150,117 @@ def attempt_fixed(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrin
     result, queries = la_rrt_within(problem, budget, rng, JUDGE_SETTINGS)
     path = chain_path(problem, result.path) if result.solved else ()
     return Attempt(fixed, shrink, result.solved, path, queries)
+
+
+def witness_nodes(problem: Problem, chain: KinematicChain, witness: Path, shrink: float, rng: np.random.Generator
+                  ) -> tuple[np.ndarray | tuple[tuple[np.ndarray, np.ndarray], ...], int]:
+    """A warm start from ``witness`` (a path in ``chain``'s joint order, found where shapes were shrunk more) and
+    the collision queries spent: a solution in ``problem``'s joint order where the witness holds in ``problem``
+    as it stands (checked every :data:`~solver.planning.problem.FINE_RESOLUTION`) or once its colliding runs are
+    moved (:func:`shift_repair`); else the trees' first nodes, as (states, parents) per tree
+    (:func:`~solver.planning.la_rrt.la_rrt_within`): the start tree holds the witness's states up to its first
+    colliding point, the goal tree those from its goal state back to its last colliding point, or, where the
+    goal state itself collides, valid goal states near it (:func:`goal_repair`), if any are found."""
+    columns = [chain.joint_order.index(name) for name in problem.model.joint_order]
+    states = np.ascontiguousarray(np.asarray(witness, dtype=np.float64)[:, columns])
+    points, segment = segment_points(states, problem.model.motion_steps(FINE_RESOLUTION))
+    free = problem.model.check_prepared(points)
+    if free.all():
+        return states, 1
+    repaired, queries = shift_repair(problem, np.vstack([states[:1], points]), np.r_[True, free], shrink, rng)
+    if repaired is not None:
+        return repaired, 1 + queries
+    first, last = int(np.argmin(free)), len(free) - 1 - int(np.argmin(free[::-1]))
+    ends = np.flatnonzero(np.diff(segment, append=len(states)))  # the points that are the witness's states
+    start = points[_chain([e for e in ends if e < first], first - 1)]
+    start_tree = (start, np.arange(len(start)))  # each after the one before, the first after the start (node 0)
+    if free[-1]:
+        goal = points[_chain([e for e in ends[::-1] if e > last], last + 1)]
+        return (start_tree, (goal, np.arange(len(goal)) - 1)), 1 + queries
+    roots, more = goal_repair(problem, points[-1], shrink, rng)
+    return (start_tree, (roots, np.full(len(roots), -1))), 1 + queries + more
+
+
+def _chain(waypoints: list[int], end: int) -> list[int]:
+    """``waypoints`` then ``end`` (where valid points end), ``end`` not twice; no negative index."""
+    return [int(e) for e in waypoints] + ([end] if end >= 0 and (not waypoints or waypoints[-1] != end) else [])
+
+
+def shift_repair(problem: Problem, points: np.ndarray, free: np.ndarray, shrink: float,
+                 rng: np.random.Generator) -> tuple[np.ndarray | None, int]:
+    """The path ``points`` (dense, from the start to a goal state; ``free`` says which are valid in ``problem``)
+    with each run of colliding points moved as one, by the same offset, so that it holds (checked at
+    :data:`~solver.planning.problem.FINE_RESOLUTION` with the motions into and out of it), or None where some
+    run finds no such offset; and the batches checked. Offsets are normal draws as in :func:`goal_repair` (the
+    goal joints kept where a run reaches the goal), :data:`SHIFT_REPAIR_POINTS` points of a run screened per
+    draw, the nearest offsets that pass checked whole."""
+    reach = np.maximum(problem.model.joint_reach(), 1e-9)
+    steps = problem.model.motion_steps(FINE_RESOLUTION)
+    points, queries = points.copy(), 0
+    edges = np.flatnonzero(np.diff(np.r_[True, free, True].astype(np.int8)))
+    for a, b in zip(edges[::2], edges[1::2] - 1, strict=True):  # a run of colliding points a..b
+        moved = np.ones(points.shape[1], dtype=bool)
+        if b == len(points) - 1:
+            moved[list(problem.goal_columns)] = False
+        screened = points[np.unique(np.linspace(a, b, SHIFT_REPAIR_POINTS).astype(np.int64))]
+        for scale in GOAL_REPAIR_SCALES:
+            offsets = rng.standard_normal((GOAL_REPAIR_DRAWS, len(moved))) * (scale * max(shrink, FINE_RESOLUTION)
+                                                                             / reach) * moved
+            queries += 1
+            candidates = np.ascontiguousarray((screened[None] + offsets[:, None]).reshape(-1, len(moved)))
+            inside = np.all((candidates >= problem.lower) & (candidates <= problem.upper), axis=1)
+            passed = (problem.model.check_prepared(candidates) & inside).reshape(GOAL_REPAIR_DRAWS, -1).all(axis=1)
+            found = None
+            for k in np.flatnonzero(passed)[np.argsort(np.abs(offsets[passed] * reach).sum(axis=1), kind="stable")][:4]:
+                run = np.vstack([points[a - 1:a], points[a:b + 1] + offsets[k], points[b + 1:b + 2]])
+                queries += 1
+                if np.all((run >= problem.lower) & (run <= problem.upper)) and \
+                        path_is_valid(problem.model, np.ascontiguousarray(run), steps):
+                    found = k
+                    break
+            if found is not None:
+                points[a:b + 1] += offsets[found]
+                break
+        else:
+            return None, queries
+    return points, queries
+
+
+def goal_repair(problem: Problem, state: np.ndarray, shrink: float,
+                rng: np.random.Generator) -> tuple[np.ndarray, int]:
+    """Valid goal states near ``state`` (a goal state that collides in ``problem``), at most
+    :data:`GOAL_REPAIR_ROOTS` of them, nearest first, and the batches checked: :data:`GOAL_REPAIR_DRAWS` states a
+    batch, the free joints moved by normal draws of ``scale`` times ``shrink`` (that of ``problem``) in metres of
+    motion (:meth:`~solver.collision.model.CollisionModel.joint_reach`), for each scale of
+    :data:`GOAL_REPAIR_SCALES` until a batch has a valid state. The rung above's goal state cleared every shape
+    shrunk by twice this shrink, so a goal state of this rung, if there is one near it, lies about a shrink away
+    in motion: where a sliver of slack is left, it is here."""
+    reach = np.maximum(problem.model.joint_reach(), 1e-9)
+    moved = np.ones(len(state), dtype=bool)
+    moved[list(problem.goal_columns)] = False
+    for k, scale in enumerate(GOAL_REPAIR_SCALES, start=1):
+        offsets = rng.standard_normal((GOAL_REPAIR_DRAWS, len(state))) * (scale * max(shrink, FINE_RESOLUTION) / reach)
+        candidates = np.ascontiguousarray(np.clip(state + offsets * moved, problem.lower, problem.upper))
+        valid = np.flatnonzero(problem.model.check_prepared(candidates))
+        if len(valid):
+            order = valid[np.argsort(np.abs((candidates[valid] - state) * reach).sum(axis=1), kind="stable")]
+            return candidates[order[:GOAL_REPAIR_ROOTS]], k
+    return np.empty((0, len(state))), len(GOAL_REPAIR_SCALES)
+
+
+def attempt_warm(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrink: float, budget: int,
+                 rng: np.random.Generator, witness: Path) -> Attempt:
+    """The first judge warm-started from ``witness``, a solution found with the same objects fixed and the
+    shapes shrunk more (:func:`witness_nodes`): where the witness collides only by a sliver, the trees start
+    on both sides of the sliver. The witness itself where it holds as it stands."""
+    fixed = tuple(fixed)
+    problem = problem_for_chain(chain, goal, fixed=fixed, shrink=shrink)
+    nodes, spent = witness_nodes(problem, chain, witness, shrink, rng)
+    if isinstance(nodes, np.ndarray):  # the witness repaired: a solution
+        return Attempt(fixed, shrink, True, chain_path(problem, nodes), spent, WARM_JUDGE)
+    result, queries = la_rrt_within(problem, max(budget - spent, 0), rng, JUDGE_SETTINGS, nodes=nodes)
+    path = chain_path(problem, result.path) if result.solved else ()
+    return Attempt(fixed, shrink, result.solved, path, queries + spent, WARM_JUDGE)
 
 
 def attempt_second(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrink: float, budget: int,
@@ -170,7 +310,7 @@ class Necessity:
         measured margin; :data:`NO_PATH` when no second judge ran); "solved by <judge>" when not."""
         if not self.necessary:
             return f"solved by {self.witness.judge}" if self.witness is not None else "solved"
-        last = self.attempts[-1] if self.attempts else None
+        last = self._deciding
         if last is not None and last.judge == GEOMETRY:
             return "the target's goal out of reach by geometry"
         if last is not None and last.goals is not None and last.goals.states == 0:
@@ -188,9 +328,14 @@ class Necessity:
         reason = self.reason
         return BY_SEARCH if reason == NO_PATH else BY_GOAL_SAMPLER if reason == NO_GOAL_STATE else BY_GEOMETRY
 
+    @property
+    def _deciding(self) -> Attempt | None:
+        """The last run other than a warm start's (those only ever solve; a verdict's reason is the judges')."""
+        return next((a for a in reversed(self.attempts) if a.judge != WARM_JUDGE), None)
+
     def describe(self) -> str:
         """One line: the verdict, its reason and the goal accounting behind it."""
-        last = self.attempts[-1] if self.attempts else None
+        last = self._deciding
         goals = f"; second judge: {last.goals.describe()}" if last is not None and last.goals is not None else ""
         return f"{'necessary' if self.necessary else 'superfluous'} ({self.reason}){goals}"
 
@@ -206,6 +351,13 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     judge) and a seed from ``second_seed`` (default :func:`question_seed`); it never draws from
     ``rng``, so where it solves nothing the first judge's runs are what they were without it.
 
+    At the required margin, reached only by objects solved at the rung above, a failure of both judges
+    is followed by :data:`WARM_RESTARTS` warm-started runs from the rung above's solution
+    (:func:`attempt_warm`: that path mended where it collides by a sliver, or the trees grown from both sides
+    of the sliver), on seeds of their own, ``budget`` queries each: they never draw from ``rng`` and only run
+    where the verdict would have been "necessary", so a puzzle changes only where one of them solves (the
+    object is then superfluous), and a necessary verdict's reason stays the judges'.
+
     ``proof(shrink)``, when given (with a second judge), is asked at the top rung *before* the first
     judge, and at a lower rung before the second judge: True (a geometric proof that the puzzle is
     unsolvable at that shrink, :class:`~solver.validation.blocking.BlockingProver`) settles the rung
@@ -220,7 +372,7 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     only after the first judge failed, so it changes no draw.
     """
     queries = second_checks = 0
-    attempt = None
+    attempt = above = None
     attempts: list[Attempt] = []
     levels = MARGIN_LEVELS if margin > 0 else (1,)
     for level in levels:
@@ -244,9 +396,29 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
                                      stable_seed(second_seed, level))
             attempts.append(attempt)
             second_checks += attempt.queries
+            if not attempt.solved and scale > 1 and above is not None:
+                warm = _warm_restarts(chain, goal, fixed, level * margin, budget, second_seed, above.path)
+                attempts.extend(warm)
+                queries += sum(a.queries for a in warm)
+                if warm and warm[-1].solved:
+                    attempt = warm[-1]
         if not attempt.solved:
             return Necessity(True, level * margin, queries, None, tuple(attempts), second_checks)
+        above = attempt
     return Necessity(False, 0.0, queries, attempt, tuple(attempts), second_checks)
+
+
+def _warm_restarts(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrink: float, budget: int, seed: int,
+                   witness: Path) -> list[Attempt]:
+    """Up to :data:`WARM_RESTARTS` runs of :func:`attempt_warm` from ``witness``, ``budget`` queries each, each
+    on its own seed from the question's ``seed``, until one solves: every run made."""
+    runs: list[Attempt] = []
+    for k in range(WARM_RESTARTS):
+        rng = np.random.default_rng(stable_seed(seed, "warm", k))
+        runs.append(attempt_warm(chain, goal, fixed, shrink, budget, rng, witness))
+        if runs[-1].solved:
+            break
+    return runs
 
 
 def warm_up() -> None:
