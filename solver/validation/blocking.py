@@ -449,6 +449,42 @@ def _widest_verdicts(sa, sb, one_a, one_b, first, second, threshold):  # pragma:
 
 
 @njit(cache=True, nogil=True)
+def _circle_moves(frames, motions, count, x, y):  # pragma: no cover (compiled)
+    """The outline's bounding-circle centre, its vertices' mean (``x``, ``y``) in the object's frame, at each of
+    the first ``count`` cells' centres (x (n,), y (n,)), and how far it may move within the cell (n,)."""
+    xs, ys, moves = np.empty(count), np.empty(count), np.empty(count)
+    for c in range(count):
+        xs[c] = frames[c, 0] + frames[c, 2] * x - frames[c, 3] * y
+        ys[c] = frames[c, 1] + frames[c, 3] * x + frames[c, 2] * y
+        moves[c] = motions[c, 0] + motions[c, 1] * math.hypot(xs[c] - motions[c, 2], ys[c] - motions[c, 3])
+    return xs, ys, moves
+
+
+@njit(cache=True, nogil=True)
+def _widest(sa, count_a, x_a, y_a, radius_a, sb, count_b, x_b, y_b, radius_b, one_a, one_b, threshold, sides,
+            budget):  # pragma: no cover (compiled)
+    """The widest cells' pairs (the first ``count_a`` and ``count_b`` cells of the shapes) whose bounding circles
+    (centred at the outline's (``x``, ``y``) with ``radius``, grown by the centre's move) can meet, in row
+    order, and their :func:`_verdicts` (none, and False, past ``budget``: ``sides`` each)."""
+    xa, ya, move_a = _circle_moves(sa[2], sa[3], count_a, x_a, y_a)
+    xb, yb, move_b = _circle_moves(sb[2], sb[3], count_b, x_b, y_b)
+    radii = radius_a + radius_b
+    first, second = np.empty(count_a * count_b, dtype=np.int64), np.empty(count_a * count_b, dtype=np.int64)
+    n = 0
+    for p in range(count_a):
+        for q in range(count_b):
+            reach = radii + move_a[p] + move_b[q]
+            dx, dy = xa[p] - xb[q], ya[p] - yb[q]
+            if dx * dx + dy * dy < reach * reach:
+                first[n], second[n] = p, q
+                n += 1
+    first, second = first[:n].copy(), second[:n].copy()
+    if n * sides > budget:
+        return first, second, np.empty(0, dtype=np.int8), False
+    return first, second, _widest_verdicts(sa, sb, one_a, one_b, first, second, threshold), True
+
+
+@njit(cache=True, nogil=True)
 def _or_throughout(table, first, last, blocked):  # pragma: no cover (compiled)
     """Sets ``blocked[r]`` where ``table[r, first:last + 1]`` is all true (each row left at its first false)."""
     for r in range(table.shape[0]):
@@ -463,18 +499,6 @@ def _or_throughout(table, first, last, blocked):  # pragma: no cover (compiled)
 def _one_pivot(motions: np.ndarray) -> bool:
     """Whether cells with these motions (:class:`_Cells`) all turn about the same pivot."""
     return bool(np.all(motions[:, 2:] == motions[0, 2:]))
-
-
-def _centres(outline: _Outline, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The outline's vertices' mean (the centre of its bounding circle) at each frame: x (n,), y (n,)."""
-    x, y = outline.centre
-    return frames[:, 0] + frames[:, 2] * x - frames[:, 3] * y, frames[:, 1] + frames[:, 3] * x + frames[:, 2] * y
-
-
-def _centre_moves(centres: tuple[np.ndarray, np.ndarray], cells: _Cells) -> np.ndarray:
-    """How far each cell's outline centre (x (n,), y (n,)) may move within its cell."""
-    return cells.motions[:, 0] + cells.motions[:, 1] * np.hypot(centres[0] - cells.motions[:, 2],
-                                                                centres[1] - cells.motions[:, 3])
 
 
 class BlockingProver:
@@ -626,32 +650,21 @@ class BlockingProver:
         key = (self._id(obj_a), cells_a.values is None and where_a, self._id(obj_b), cells_b.values is None
                and where_b, index_a, index_b, threshold)
         widest = self._widest.get(key)
+        shape_a, bases_a, one_a = self._shape(obj_a, where_a, cells_a, index_a)
+        shape_b, bases_b, one_b = self._shape(obj_b, where_b, cells_b, index_b)
         if widest is None:  # the widest cells' verdicts, kept: the widest proof asks them first
-            ends = []
-            for obj, where, cells, index in ((obj_a, where_a, cells_a, index_a), (obj_b, where_b, cells_b, index_b)):
-                top = self.free_cells(obj, 0) if cells.values is not None else cells
-                at = ("level", 0) if cells.values is not None else where
-                ends.append((self.outlines(obj)[index], top, self._frames(obj, at, top)))
-            (outline_a, top_a, frames_a), (outline_b, top_b, frames_b) = ends
-            # The pairs whose bounding circles can meet somewhere in their cells.
-            centre_a, centre_b = _centres(outline_a, frames_a), _centres(outline_b, frames_b)
-            reach = (outline_a.radius + outline_b.radius + _centre_moves(centre_a, top_a)[:, None]
-                     + _centre_moves(centre_b, top_b)[None])
-            dx, dy = centre_a[0][:, None] - centre_b[0][None], centre_a[1][:, None] - centre_b[1][None]
-            i, j = np.nonzero(dx * dx + dy * dy < reach * reach)
-            verdicts = None
-            if len(i) * sides <= PAIR_WORK:
-                (shape_a, _, one_a), (shape_b, _, one_b) = (self._shape(obj_a, where_a, cells_a, index_a),
-                                                            self._shape(obj_b, where_b, cells_b, index_b))
-                verdicts = _widest_verdicts(shape_a, shape_b, one_a, one_b, i, j, threshold)
-            widest = self._widest[key] = (i, j, verdicts, verdicts is not None and not np.any(verdicts))
+            outline_a, outline_b = self.outlines(obj_a)[index_a], self.outlines(obj_b)[index_b]
+            count_a, count_b = (int(bases[1]) if len(bases) > 1 else len(shape[2]) for shape, bases in
+                                ((shape_a, bases_a), (shape_b, bases_b)))
+            i, j, verdicts, within = _widest(shape_a, count_a, *outline_a.centre, outline_a.radius, shape_b, count_b,
+                                     *outline_b.centre, outline_b.radius, one_a, one_b, threshold, sides, PAIR_WORK)
+            verdicts = verdicts if within else None
+            widest = self._widest[key] = (i, j, verdicts, within and not verdicts.any())
         i, j, verdicts, apart = widest
         if verdicts is None:  # more than PAIR_WORK at the widest cells alone
             return False
         if apart:  # every widest pair apart (or none near): nothing to halve, nothing marked
             return True
-        shape_a, bases_a, one_a = self._shape(obj_a, where_a, cells_a, index_a)
-        shape_b, bases_b, one_b = self._shape(obj_b, where_b, cells_b, index_b)
         return _refine(shape_a, bases_a, shape_b, bases_b, one_a, one_b, i, j, verdicts, threshold, sides,
                        len(i) * sides, PAIR_WORK, table)
 
