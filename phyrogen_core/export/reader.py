@@ -54,7 +54,7 @@ from ..chain import Geometry, Joint, JointType, KinematicChain, Link, Role
 from ..errors import PuzzleFormatError
 from ..folder import PuzzleFolder
 from ..folder_layout import METADATA_FILE, name_problem
-from ..folder_reads import read_folder_file, read_folder_json, require_no_escapes
+from ..folder_reads import read_folder_file, read_folder_json, real_folder, real_path_under, require_no_escapes
 from ..geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from ..objects import Motion
 from ..puzzle import Goal
@@ -117,12 +117,14 @@ def read_puzzle_dir(path: str | Path) -> LoadedPuzzle:
         what = "is a file, not a puzzle folder" if os.path.lexists(folder) else "no such puzzle folder"
         raise PuzzleFormatError(f"{folder}: {what}")
     json_path = folder / METADATA_FILE
-    record = PuzzleRecord.from_dict(read_folder_json(json_path, folder, f"{json_path}: puzzle.json"), str(json_path))
+    real_root = real_folder(folder)  # resolved once for every file read here
+    record = PuzzleRecord.from_dict(read_folder_json(json_path, folder, f"{json_path}: puzzle.json",
+                                                     real_root=real_root), str(json_path))
     problem = name_problem(record.name)
     if problem is not None:
         raise PuzzleFormatError(f"{json_path}: name {record.name!r} {problem}")
     urdf_path = PuzzleFolder(folder, record.name).urdf
-    chain = read_urdf(urdf_path, link_roles(record.objects), root=folder)
+    chain = read_urdf(urdf_path, link_roles(record.objects), root=folder, real_root=real_root)
     if chain.joint_order != record.joint_order:
         raise PuzzleFormatError(f"{json_path}: joint_order {list(record.joint_order)} does not match the active "
                                 f"joints of {urdf_path.name}: {list(chain.joint_order)}")
@@ -188,32 +190,34 @@ def link_roles(objects: Sequence[ObjectRecord]) -> dict[str, tuple[Role, str]]:
 
 
 def read_urdf(path: Path, roles: Mapping[str, tuple[Role, str]] | None = None,
-              root: str | Path | None = None) -> KinematicChain:
+              root: str | Path | None = None, *, real_root: str | None = None) -> KinematicChain:
     """The chain described by the URDF file at ``path``.
 
     ``roles`` maps link names to (role, object name); the root link gets
     :attr:`Role.BASE`, other unnamed links :class:`Link`'s defaults.
     Mesh paths are relative to the URDF file. ``root`` is the puzzle folder
     the URDF and every mesh must lie in (by default the folder above the
-    URDF's, as in ``<puzzle>/urdf/<name>.urdf``).
+    URDF's, as in ``<puzzle>/urdf/<name>.urdf``); ``real_root`` its real path, if known.
     """
     path = Path(path)
     root = path.parent.parent if root is None else Path(root)
-    raw = read_folder_file(path, root, f"{path}: URDF file")
+    real_root = real_folder(root) if real_root is None else real_root
+    raw = read_folder_file(path, root, f"{path}: URDF file", real_root=real_root)
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise PuzzleFormatError(f"{path}: the URDF is not UTF-8 text: {exc}") from None
-    return _UrdfReader(path, roles or {}, root).chain(parse_urdf(text, str(path), PuzzleFormatError))
+    return _UrdfReader(path, roles or {}, root, real_root).chain(parse_urdf(text, str(path), PuzzleFormatError))
 
 
 class _UrdfReader(XmlFields):
     """One URDF file's parse; holds the file name for error messages and a mesh cache."""
 
-    def __init__(self, path: Path, roles: Mapping[str, tuple[Role, str]], root: Path) -> None:
+    def __init__(self, path: Path, roles: Mapping[str, tuple[Role, str]], root: Path, real_root: str) -> None:
         self.path = path
         self.roles = roles
         self.root = root
+        self.real_root = real_root
         self.meshes: dict[str, tuple[tuple[tuple[float, float], ...], float]] = {}
         self.materials: dict[str, tuple[float, float, float, float]] = {}
 
@@ -308,10 +312,10 @@ class _UrdfReader(XmlFields):
             raise self.error(f"{where}: mesh {filename!r} must be a path relative to the URDF file, "
                              "inside the puzzle folder")
         mesh_path = self.path.parent / filename
-        key = os.path.realpath(mesh_path)
+        key = real_path_under(os.fspath(mesh_path), os.fspath(self.root), self.real_root)
         if key not in self.meshes:
             raw = read_folder_file(mesh_path, self.root, f"{self.path}: {where}: cannot read mesh {filename!r}: "
-                                                         "the file")
+                                                         "the file", real_root=self.real_root)
             try:
                 text = raw.decode("utf-8")
             except UnicodeDecodeError as exc:
@@ -402,6 +406,12 @@ class _UrdfReader(XmlFields):
                low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE) -> tuple[float, ...]:
         """The attribute ``name`` as ``size`` finite numbers, each in [``low``, ``high``]."""
         text = self.attribute(element, name, where)
+        try:
+            values = tuple(map(float, text.split()))
+        except ValueError:
+            values = ()
+        if len(values) == size and all(low <= v <= high and math.isfinite(v) for v in values):
+            return values  # (a URDF holds hundreds of numbers: the messages below only for a bad one)
         wanted = "a number" if size == 1 else f"{size} numbers"
         try:
             values = tuple(float(v) for v in text.split())

@@ -25,6 +25,7 @@ from typing import Any
 from phyrogen_core.chain import KinematicChain, Role
 from phyrogen_core.dependencies import DependencyShape
 from phyrogen_core.folder import Stage, atomic_file, read_folder_file, stage_entries
+from phyrogen_core.folder_reads import real_folder
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder, Pose, Shape
 from solver.pipelines.dataset.manifest_row import ManifestRow
 from solver.pipelines.dataset.request import Entry
@@ -168,9 +169,10 @@ def content_hash(folder: Path, name: str) -> str:
             files += [p for p in path.rglob("*") if p.is_file()]
         elif path.is_file():
             files.append(path)
-    for path in sorted(files, key=lambda p: p.relative_to(folder).as_posix()):
-        data = read_folder_file(path, folder)
-        digest.update(f"{path.relative_to(folder).as_posix()}\0{len(data)}\0".encode())
+    real_root = real_folder(folder)  # resolved once for every file
+    for relative, path in sorted((p.relative_to(folder).as_posix(), p) for p in files):
+        data = read_folder_file(path, folder, real_root=real_root)
+        digest.update(f"{relative}\0{len(data)}\0".encode())
         digest.update(data)
     return digest.hexdigest()
 
