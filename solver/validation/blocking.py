@@ -838,7 +838,7 @@ def warm_up() -> None:
     frames, motions = np.array([[0.0, 0.0, 1.0, 0.0]]), np.zeros((1, 4))
     shape = (square, normals, frames, motions, np.empty((1, 4, 2)), np.empty((1, 4, 2)), np.empty((1, 4)),
              np.empty((1, 4)), np.zeros(1, dtype=np.bool_))
-    verdicts = _widest_verdicts(shape, shape, True, False, index, index, 0.0)
+    _, _, verdicts, _ = _widest(shape, 1, 0.5, 0.5, 1.0, shape, 1, 0.5, 0.5, 1.0, True, False, 0.0, 1, 1)
     _refine(shape, base, shape, base, True, False, index, index, verdicts, 0.0, 1, 1, 1,
             np.zeros((1, 1), dtype=np.bool_))
     _or_throughout(np.zeros((1, 1), dtype=np.bool_), 0, 0, np.zeros(1, dtype=np.bool_))
