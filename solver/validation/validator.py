@@ -306,6 +306,8 @@ class OmplValidator:
         end = current.copy()
         end[list(goal_columns)] = list(goal_columns.values())
         lower, upper = problem.lower, problem.upper
+        xy = list(route.columns)
+        cells = np.clip(cells, lower[xy], upper[xy])  # the grid's last cell may pass a limit by a rounding
         turns: list[dict[int, float]] = []
         for column in (c for c in columns[2:] if c not in goal_columns):
             values = [v for v in (*_ROUTE_YAWS, *(-y for y in _ROUTE_YAWS[1:]), math.pi)
