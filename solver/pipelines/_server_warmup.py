@@ -1,14 +1,14 @@
 """Imported once by the generation server process (see :mod:`solver.pipelines.generation`).
 
 It compiles the collision kernels, the judge's loop and the necessity proofs' tests there (or loads them
-from numba's cache), with every other signature of them that the cache holds, so every worker forked
-from the server starts with them loaded instead of paying about 0.2 s each. It loads the generator
-registry too (the generators' modules, found through their entry points), which every fresh worker
-otherwise loaded before its first puzzle. Then it moves everything imported so far out of the garbage
-collector's reach (``gc.freeze``): a worker's first collections would otherwise visit, and so copy,
-every page of the server's objects that it shares. A fresh dataset worker's first Simple Slider puzzle
-cost about 0.11 CPU s more than the next one, 0.05 with the freeze, 0.02 with the registry and the
-other signatures loaded here (2-core machine).
+from numba's cache), with every other signature of them that the cache holds, so every worker forked from
+the server starts with them loaded instead of paying about 0.2 s each. It loads the generator registry
+too (the generators' modules, found through their entry points) and the package versions every puzzle
+folder records, which every fresh worker otherwise loaded before its first puzzle. Then it moves
+everything imported so far out of the garbage collector's reach (``gc.freeze``): a worker's first
+collections would otherwise visit, and so copy, every page of the server's objects that it shares. A
+fresh dataset worker's first Simple Slider puzzle cost about 0.11 CPU s more than the next one, 0.05 with
+the freeze, 0.02 with the registry and the other signatures loaded here (2-core machine).
 """
 
 import contextlib
@@ -103,6 +103,12 @@ _load_cached_signatures()
 # in every worker. One that does not load is left for the worker to report, with the puzzle it fails.
 with contextlib.suppress(Exception):
     registry()
+# The package versions every puzzle folder records: importlib.metadata finds and parses each package's
+# METADATA (4.5 ms), once a process; here, not once a worker.
+with contextlib.suppress(Exception):
+    from solver.pipelines.generation import versions
+
+    versions()
 
 import gc  # noqa: E402
 
