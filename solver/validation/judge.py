@@ -78,13 +78,17 @@ MARGINAL_BUDGET_SCALE = 8
 """The budget of the run at the required margin, for objects already solved at every rung above:
 in Continuous Space seed 500 a bar that blocks by less than the margin needed 600-10 000 queries
 to be found superfluous, so 4000 missed it about half the time."""
-WARM_RESTARTS = 4
-"""Warm-started runs (:func:`attempt_warm`, each with the rung's base budget, on seeds of their own) at the
-required margin where both judges' longer searches failed and the rung above was solved. A failed search of
-LA-RRT is heavy-tailed: on a sliver blocker a run either solves within a few thousand queries or wanders for
-tens of thousands (Continuous Space 9940007: 2 of 10 runs of the first judge unsolved at 100 000 queries, 8
-solved within 9 100), so several short runs started on both sides of the rung above's solution miss far
-less often than one long cold run (docs/generators.md#interlock-margin has the measured rates)."""
+WARM_RESTARTS = 8
+"""Warm-started runs (:func:`attempt_warm`, on seeds of their own) at the required margin where both judges'
+longer searches failed and the rung above was solved, each with a :data:`WARM_SHARE` of the rung's base budget
+(together 2x that budget, against the judges' 8x each). A failed search of LA-RRT is heavy-tailed: on a sliver
+blocker a run either solves soon or wanders for tens of thousands of queries (Continuous Space 9940007: of 10
+cold runs of the first judge, 3 unsolved at 100 000 queries, 7 solved within 11 400), and most warm runs that
+solve do it by mending the rung above's path, within a few hundred queries, so many short runs, each with its
+own draws, miss less often than a few long ones (on 8 marginal questions, 8 seeds each: 8 runs of 1000
+queries solved 41 of 64, 4 runs of 4000 39, at 0.47x the queries; docs/generators.md#interlock-margin)."""
+WARM_SHARE = 0.25
+"""The share of the rung's base budget each warm-started run may spend."""
 GOAL_REPAIR_SCALES = (0.5, 1.0, 2.0, 4.0)
 """Sizes of the moves, in shrinks of metres of motion, tried in turn to find a valid goal state near the rung
 above's (:func:`goal_repair`)."""
@@ -354,9 +358,9 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     At the required margin, reached only by objects solved at the rung above, a failure of both judges
     is followed by :data:`WARM_RESTARTS` warm-started runs from the rung above's solution
     (:func:`attempt_warm`: that path mended where it collides by a sliver, or the trees grown from both sides
-    of the sliver), on seeds of their own, ``budget`` queries each: they never draw from ``rng`` and only run
-    where the verdict would have been "necessary", so a puzzle changes only where one of them solves (the
-    object is then superfluous), and a necessary verdict's reason stays the judges'.
+    of the sliver), on seeds of their own, each with a :data:`WARM_SHARE` of ``budget``: they never draw from
+    ``rng`` and only run where the verdict would have been "necessary", so a puzzle changes only where one of
+    them solves (the object is then superfluous), and a necessary verdict's reason stays the judges'.
 
     ``proof(shrink)``, when given (with a second judge), is asked at the top rung *before* the first
     judge, and at a lower rung before the second judge: True (a geometric proof that the puzzle is
@@ -397,7 +401,8 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
             attempts.append(attempt)
             second_checks += attempt.queries
             if not attempt.solved and scale > 1 and above is not None:
-                warm = _warm_restarts(chain, goal, fixed, level * margin, budget, second_seed, above.path)
+                warm = _warm_restarts(chain, goal, fixed, level * margin, max(1, int(budget * WARM_SHARE)), second_seed,
+                                      above.path)
                 attempts.extend(warm)
                 queries += sum(a.queries for a in warm)
                 if warm and warm[-1].solved:
