@@ -211,9 +211,11 @@ def shift_repair(problem: Problem, points: np.ndarray, free: np.ndarray, shrink:
             offsets = rng.standard_normal((GOAL_REPAIR_DRAWS, len(moved))) * (scale * max(shrink, FINE_RESOLUTION)
                                                                              / reach) * moved
             queries += 1
-            candidates = np.ascontiguousarray((screened[None] + offsets[:, None]).reshape(-1, len(moved)))
-            inside = np.all((candidates >= problem.lower) & (candidates <= problem.upper), axis=1)
-            passed = (problem.model.check_prepared(candidates) & inside).reshape(GOAL_REPAIR_DRAWS, -1).all(axis=1)
+            # The run's middle point first, for every draw; the rest of the screened points for those it passes.
+            alive = np.flatnonzero(_valid(problem, screened[len(screened) // 2] + offsets))
+            candidates = (screened[None] + offsets[alive, None]).reshape(-1, len(moved))
+            passed = np.zeros(GOAL_REPAIR_DRAWS, dtype=bool)
+            passed[alive] = _valid(problem, candidates).reshape(len(alive), len(screened)).all(axis=1)
             found = None
             for k in np.flatnonzero(passed)[np.argsort(np.abs(offsets[passed] * reach).sum(axis=1), kind="stable")][:4]:
                 run = np.vstack([points[a - 1:a], points[a:b + 1] + offsets[k], points[b + 1:b + 2]])
@@ -228,6 +230,12 @@ def shift_repair(problem: Problem, points: np.ndarray, free: np.ndarray, shrink:
         else:
             return None, queries
     return points, queries
+
+
+def _valid(problem: Problem, states: np.ndarray) -> np.ndarray:
+    """Which rows of ``states`` are within the limits of ``problem`` and collision-free."""
+    inside = np.all((states >= problem.lower) & (states <= problem.upper), axis=1)
+    return problem.model.check_prepared(np.ascontiguousarray(states)) & inside
 
 
 def goal_repair(problem: Problem, state: np.ndarray, shrink: float,
