@@ -178,9 +178,9 @@ def _levels_of(pose, prismatic, lower, upper, count, levels):
 
 
 def _reference_table(outline_a, levels_a, outline_b, levels_b, threshold, sides, budget):
-    """The table written out pair by pair with :func:`blocking._pair_verdicts` (every widest pair tested),
+    """The table written out pair by pair with :func:`cell_pairs.pair_verdicts` (every widest pair tested),
     breadth first as the prover did before its compiled refinement: None past the budget."""
-    from solver.validation import blocking
+    from solver.validation import cell_pairs
 
     depth = max(len(levels_a), len(levels_b))
     table = np.zeros((len(levels_a[-1][0]), len(levels_b[-1][0])), dtype=bool)
@@ -192,12 +192,12 @@ def _reference_table(outline_a, levels_a, outline_b, levels_b, threshold, sides,
         spent += len(i) * sides
         if spent > budget:
             return None
-        verdicts = blocking._pair_verdicts(outline_a.vertices, outline_a.normals, *levels_a[la], outline_b.vertices,
+        verdicts = cell_pairs.pair_verdicts(outline_a.vertices, outline_a.normals, *levels_a[la], outline_b.vertices,
                                            outline_b.normals, *levels_b[lb], i, j, threshold)
         scale_a, scale_b = 1 << (len(levels_a) - 1 - la), 1 << (len(levels_b) - 1 - lb)
-        marks += [(a * scale_a, b * scale_b, scale_a, scale_b) for a, b in zip(*(x[verdicts == blocking.BLOCKED]
+        marks += [(a * scale_a, b * scale_b, scale_a, scale_b) for a, b in zip(*(x[verdicts == cell_pairs.BLOCKED]
                                                                                  for x in (i, j)), strict=True)]
-        i, j = i[verdicts == blocking.UNSURE], j[verdicts == blocking.UNSURE]
+        i, j = i[verdicts == cell_pairs.UNSURE], j[verdicts == cell_pairs.UNSURE]
         if la + 1 < len(levels_a):
             i, j = np.concatenate([2 * i, 2 * i + 1]), np.concatenate([j, j])
         if lb + 1 < len(levels_b):
@@ -214,7 +214,7 @@ def test_the_compiled_refinement_marks_what_the_pair_by_pair_test_marks():
     the widest verdicts are its verdicts, apart, blocked and unsure all occurring. Controls: a budget too small
     gives no table in both, and tables at a tolerance 1 mm larger differ."""
     from phyrogen_core.geometry import slot_disc
-    from solver.validation import blocking
+    from solver.validation import blocking, cell_pairs
 
     rng = np.random.default_rng(7451)
     radius = 1.5
@@ -246,8 +246,8 @@ def test_the_compiled_refinement_marks_what_the_pair_by_pair_test_marks():
             (shape_a, bases_a, one_a), (shape_b, bases_b, one_b) = shapes
             i, j = (index.ravel() for index in np.meshgrid(np.arange(len(levels_a[0][0])),
                                                            np.arange(len(levels_b[0][0])), indexing="ij"))
-            widest = blocking._widest_verdicts(shape_a, shape_b, one_a, one_b, i, j, threshold)
-            reference = blocking._pair_verdicts(outline_a.vertices, outline_a.normals, *levels_a[0],
+            widest = cell_pairs.widest_verdicts(shape_a, shape_b, one_a, one_b, i, j, threshold)
+            reference = cell_pairs.pair_verdicts(outline_a.vertices, outline_a.normals, *levels_a[0],
                                                 outline_b.vertices, outline_b.normals, *levels_b[0], i, j, threshold)
             assert np.array_equal(widest, reference)
             seen |= set(reference.tolist())
@@ -255,7 +255,7 @@ def test_the_compiled_refinement_marks_what_the_pair_by_pair_test_marks():
             differ += not np.array_equal(moved, _reference_table(outline_a, levels_a, outline_b, levels_b,
                                                                  threshold, sides, 3_000_000))
             for budget in (3_000_000, len(i) * sides + 1):
-                marked = blocking._refine(shape_a, bases_a, shape_b, bases_b, one_a, one_b, i, j, widest, threshold,
+                marked = cell_pairs.refine(shape_a, bases_a, shape_b, bases_b, one_a, one_b, i, j, widest, threshold,
                                           sides, len(i) * sides, budget, table)
                 written = _reference_table(outline_a, levels_a, outline_b, levels_b, threshold, sides, budget)
                 assert marked == (written is not None)
@@ -264,7 +264,7 @@ def test_the_compiled_refinement_marks_what_the_pair_by_pair_test_marks():
                     expected |= written
                     assert np.array_equal(table, expected)
         assert np.array_equal(table, expected)
-    assert seen == {blocking.APART, blocking.BLOCKED, blocking.UNSURE}
+    assert seen == {cell_pairs.APART, cell_pairs.BLOCKED, cell_pairs.UNSURE}
     assert differ >= 6  # control: tables 1 mm of tolerance apart are told apart
     assert refused >= 6  # the budget's refusal is met and agreed on
 
