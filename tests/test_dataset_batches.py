@@ -45,12 +45,12 @@ def test_larger_puzzles_run_in_shorter_batches():
         assert sorted(t.index for b in batches for t in b) == list(range(count))  # each once
         return [len(b) for b in batches]
 
-    # Up to Grid World's five objects (n = 3: four) full batches, as for any generator of that size.
+    # Up to the largest default size, seven objects (n = 6), full batches, as for any generator.
     assert cut("3", 2 * BATCH_SIZE) == [BATCH_SIZE] * 2
-    assert cut("4", 2 * BATCH_SIZE) == [BATCH_SIZE] * 2
-    # Larger ones in shorter batches: n = 8 (9 objects) nine a batch, n = 20 (21 objects) alone.
-    assert cut("8", 2 * BATCH_SIZE) == [9] * 7 + [1]
-    assert cut("20", BATCH_SIZE) == [1] * BATCH_SIZE
+    assert cut("6", 2 * BATCH_SIZE) == [BATCH_SIZE] * 2
+    # Larger ones in shorter batches: n = 8 (9 objects) 19 a batch, n = 20 (21 objects) three.
+    assert cut("8", 2 * BATCH_SIZE) == [19] * 3 + [7]
+    assert cut("20", BATCH_SIZE) == [3] * 10 + [2]
     # A short request of any size: four batches a worker, at most (never more entries than a long one).
     assert cut("3", 8) == [2] * 4
     assert cut("8", 20, workers=2) == [3] * 6 + [2]
@@ -63,7 +63,7 @@ def test_entries_of_other_costs_never_share_a_batch():
     mixed = [t for pair in zip(small, big, strict=True) for t in pair]  # interleaved, as sweeps are
     batches = list(_batches(iter(mixed), BATCH_SIZE, 1))
     assert all(len({t.generator for t in b}) == 1 for b in batches)
-    assert sorted(len(b) for b in batches if b[0].generator == "move_n_times") == [5] + [9] * 3
+    assert sorted(len(b) for b in batches if b[0].generator == "move_n_times") == [13, 19]
     assert [len(b) for b in batches if b[0].generator == "grid_world"] == [BATCH_SIZE]
     # The costliest start first: a batch's priority is its entries' validation budget scale.
     assert {_batch_cost(b) for b in batches if b[0].generator == "move_n_times"} == {20480.0}

@@ -217,8 +217,9 @@ server's pages it touches), two Grid World puzzles since the necessity proof (0.
 of 32 keep that near 5 %, where 8 left it at 20 %. A request of fewer than 32 entries per worker is cut
 into four batches per worker instead, so that every worker gets a share. Larger puzzles run in shorter
 batches (:func:`_batch_length`), so that no worker is left with a long queue at the end."""
-REFERENCE_OBJECTS = 5
-"""The objects of the puzzle :data:`BATCH_SIZE` is sized for (Grid World's five boxes)."""
+REFERENCE_OBJECTS = 7
+"""The most objects a puzzle of a full batch has: the largest default size of the bundled generators
+(Lockbox Random's seven parts, 0.05-0.07 CPU s a puzzle in a whole run: 32 of them are no long queue)."""
 
 
 def make_batch(batch: list[EntryTask]) -> list[EntryOutcome]:
@@ -278,10 +279,10 @@ def _batches(tasks: Iterable[EntryTask], size: int, workers: int = 1) -> Iterato
 
 
 def _batch_length(size: int, objects: int) -> int:
-    """How many entries of ``objects`` objects a batch holds: ``size`` up to Grid World's size, fewer for
-    larger puzzles, whose cost grows with the square of their objects (Move N Times, n = 2..5, 3..6
-    objects: 5.0-5.3 ms x objects^2 a puzzle, 2-core dev machine), so that a batch holds no more
-    work than one of ``size`` Grid World puzzles; the largest run alone."""
+    """How many entries of ``objects`` objects a batch holds: ``size`` up to :data:`REFERENCE_OBJECTS`,
+    fewer for larger puzzles, whose cost grows with the square of their objects (Move N Times, n = 2..5,
+    3..6 objects: 5.0-5.3 ms x objects^2 a puzzle, 2-core dev machine), so that a batch holds no more
+    work than a full one of the largest default size; the largest puzzles run alone."""
     return max(1, min(size, size * REFERENCE_OBJECTS ** 2 // max(1, objects) ** 2))
 
 
