@@ -39,7 +39,7 @@ from solver.validation.blocking import BlockingProver
 from solver.validation.judge import JUDGE_BUDGET, SECOND_JUDGE_BUDGET, Necessity, judge
 from solver.validation.object_keys import ByObjects
 from solver.validation.region_proof import proves as region_proves
-from solver.validation.route_grid import Route, footprint, grid_path, walk_leg
+from solver.validation.route_grid import Route, footprint, grid_path
 
 DEFAULT_BUDGET = 4000
 """Collision queries (motion checks plus single-state checks) RRT-Connect may spend
@@ -263,10 +263,9 @@ class OmplValidator:
 
     def _plan_leg(self, problem: Problem, route: Route, current: np.ndarray, cells: np.ndarray,
                   goal_columns: dict[int, float], tolerance: float, resolution: float) -> np.ndarray | None:
-        """One leg of a routed re-plan (problem joint order), or None: straight along the route first
-        (:meth:`_walk_leg`), then RRT-Connect over the target alone, every other joint held where it
-        is (the certificate stays clean), then over every joint, in a window around the leg that
-        widens with each retry."""
+        """One leg of a routed re-plan (problem joint order), or None: the target alone first, every
+        other joint held where it is (most legs need nothing else, and the certificate stays
+        clean), then every joint, in a window around the leg that widens with each retry."""
         x, y = route.columns
         for attempt in range(3):
             margin = ROUTE_MARGIN * 2 ** attempt
@@ -275,9 +274,6 @@ class OmplValidator:
                 lower[column] = max(lower[column], min(values.min(), current[column]) - margin)
                 upper[column] = min(upper[column], max(values.max(), current[column]) + margin)
             if attempt == 0:
-                walked = self._walk_leg(problem, route, current, cells, goal_columns, resolution)
-                if walked is not None:
-                    return walked
                 alone = self._plan_target_alone(problem, route.target_columns, current, goal_columns, tolerance,
                                                 lower, upper, resolution)
                 if alone is not None:
@@ -289,38 +285,6 @@ class OmplValidator:
             if result.solved:
                 return np.array(result.path)
         return None
-
-    def _walk_leg(self, problem: Problem, route: Route, current: np.ndarray, cells: np.ndarray,
-                  goal_columns: dict[int, float], resolution: float) -> np.ndarray | None:
-        """A leg without search (problem joint order), or None: the target straight to the leg's end,
-        else straight through the route's ``cells``, every other joint held at ``current``; else the
-        same with the target turned to one of a few yaws, or one other joint (a door) moved alone to
-        one of nine values across its range, first or on the way (:func:`~solver.validation.route_grid.walk_leg`).
-
-        Most legs run straight along free cells, where RRT-Connect spends thousands of queries to
-        find what a few compiled checks at ``resolution`` confirm, and a leg that crosses the door's
-        track would cost the target-alone search its whole budget before every joint is searched."""
-        columns = route.target_columns
-        if any(column not in columns for column in goal_columns):
-            return None
-        end = current.copy()
-        end[list(goal_columns)] = list(goal_columns.values())
-        lower, upper = problem.lower, problem.upper
-        xy = list(route.columns)
-        cells = np.clip(cells, lower[xy], upper[xy])  # the grid's last cell may pass a limit by a rounding
-        turns: list[dict[int, float]] = []
-        for column in (c for c in columns[2:] if c not in goal_columns):
-            values = [v for v in (*_ROUTE_YAWS, *(-y for y in _ROUTE_YAWS[1:]), math.pi)
-                      if lower[column] <= v <= upper[column] and v != current[column]]
-            turns += [{column: v} for v in sorted(values, key=lambda v: abs(v - current[column]))]
-        opened = [{c: v} for c in range(len(current)) if c not in columns
-                  for v in dict.fromkeys((lower[c], upper[c], *np.linspace(lower[c], upper[c], 9)[1:-1]))
-                  if v != current[c]]
-        steps = problem.model.motion_steps(resolution)
-        screen = problem.model.motion_steps(max(resolution, DEFAULT_RESOLUTION))
-        found, checks = walk_leg(problem.model, current, cells, end, route.columns, turns, opened, steps, screen)
-        self.checks += checks
-        return found
 
     def _plan_target_alone(self, problem: Problem, columns: tuple[int, ...], current: np.ndarray,
                            goal_columns: dict[int, float], tolerance: float, lower: np.ndarray,
