@@ -124,9 +124,32 @@ def object_links_and_joints(obj: PuzzleObject, parent: str = BASE_LINK) -> tuple
     return [helper_x, helper_y, body], joints
 
 
+_CHAINS: dict[tuple, tuple[tuple[PuzzleObject, ...], KinematicChain]] = {}
+_CHAINS_KEPT = 16
+
+
 def build_chain(objects: Sequence[PuzzleObject], name: str = "puzzle",
                 extra_links: Sequence[Link] = (), extra_joints: Sequence[Joint] = ()) -> KinematicChain:
-    """The kinematic chain of a list of objects, all attached to ``base_link``."""
+    """The kinematic chain of a list of objects, all attached to ``base_link``.
+
+    The last few chains of objects alone are kept by the objects' identities (objects and chains are
+    immutable; the objects are kept with their chain, so no other object gets their ids while it is
+    kept): a puzzle's last objects are asked for again by its certificate's clean-up and dependency
+    graph, and one chain object lets the caches kept by chain identity (collision models) answer."""
+    if extra_links or extra_joints:
+        return _built_chain(objects, name, extra_links, extra_joints)
+    objects = tuple(objects)
+    key = (name, *map(id, objects))
+    found = _CHAINS.get(key)
+    if found is None or not all(a is b for a, b in zip(found[0], objects, strict=True)):
+        if len(_CHAINS) >= _CHAINS_KEPT:
+            del _CHAINS[next(iter(_CHAINS))]
+        found = _CHAINS[key] = (objects, _built_chain(objects, name, (), ()))
+    return found[1]
+
+
+def _built_chain(objects: Sequence[PuzzleObject], name: str, extra_links: Sequence[Link],
+                 extra_joints: Sequence[Joint]) -> KinematicChain:
     links: list[Link] = [Link(BASE_LINK, role=Role.BASE, mass=0.0)]
     joints: list[Joint] = []
     for obj in objects:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -76,8 +77,20 @@ def test_kept_models_are_the_ones_asked_for(puzzle):
     model = collision_model(chain)
     assert collision_model(chain) is model
     assert collision_model(chain, tolerance=0.01) is not model  # another tolerance: another model
-    assert collision_model(build_chain(puzzle.objects)) is not model  # another chain, however equal
+    copies = [replace(o) for o in puzzle.objects]  # equal objects, other instances
+    assert collision_model(build_chain(copies)) is not model  # another chain, however equal
     assert collision_model(chain, tolerance=0.01).tolerance == 0.01
+
+
+def test_chains_of_the_same_objects_are_one():
+    objects = generate_here("lockbox_random", 9950011, None).objects
+    chain = build_chain(objects)
+    assert build_chain(list(objects)) is chain  # the same instances, in any sequence: the kept chain
+    copies = [replace(o) for o in objects]
+    other = build_chain(copies)
+    assert other is not chain and other == chain  # equal objects, other instances: an equal chain of their own
+    assert build_chain(objects[::-1]) is not chain  # another order: another chain
+    assert build_chain(objects, "renamed") is not chain and build_chain(objects, "renamed").name == "renamed"
 
 
 def _heapq_grid_path(free, roomy, start, end):

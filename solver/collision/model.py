@@ -27,6 +27,7 @@ from phyrogen_core.chain import Joint, JointType, KinematicChain, Role, joint_mo
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from solver.collision import kernels as _kernels
 from solver.collision import skipping_move as _skipping
+from solver.collision.shape_table import ShapeTable, shape_table
 
 _FLOAT64 = np.dtype(np.float64)
 DEFAULT_TOLERANCE = 1e-6
@@ -174,6 +175,73 @@ def _computed_outlines(geometry, link_index: int, obj: str, frame: np.ndarray) -
     raise UnsupportedGeometryError(f"unsupported collision shape {shape!r}")
 
 
+def _chain_outlines(chain: KinematicChain, links: Sequence[str], rest: Mapping[str, np.ndarray]) -> list[_Outline]:
+    outlines: list[_Outline] = []
+    for index, name in enumerate(links):
+        link = chain.link(name)
+        if link.role is Role.GOAL_MARKER:
+            continue
+        # Rest-pose z of the link frame; the planar motion never changes it.
+        frame = np.eye(4)
+        frame[2, 3] = rest[name][2, 3]
+        for geometry in link.collisions:
+            outlines += _outlines_of_geometry(geometry, index, link.object_name or name, frame)
+    return outlines
+
+
+def _heights(rest: Mapping[str, np.ndarray], links: Sequence[str]) -> bytes:
+    """Every link frame's rest height, by its exact bits."""
+    return _exact(*(rest[name][2, 3] for name in links))
+
+
+def _descendants(chain: KinematicChain, links: Sequence[str], link_index: Mapping[str, int]) -> dict[str, set[int]]:
+    out: dict[str, set[int]] = {}
+    for name in reversed(links):
+        mine = {link_index[name]}
+        for joint in chain.joints:
+            if joint.parent == name:
+                mine |= out[joint.child]
+        out[name] = mine
+    return out
+
+
+class _ChainParts:
+    """What the models of one chain share, whatever joints they lock at 0.0 and whatever their tolerance:
+    the zero state's link transforms, the outlines, the shape table, each link's descendants and each
+    revolute joint's reach (filled as models ask)."""
+
+    def __init__(self, chain: KinematicChain):
+        self.chain = chain  # kept alive with its parts, so no other chain gets its id while they are kept
+        links = chain.links_in_tree_order
+        self.link_index = {name: i for i, name in enumerate(links)}
+        self.rest = _rest_transforms(chain, {})
+        self.heights = _heights(self.rest, links)
+        self.outlines = _chain_outlines(chain, links, self.rest)
+        self.table = shape_table(self.outlines)
+        self.descendants = _descendants(chain, links, self.link_index)
+        self.reach: dict[str, float] = {}
+
+
+_PARTS: dict[int, _ChainParts] = {}
+_PARTS_KEPT = 32
+
+
+def _chain_parts(chain: KinematicChain) -> _ChainParts | None:
+    """The chain's :class:`_ChainParts`, the last few kept by the chain's identity (a chain is immutable);
+    None when its shapes are not planar (the model then raises, as it always did)."""
+    found = _PARTS.get(id(chain))
+    if found is not None and found.chain is chain:
+        return found
+    try:
+        found = _ChainParts(chain)
+    except UnsupportedGeometryError:
+        return None
+    if len(_PARTS) >= _PARTS_KEPT:
+        del _PARTS[next(iter(_PARTS))]
+    _PARTS[id(chain)] = found
+    return found
+
+
 class CollisionModel:
     """Validity of joint states of a planar chain.
 
@@ -193,24 +261,23 @@ class CollisionModel:
         self.locked = locked
         self.joint_order = tuple(j for j in chain.joint_order if j not in locked)
         self._column = {name: i for i, name in enumerate(self.joint_order)}
+        parts = _chain_parts(chain)
         self._links = list(chain.links_in_tree_order)
-        self._link_index = {name: i for i, name in enumerate(self._links)}
+        self._link_index = {name: i for i, name in enumerate(self._links)} if parts is None else parts.link_index
         self._joint_steps = self._compile_kinematics()
         self._moving = self._moving_links()
-        rest = self._rest = _rest_transforms(chain, locked)
+        # At a locked value of exactly 0.0 a joint's motion matrix is its unlocked one at the zero state.
+        at_zero = parts is not None and _exact(*map(float, locked.values())) == bytes(8 * len(locked))
+        rest = self._rest = parts.rest if at_zero else _rest_transforms(chain, locked)
         self._reach: np.ndarray | None = None
-        outlines: list[_Outline] = []
-        for name in self._links:
-            link = chain.link(name)
-            if link.role is Role.GOAL_MARKER:
-                continue
-            # Rest-pose z of the link frame; the planar motion never changes it.
-            frame = np.eye(4)
-            frame[2, 3] = rest[name][2, 3]
-            for geometry in link.collisions:
-                outlines += _outlines_of_geometry(geometry, self._link_index[name], link.object_name or name, frame)
-        self._outlines = outlines
-        self._compile_arrays()
+        self._parts = parts if at_zero else None  # its joint reach holds for this model too
+        if parts is not None and (at_zero or _heights(rest, self._links) == parts.heights):
+            # The outlines depend on the links' rest heights alone, and the planar motion keeps them.
+            self._outlines, table = parts.outlines, parts.table
+        else:
+            self._outlines = _chain_outlines(chain, self._links, rest)
+            table = shape_table(self._outlines)
+        self._compile_arrays(table)
 
     # -- construction ------------------------------------------------------
     def _compile_kinematics(self) -> list[tuple[int, int, float, float, float, int, float, float, float]]:
@@ -246,7 +313,7 @@ class CollisionModel:
                 moving.add(link)
         return moving
 
-    def _compile_arrays(self) -> None:
+    def _compile_arrays(self, table: ShapeTable) -> None:
         """Flatten kinematics, shapes and candidate pairs into arrays for the compiled kernels."""
         steps = self._joint_steps
         # Columns: link, parent, state column (-1: none), whether the link's pose depends on the state.
@@ -254,53 +321,26 @@ class CollisionModel:
                                  dtype=np.int64).reshape(-1, 4)
         self._kin_float = np.array([(s[2], s[3], s[4], s[6], s[7], s[8]) for s in steps],
                                    dtype=np.float64).reshape(-1, 6)
-        outlines = self._outlines
-        k = max([len(o.vertices) for o in outlines if not o.is_circle] + [3])
-        count = len(outlines)
-        self._shape_link = np.array([o.link for o in outlines], dtype=np.int64)
-        self._shape_nv = np.array([0 if o.is_circle else len(o.vertices) for o in outlines], dtype=np.int64)
-        self._shape_center = np.array([o.center for o in outlines], dtype=np.float64).reshape(count, 2)
-        self._shape_radius = np.array([o.radius for o in outlines], dtype=np.float64)
-        # The farthest any point of a shape (and its bounding circle's centre) stands from its link's origin.
-        self._shape_rho = np.array([math.hypot(*o.center) + o.radius for o in outlines], dtype=np.float64)
-        verts = np.zeros((count, k, 2))
-        normals = np.zeros((count, k, 2))
-        extent = np.zeros((count, k))
-        for i, o in enumerate(outlines):
-            if o.is_circle:
-                continue
-            v = o.vertices
-            verts[i, : len(v)] = v
-            normals[i, : len(v)] = o.normals
-            extent[i, : len(v)] = o.extent
-        self._shape_verts, self._shape_normals, self._shape_extent = verts, normals, extent
+        self._shape_link, self._shape_nv = table.link, table.nv
+        self._shape_center, self._shape_radius, self._shape_rho = table.center, table.radius, table.rho
+        self._shape_verts, self._shape_normals, self._shape_extent = table.verts, table.normals, table.extent
         # Candidate pairs (i < j, in that order): shapes of different objects and links, one of them
         # moving, whose z intervals overlap by more than the tolerance; a circle always second.
-        obj_ids: dict[str, int] = {}
-        obj = np.array([obj_ids.setdefault(o.obj, len(obj_ids)) for o in outlines], dtype=np.int64)
-        shape_links = np.array([o.link for o in outlines], dtype=np.int64)
-        moves = np.array([o.link in self._moving for o in outlines], dtype=np.bool_)
-        circle = np.array([o.is_circle for o in outlines], dtype=np.bool_)
-        z_low = np.array([o.z_low for o in outlines], dtype=np.float64)
-        z_high = np.array([o.z_high for o in outlines], dtype=np.float64)
-        first, second = np.triu_indices(count, 1)
-        keep = (obj[first] != obj[second]) & (shape_links[first] != shape_links[second])
-        keep &= moves[first] | moves[second]
-        keep &= ~(np.minimum(z_high[first], z_high[second]) - np.maximum(z_low[first], z_low[second])
-                  <= self.tolerance)
-        first, second = first[keep], second[keep]
-        swap = circle[first] & ~circle[second]
-        pairs = np.column_stack([np.where(swap, second, first), np.where(swap, first, second)]).tolist()
-        self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+        moving = np.zeros(len(self._links), dtype=np.bool_)
+        moving[list(self._moving)] = True
+        kept = table.kept_pairs(moving, self.tolerance)
+        self._pairs = np.ascontiguousarray(table.pairs[kept])
         # Which state columns move each pair's shapes (a joint moves its child link and all below).
         link_columns = np.zeros((len(self._links), len(self.joint_order)), dtype=np.bool_)
         for link, parent, *_rest, column, _ax, _ay, _rate in self._joint_steps:
             link_columns[link] = link_columns[parent]
             if column >= 0:
                 link_columns[link, column] = True
+        shape_links = table.link
         self._pair_columns = np.ascontiguousarray(link_columns[shape_links[self._pairs[:, 0]]] |
                                                   link_columns[shape_links[self._pairs[:, 1]]])
-        self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in pairs]
+        outlines = self._outlines
+        self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in self._pairs.tolist()]
         self._pair_names = [tuple(sorted(names)) for names in self._pair_objects]
         self._arguments = self._args()
         self._state_shape = (len(self.joint_order),)
@@ -491,35 +531,33 @@ class CollisionModel:
         return self._reach.copy()
 
     def _joint_reach(self) -> np.ndarray:
-        rest = self._rest
+        parts = self._parts
+        known = {} if parts is None else parts.reach  # a revolute joint's reach, by name
+        descendants = _descendants(self.chain, self._links, self._link_index) if parts is None else parts.descendants
         reach = np.ones(len(self.joint_order))
-        descendants = self._descendants()
         for index, name in enumerate(self.joint_order):
             joint = self.chain.joint(name)
             if joint.type is not JointType.REVOLUTE:
                 continue
-            axis_xy = rest[joint.child][:2, 3]
-            best = 0.0
-            for o in self._outlines:
-                if o.link not in descendants[joint.child]:
-                    continue
-                m = rest[self._links[o.link]]
-                pts = o.vertices if not o.is_circle else o.center[None, :]
-                world = pts @ m[:2, :2].T + m[:2, 3]
-                extra = 0.0 if not o.is_circle else o.radius
-                best = max(best, float(np.max(np.linalg.norm(world - axis_xy, axis=1))) + extra)
-            reach[index] = max(best, 1e-3)
+            found = known.get(name)
+            if found is None:
+                found = known[name] = self._revolute_reach(joint, descendants)
+            reach[index] = found
         return reach
 
-    def _descendants(self) -> dict[str, set[int]]:
-        out: dict[str, set[int]] = {}
-        for name in reversed(self._links):
-            mine = {self._link_index[name]}
-            for joint in self.chain.joints:
-                if joint.parent == name:
-                    mine |= out[joint.child]
-            out[name] = mine
-        return out
+    def _revolute_reach(self, joint: Joint, descendants: dict[str, set[int]]) -> float:
+        rest = self._rest
+        axis_xy = rest[joint.child][:2, 3]
+        best = 0.0
+        for o in self._outlines:
+            if o.link not in descendants[joint.child]:
+                continue
+            m = rest[self._links[o.link]]
+            pts = o.vertices if not o.is_circle else o.center[None, :]
+            world = pts @ m[:2, :2].T + m[:2, 3]
+            extra = 0.0 if not o.is_circle else o.radius
+            best = max(best, float(np.max(np.linalg.norm(world - axis_xy, axis=1))) + extra)
+        return max(best, 1e-3)
 
     def motion_steps(self, resolution: float) -> np.ndarray:
         """Per-joint step sizes so that no collision point moves more than ``resolution``."""

@@ -57,6 +57,7 @@ class Defragmenter:
         self.max_rounds = max_rounds
         self.validations = 0
         self._free: set[bytes] = set()  # motions (their two states' bytes) found free
+        self._colliding: set[bytes] = set()  # motions found colliding
 
     # -- representation ----------------------------------------------------
     def isolate(self, path: np.ndarray) -> list[Action] | None:
@@ -140,13 +141,21 @@ class Defragmenter:
     def _motions_free(self, states: np.ndarray) -> bool:
         """Whether every motion of ``states`` is free, those found free before not checked again: a
         candidate repeats most of the current path's motions (everything after a collapsed action,
-        after a merge), and a motion's check depends on its two states alone."""
+        after a merge), and a motion's check depends on its two states alone. A motion found colliding
+        before ends the check there (the skip and merge operators try the same rejected motions round
+        after round): only the motions before it are checked, and the first colliding one is the same."""
         width = states.shape[1] * states.itemsize
         raw = states.tobytes()
         keys = [raw[i * width:(i + 2) * width] for i in range(len(states) - 1)]
+        colliding = self._colliding
+        end = next((i for i, key in enumerate(keys) if key in colliding), len(keys))
         free = self._free
-        known = np.array([key in free for key in keys], dtype=np.bool_)
-        first = self.model.first_colliding_motion(states, self.steps, known)
+        known = np.array([key in free for key in keys[:end]], dtype=np.bool_)
+        first = self.model.first_colliding_motion(states[:end + 1], self.steps, known) if end else -1
+        if first < 0 and end < len(keys):
+            first = end
+        if first >= 0:
+            colliding.add(keys[first])
         free.update(keys[:len(keys) if first < 0 else first])
         return first < 0
 
