@@ -1,5 +1,6 @@
-"""SIGINT and SIGTERM while a command runs: raised where the command is, held back inside a compiled
-module's initialisation, sent again when dropped in a finalizer."""
+"""SIGINT and SIGTERM while a command runs: raised where the command is, held back where compiled code
+calls Python and cannot take an exception (a compiled module's initialisation, Numba's unboxing of a
+numpy Generator), sent again when dropped in a finalizer."""
 
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ _interrupted: int | None = None  # the signal that stopped the command
 COMPILED_INIT = frozenset({"ExtensionFileLoader.create_module", "ExtensionFileLoader.exec_module"})
 """importlib's calls that run a compiled module's initialisation (OMPL's, Numba's, PyBullet's)."""
 RETRY_SECONDS = 0.01
-"""How soon a signal held back during a compiled module's initialisation is sent again."""
+"""How soon a signal held back where compiled code called Python is sent again."""
 
 
 def _in_compiled_init(frame) -> bool:
@@ -38,12 +39,28 @@ def _in_compiled_init(frame) -> bool:
     return False
 
 
+def _in_unchecked_call(frame) -> bool:
+    """Whether ``frame`` runs inside ``ctypes.cast`` (or code it calls), which Numba calls each time a
+    compiled function takes a numpy Generator, to unbox the Generator's bit generator: Numba (0.61)
+    reads an attribute of the result without checking it for an error, so an exception raised there
+    makes it read through a null pointer and the process dies by SIGSEGV."""
+    ctypes = sys.modules.get("ctypes")
+    cast = getattr(getattr(ctypes, "cast", None), "__code__", None)
+    while cast is not None and frame is not None:
+        if frame.f_code is cast:
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _interrupt(signum, frame) -> None:
     global _interrupted
-    if _in_compiled_init(frame):
-        # Raised here, the exception would cross the module's C++ on its way out: OMPL's aborts the
-        # process ("terminate called after throwing an instance of 'nanobind::python_error'") or
-        # swallows it. The signal comes again a moment later, until the import has returned.
+    if _in_compiled_init(frame) or _in_unchecked_call(frame):
+        # Raised here, the exception would cross compiled code on its way out: OMPL's initialisation
+        # aborts the process ("terminate called after throwing an instance of 'nanobind::python_error'")
+        # or swallows it; Numba's unboxing crashes (above). The signal comes again a moment later, by
+        # then in Python that can take it (between two compiled calls) or in compiled code that runs
+        # the handler as it returns.
         threading.Timer(RETRY_SECONDS, os.kill, (os.getpid(), signum)).start()
         return
     # Only the first signal counts: a second one would cut the clean-up short.

@@ -223,3 +223,92 @@ def test_replan_stops_each_of_its_searches_at_once(phase, signum, tmp_path):
     assert (code, out, err) == (128 + signum, "", "phyrogen: interrupted\n"), (code, out, err)
     assert cpu < STOPPED_CPU, cpu
     assert snapshot(tmp_path / "puzzles") == before  # no new certificate, no temporary left
+
+
+# -- a signal whose handler runs while Numba unboxes a numpy Generator -----------------------------
+UNBOXING_CHILD = """
+import ctypes, functools, operator, os, signal, sys, threading, time
+
+import numpy as np
+from numba import njit, types
+
+from phyrogen import signals
+
+
+class Typed(np.random.Generator):
+    # A Generator whose Numba type is this attribute, read in C: without it the call's first Python
+    # is Numba's typeof, where a handler may raise safely. With it, the first is the unboxing's
+    # ctypes.cast, as for a signal that lands just after typeof, between two pieces of a search.
+    _numba_type_ = types.NumPyRandomGeneratorType("Generator")
+
+
+sched_yield = ctypes.CDLL(None).sched_yield
+sched_yield.restype, sched_yield.argtypes = ctypes.c_int, []
+
+
+@njit(nogil=True)
+def wait_for(flags):
+    flags[1] = 1  # waiting now, the GIL released
+    while flags[0] == 0:
+        sched_yield()  # an opaque call: the flag is read again each time, not once before the loop
+    return 0
+
+
+@njit
+def draw(rng):
+    return rng.random()
+
+
+rng, flags = Typed(np.random.PCG64(1)), np.zeros(2, dtype=np.int64)
+draw(rng), wait_for(np.ones(2, dtype=np.int64))  # compiled before the signal
+if sys.argv[1] == "product":
+    signals.install()
+    unchecked = signals._in_unchecked_call
+
+    def seen(frame):
+        inside = unchecked(frame)
+        if inside:
+            print("held back inside", frame.f_code.co_name, flush=True)
+        return inside
+
+    signals._in_unchecked_call = seen
+else:
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # raises KeyboardInterrupt where it runs
+
+
+def send():
+    while flags[1] == 0:
+        time.sleep(0.001)
+    os.kill(os.getpid(), signal.SIGINT)  # handled in C at once; in Python at the main thread's next bytecode
+    flags[0] = 1
+
+
+threading.Thread(target=send).start()
+try:
+    # map and partial are C: from the compiled wait, whose Python handler is pending, straight into draw.
+    print("drawn", list(map(operator.call, [functools.partial(wait_for, flags), functools.partial(draw, rng)]))[1],
+          flush=True)
+    while True:
+        time.sleep(0.01)  # the signal held back comes again
+except KeyboardInterrupt as exc:
+    print("interrupted", flush=True)
+    sys.exit(128 + getattr(exc, "signum", signal.SIGINT))
+"""
+
+
+def test_a_signal_while_numba_unboxes_a_generator_is_held_back():
+    # Numba's unboxing of a Generator calls ctypes.cast and reads its result unchecked: a handler that
+    # raises there kills the process by SIGSEGV (the control, Python's own handler). Each piece of the
+    # certifying search is such a call, so a Ctrl-C landing just then crashed ``import`` once in many.
+    # The command's handler holds the signal back there and takes it when it comes again.
+    def child(mode: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-c", UNBOXING_CHILD, mode], cwd=ROOT, capture_output=True,
+                              text=True, timeout=BACKSTOP)
+
+    control = child("plain")
+    assert control.returncode == -signal.SIGSEGV, (control.returncode, control.stdout, control.stderr)
+    held = child("product")
+    assert held.returncode == 128 + signal.SIGINT, (held.returncode, held.stdout, held.stderr)
+    lines = held.stdout.splitlines()
+    assert lines[0] == "held back inside cast" and lines[1].startswith("drawn 0.") and lines[2:] == ["interrupted"], \
+        lines
