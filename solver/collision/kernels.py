@@ -147,17 +147,21 @@ more than the rounding difference between the world-frame centres used first and
 would have found apart, and every verdict is the same as without the skip."""
 
 
+@njit(cache=True, nogil=True, inline='always')
+def _poses_and_centres(q, kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_link, shape_center):
+    """:func:`_poses`, then each shape's bounding-circle centre in the world, once per state: most candidate
+    pairs stand apart (80 % in Grid World, 97 % in Rooms) and are then skipped at a few operations each."""
+    _poses(q, kin_int, kin_float, x, y, c, s, yaws, full)
+    for i in range(shape_link.shape[0]):
+        link, cx, cy = shape_link[i], shape_center[i, 0], shape_center[i, 1]
+        centres[0, i] = x[link] + c[link] * cx - s[link] * cy
+        centres[1, i] = y[link] + s[link] * cx + c[link] * cy
+
+
 @njit(cache=True, nogil=True)
 def _state_valid(q, kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_link, shape_nv, shape_center,
                  shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol):
-    _poses(q, kin_int, kin_float, x, y, c, s, yaws, full)
-    # Each shape's bounding-circle centre in the world, once per state: most candidate pairs stand
-    # apart (80 % in Grid World, 97 % in Rooms) and are then skipped at a few operations each.
-    for i in range(shape_link.shape[0]):
-        link = shape_link[i]
-        cx, cy = shape_center[i, 0], shape_center[i, 1]
-        centres[0, i] = x[link] + c[link] * cx - s[link] * cy
-        centres[1, i] = y[link] + s[link] * cx + c[link] * cy
+    _poses_and_centres(q, kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_link, shape_center)
     for p in range(pairs.shape[0]):
         if _near_pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, centres, shape_link, shape_nv, shape_center,
                                shape_radius, shape_verts, shape_normals, shape_extent, tol):
@@ -498,12 +502,7 @@ def motion_collides_packed(a, b, steps, ints, floats, pair_columns):
 def _pairs_valid(q, kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_link, shape_nv, shape_center,
                  shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, moving, which):
     """:func:`_state_valid` over the pairs ``p`` with ``moving[p] == which`` only (the same tests)."""
-    _poses(q, kin_int, kin_float, x, y, c, s, yaws, full)
-    for i in range(shape_link.shape[0]):
-        link = shape_link[i]
-        cx, cy = shape_center[i, 0], shape_center[i, 1]
-        centres[0, i] = x[link] + c[link] * cx - s[link] * cy
-        centres[1, i] = y[link] + s[link] * cx + c[link] * cy
+    _poses_and_centres(q, kin_int, kin_float, x, y, c, s, yaws, centres, full, shape_link, shape_center)
     for p in range(pairs.shape[0]):
         if moving[p] == which and _near_pair_collides(pairs[p, 0], pairs[p, 1], x, y, c, s, centres, shape_link,
                                                       shape_nv, shape_center, shape_radius, shape_verts,
