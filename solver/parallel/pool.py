@@ -52,6 +52,9 @@ WORKER_NAME = "phyrogen-worker"
 """The process name of the pool's workers: the server starts these without the caller's ``__main__``."""
 STOP_GRACE_SECONDS = 5.0
 """How long stopped workers may take to finish a write before they are killed."""
+SERVER_HINT = "PHYROGEN_SERVER_HINT"
+"""The environment variable through which a pool's ``server_hint`` reaches the server's preload (it is
+set only while the server starts, and the server's preload removes it)."""
 
 _server_ready = False  # a worker has started: the server has finished importing its preload
 
@@ -93,8 +96,8 @@ class WorkerLostError(RuntimeError):
     """A worker process ended without sending its task's result."""
 
 
-def fresh_process_pool(workers: int, tasks: int, preload: Sequence[str], *,
-                       run_main: bool = False) -> FreshProcessPool:
+def fresh_process_pool(workers: int, tasks: int, preload: Sequence[str], *, run_main: bool = False,
+                       server_hint: Callable[[Any], str | None] | None = None) -> FreshProcessPool:
     """A pool running at most ``workers`` tasks at once (at most ``tasks``, at least one), each in
     a fresh process forked from a server that imported the modules named in ``preload``.
 
@@ -103,10 +106,13 @@ def fresh_process_pool(workers: int, tasks: int, preload: Sequence[str], *,
     ``run_main``: each worker runs the caller's main script first, as multiprocessing does by
     default, for tasks that need something only that script sets up (a generator it registers);
     such a script needs its ``if __name__ == "__main__":`` guard.
+    ``server_hint(item)``, called with the first item when this pool starts the server, gives a text
+    that the preload reads from the environment variable :data:`SERVER_HINT` (what to prepare the
+    workers for); None sets nothing.
     """
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([_SERVER_MODULE, *preload])
-    return FreshProcessPool(context, max(1, min(workers, tasks)), run_main)
+    return FreshProcessPool(context, max(1, min(workers, tasks)), run_main, server_hint)
 
 
 @dataclass(eq=False)
@@ -119,8 +125,10 @@ class _Task:
 class FreshProcessPool:
     """Runs each task in a new process; see :func:`fresh_process_pool`."""
 
-    def __init__(self, context, workers: int, run_main: bool = False):
+    def __init__(self, context, workers: int, run_main: bool = False,
+                 server_hint: Callable[[Any], str | None] | None = None):
         self._context = context
+        self._server_hint = server_hint
         self.workers = workers
         self._name = None if run_main else WORKER_NAME  # None: multiprocessing's own name and rules
         self._running: set[_Task] = set()
@@ -195,7 +203,7 @@ class FreshProcessPool:
         # no worker is forked without being known here. The first start waits for the server's
         # imports and stays interruptible; a worker forked after that finds its parent gone and ends.
         if not _server_ready:
-            _start_server()
+            _start_server(self._server_hint(item) if self._server_hint is not None else None)
         with deferred_signals() if _server_ready else nullcontext():
             try:
                 process.start()
@@ -266,25 +274,42 @@ def _exit_status(code: int | None) -> str:
     return f"killed by signal {-code}" if code is not None and code < 0 else f"exit code {code}"
 
 
-def _start_server() -> None:
+def _start_server(hint: str | None = None) -> None:
     """Start multiprocessing's fork server (when it is not running yet) with SIGINT blocked, which
     it and its workers inherit: until the server's first instruction ignores it, Python's own
     handler would meet a Ctrl-C to the process group and print its KeyboardInterrupt traceback
     beside the command's one line. The parent's Ctrl-C waits in the mask meanwhile (a moment: the
-    start does not wait for the server's imports) and is handled as the mask is restored."""
+    start does not wait for the server's imports) and is handled as the mask is restored.
+    ``hint``: the value of :data:`SERVER_HINT` in the server's environment (none when None)."""
     from multiprocessing import forkserver, resource_tracker
 
     # The resource tracker first: it blocks SIGINT itself around its start, then unblocks it,
     # which would undo the block below; started, it is left alone by the server's start.
     resource_tracker.ensure_running()
-    if threading.current_thread() is not threading.main_thread():
-        forkserver.ensure_running()
-        return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    with _server_environment(hint):
+        if threading.current_thread() is not threading.main_thread():
+            forkserver.ensure_running()
+            return
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            forkserver.ensure_running()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+@contextmanager
+def _server_environment(hint: str | None) -> Iterator[None]:
+    """:data:`SERVER_HINT` set to ``hint`` (removed when None) while the server starts (it inherits the
+    environment when it is started), and as before afterwards."""
+    previous = os.environ.pop(SERVER_HINT, None)
+    if hint is not None:
+        os.environ[SERVER_HINT] = hint
     try:
-        forkserver.ensure_running()
+        yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        os.environ.pop(SERVER_HINT, None)
+        if previous is not None:
+            os.environ[SERVER_HINT] = previous
 
 
 @contextmanager

@@ -1,28 +1,57 @@
 """Imported once by the generation server process (see :mod:`solver.pipelines.generation`).
 
-It compiles the collision kernels, the judge's loop and the necessity proofs' tests there (or loads them
-from numba's cache), with every other signature of them that the cache holds, so every worker forked from
-the server starts with them loaded instead of paying about 0.2 s each. It loads the generator registry
-too (the generators' modules, found through their entry points) and the package versions every puzzle
-folder records, which every fresh worker otherwise loaded before its first puzzle. Then it moves
-everything imported so far out of the garbage collector's reach (``gc.freeze``): a worker's first
-collections would otherwise visit, and so copy, every page of the server's objects that it shares. A
-fresh dataset worker's first Simple Slider puzzle cost about 0.11 CPU s more than the next one, 0.05 with
-the freeze, 0.02 with the registry and the other signatures loaded here (2-core machine).
+It loads, before the server forks any worker, what the workers' puzzles would otherwise each load on
+first use: the compiled kernels' signatures (from numba's cache), the generator registry (the
+generators' modules, found through their entry points) and the package versions every puzzle folder
+records. Then it moves everything imported so far out of the garbage collector's reach
+(``gc.freeze``): a worker's first collections would otherwise visit, and so copy, every page of the
+server's objects that it shares. A fresh dataset worker's first Simple Slider puzzle cost about 0.11
+CPU s more than the next one, 0.05 with the freeze, 0.02 with the registry and the signatures loaded
+here (2-core machine).
+
+Which signatures: given a hint (:data:`solver.parallel.pool.SERVER_HINT`, made by
+:func:`solver.pipelines.generation.warm_hint`: a dataset's first puzzle), the server generates that
+puzzle once and throws it away, which loads exactly what that generator's puzzles call (a Simple
+Slider of four objects: 10 signatures, about 0.15 CPU s); without one, or when that fails, it calls
+every kernel on small models and loads every signature that numba's cache holds for the kernels the
+solver calls (31, about 0.45 CPU s).
 """
 
 import contextlib
+import io
+import os
 
 from phyrogen_core.registry import registry
-from solver.collision.model import warm_up
-from solver.validation.blocking import warm_up as warm_up_proof
-from solver.validation.judge import warm_up as warm_up_judge
-from solver.validation.region_proof import warm_up as warm_up_region_proof
+from solver.parallel.pool import SERVER_HINT
 
-warm_up()
-warm_up_judge()
-warm_up_proof()
-warm_up_region_proof()
+
+def _warm_up_every_kernel() -> None:
+    from solver.collision.model import warm_up
+    from solver.validation.blocking import warm_up as warm_up_proof
+    from solver.validation.judge import warm_up as warm_up_judge
+    from solver.validation.region_proof import warm_up as warm_up_region_proof
+
+    warm_up()
+    warm_up_judge()
+    warm_up_proof()
+    warm_up_region_proof()
+    _load_cached_signatures()
+
+
+def _warm_up_for(hint: str | None) -> bool:
+    """Generate the hint's puzzle once (see the module docstring); whether it ran to its end. Its output
+    goes nowhere: the server shares the command's terminal."""
+    if not hint:
+        return False
+    from solver.pipelines.generation import generate_for_hint
+
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            generate_for_hint(hint)
+    except Exception:  # (a generator only the caller's script registers, a bug: the workers report it)
+        return False
+    return True
+
 
 def _kernels_called_from_python() -> list:
     """The compiled kernels (numba dispatchers) that the Python code of the solver's modules imported so far
@@ -77,13 +106,13 @@ def _kernels_called_from_python() -> list:
 
 def _load_cached_signatures() -> None:
     """Load every signature that numba's cache holds for the current code of the kernels generation calls
-    (:func:`_kernels_called_from_python`). The warm-ups above call each with one layout of arrays;
-    generation passes others too (a view of a state, ``np.nonzero``'s indices) and calls kernels they do
-    not, each a signature of its own that every fresh worker loaded before its first puzzle (about 5 ms
-    each, five to seven a worker). No kernel runs here, and a call still takes only the signature that
-    matches its arguments exactly (a dispatcher compiles an exact match whenever it may compile), so
-    which are loaded changes no result. A numba without these internals or an unreadable cache leaves
-    the loading to the workers: nothing here may stop the server, whose failed import fails every run."""
+    (:func:`_kernels_called_from_python`). The warm-ups of :func:`_warm_up_every_kernel` call each with
+    one layout of arrays; generation passes others too (a view of a state, ``np.nonzero``'s indices) and
+    calls kernels they do not, each a signature of its own that every fresh worker loaded before its first
+    puzzle (about 5 ms each, five to seven a worker). No kernel runs here, and a call still takes only the
+    signature that matches its arguments exactly (a dispatcher compiles an exact match whenever it may
+    compile), so which are loaded changes no result. A numba without these internals or an unreadable cache
+    leaves the loading to the workers: nothing here may stop the server, whose failed import fails every run."""
     try:
         kernels = _kernels_called_from_python()
     except Exception:  # (see the docstring)
@@ -98,11 +127,14 @@ def _load_cached_signatures() -> None:
             continue
 
 
-_load_cached_signatures()
 # The generators' modules and their entry points, which the registry loads on first use: once here, not
 # in every worker. One that does not load is left for the worker to report, with the puzzle it fails.
 with contextlib.suppress(Exception):
     registry()
+HINTED = _warm_up_for(os.environ.pop(SERVER_HINT, None))
+"""Whether this server generated a hint's puzzle to its end (else it warmed every kernel up)."""
+if not HINTED:
+    _warm_up_every_kernel()
 # The package versions every puzzle folder records: importlib.metadata finds and parses each package's
 # METADATA (4.5 ms), once a process; here, not once a worker.
 with contextlib.suppress(Exception):

@@ -61,6 +61,30 @@ def _versions() -> dict[str, str]:
     return out
 
 
+def warm_hint(generator: str, seed: int, params: Any) -> str:
+    """The text a fresh-process pool hands its server (:data:`solver.parallel.pool.SERVER_HINT`) for it to
+    generate the puzzle ``seed`` of ``generator`` once, and throw it away, before it forks any worker
+    (:mod:`solver.pipelines._server_warmup`): the workers then start with what that generator's puzzles
+    load on first use (its compiled kernels' signatures, above all), and nothing else."""
+    import base64
+    import pickle
+
+    return base64.b64encode(pickle.dumps((generator, seed, params))).decode("ascii")
+
+
+def generate_for_hint(hint: str) -> None:
+    """Generate, in this process, the puzzle named by a :func:`warm_hint`, and discard it; it writes
+    nothing. Raises what the hint's reading or the generation raises."""
+    import base64
+    import pickle
+
+    generator, seed, params = pickle.loads(base64.b64decode(hint.encode("ascii")))
+    try:
+        generate_here(generator, seed, params)
+    except GenerationError:  # a failed seed: it has loaded what it needed on its way
+        pass
+
+
 def generate_here(generator: str, seed: int, params: Any = None, *, stats: dict[str, Any] | None = None) -> Puzzle:
     """Generate and certify one puzzle in THIS process.
 

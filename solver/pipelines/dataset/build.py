@@ -81,7 +81,7 @@ from solver.pipelines.dataset.shard_files import (
     remove_temporary_files,
 )
 from solver.pipelines.generation import _PRELOAD as GENERATION_PRELOAD
-from solver.pipelines.generation import LOOKAHEAD, generate_here, versions
+from solver.pipelines.generation import LOOKAHEAD, generate_here, versions, warm_hint
 
 if TYPE_CHECKING:
     from solver.benchmark.difficulty import DifficultySettings
@@ -231,7 +231,8 @@ def local_backend(tasks: Iterable[EntryTask], workers: int,
                   on_running: Callable[[list[EntryTask]], None] | None = None, *,
                   batch_size: int = BATCH_SIZE) -> Iterator[EntryOutcome]:
     """Tasks on this machine, in batches, each in a fresh process forked from a server (:mod:`solver.parallel.pool`)."""
-    yield from _run_batches(task_pool(workers, workers, PRELOAD), tasks, on_running, batch_size, workers)
+    yield from _run_batches(task_pool(workers, workers, PRELOAD, server_hint=_server_hint), tasks, on_running,
+                            batch_size, workers)
 
 
 def ray_backend(address: str = LOCAL, *, batch_size: int = BATCH_SIZE) -> Backend:
@@ -284,6 +285,20 @@ def _batch_length(size: int, objects: int) -> int:
     3..6 objects: 5.0-5.3 ms x objects^2 a puzzle, 2-core dev machine), so that a batch holds no more
     work than a full one of the largest default size; the largest puzzles run alone."""
     return max(1, min(size, size * REFERENCE_OBJECTS ** 2 // max(1, objects) ** 2))
+
+
+def _server_hint(batch: list[EntryTask]) -> str | None:
+    """What the workers' server prepares for: the first batch's first puzzle, generated there once
+    (:func:`~solver.pipelines.generation.warm_hint`), when it costs less than the server's warm-up of
+    every kernel (about 0.45 CPU s); a larger puzzle (more than :data:`REFERENCE_OBJECTS` objects, whose
+    cost grows with their square) leaves the server to that warm-up."""
+    task = batch[0]
+    if _cost_hint(task)[1] > REFERENCE_OBJECTS:
+        return None
+    try:
+        return warm_hint(task.generator, task.seed, task.params)
+    except Exception:  # (parameters that do not pickle: the workers get them otherwise, or report it)
+        return None
 
 
 def _batch_cost(batch: list[EntryTask]) -> float:
