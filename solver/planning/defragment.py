@@ -139,25 +139,27 @@ class Defragmenter:
         return all(check(a, b, self.steps) for a, b in zip(states[:-1], states[1:], strict=True))
 
     def _motions_free(self, states: np.ndarray) -> bool:
-        """Whether every motion of ``states`` is free, those found free before not checked again: a
-        candidate repeats most of the current path's motions (everything after a collapsed action,
-        after a merge), and a motion's check depends on its two states alone. A motion found colliding
-        before ends the check there (the skip and merge operators try the same rejected motions round
-        after round): only the motions before it are checked, and the first colliding one is the same."""
+        """Whether every motion of ``states`` is free, each motion's verdict kept: a candidate repeats most
+        of the current path's motions (everything after a collapsed action, after a merge), the skip and
+        merge operators try the same rejected motions round after round, and a motion's check depends on
+        its two states alone. The motions not judged before are checked in one compiled call that skips
+        the samples where every pair is proven apart (:meth:`CollisionModel.motion_ends`: the verdicts of
+        :meth:`CollisionModel.check_motion`); a motion found colliding before ends the check there."""
         width = states.shape[1] * states.itemsize
         raw = states.tobytes()
         keys = [raw[i * width:(i + 2) * width] for i in range(len(states) - 1)]
-        colliding = self._colliding
+        free, colliding = self._free, self._colliding
         end = next((i for i, key in enumerate(keys) if key in colliding), len(keys))
-        free = self._free
-        known = np.array([key in free for key in keys[:end]], dtype=np.bool_)
-        first = self.model.first_colliding_motion(states[:end + 1], self.steps, known) if end else -1
-        if first < 0 and end < len(keys):
-            first = end
-        if first >= 0:
-            colliding.add(keys[first])
-        free.update(keys[:len(keys) if first < 0 else first])
-        return first < 0
+        unknown = [i for i in range(end) if keys[i] not in free]
+        if unknown:
+            rows = np.array(unknown, dtype=np.int64)
+            hits = self.model.motion_ends(states[rows], states[rows + 1], self.steps, False)[1] >= 0
+            verdicts = hits.tolist()
+            for i, hit in zip(unknown, verdicts, strict=True):
+                (colliding if hit else free).add(keys[i])
+            if True in verdicts:
+                return False
+        return end == len(keys)
 
     def _accept(self, candidate: list[Action], changed_from: int = 0) -> list[Action] | None:
         """The normalized candidate if it is valid and reaches the goal, else None.
