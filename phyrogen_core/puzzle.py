@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .chain import GOAL_GREEN, Geometry, Joint, JointType, KinematicChain, Link, Role
+from .chain import GOAL_GREEN, Geometry, Joint, JointType, KinematicChain, Link, Role, joint_motion, pose_matrix
 from .difficulty import Difficulty
 from .objects import Motion, PuzzleObject, build_chain
 from .provenance import Provenance
@@ -120,7 +120,7 @@ class Puzzle:
         chain = build_chain(self.objects)
         values = {j: 0.0 for j in chain.joint_order}
         values.update(self.goal.values)
-        pose = chain.link_transforms(values)[self.goal.target]
+        pose = _link_transform(chain, values, self.goal.target)
         target = self.target
         visuals = tuple(Geometry(g.shape, g.origin, GOAL_GREEN, g.name) for g in target.visuals)
         marker = Link("goal", visuals, (), Role.GOAL_MARKER, "goal", mass=0.01)
@@ -128,3 +128,19 @@ class Puzzle:
 
         origin = rotation_to_rpy(pose)
         return [marker], [Joint("goal", JointType.FIXED, chain.root, "goal", origin)]
+
+
+def _link_transform(chain: KinematicChain, values: Mapping[str, float], link: str) -> np.ndarray:
+    """``chain.link_transforms(values)[link]``: the same products, along the link's ancestors alone."""
+    joints = []
+    while link != chain.root:
+        joint = chain.parent_joint(link)
+        assert joint is not None
+        joints.append(joint)
+        link = joint.parent
+    world = np.eye(4)
+    for joint in reversed(joints):
+        t = world @ pose_matrix(joint.origin)
+        q = float(values.get(joint.name, 0.0)) if joint.is_active else 0.0
+        world = t @ joint_motion(joint, q)
+    return world

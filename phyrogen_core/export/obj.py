@@ -7,6 +7,7 @@ as the slot disc is therefore written as one closed mesh per convex piece.
 
 from __future__ import annotations
 
+import functools
 import math
 
 from ..geometry import Point2
@@ -21,9 +22,17 @@ def prism_piece_obj(piece: tuple[Point2, ...], height: float, name: str) -> str:
     Faces are triangles (fans, valid because the piece is convex) wound
     counter-clockwise seen from outside, so every normal points outwards.
     """
+    header, body = _prism_text(tuple(map(tuple, piece)), height)
+    return f"{header}\no {name}\n{body}"
+
+
+@functools.lru_cache(maxsize=256)
+def _prism_text(piece: tuple[Point2, ...], height: float) -> tuple[str, str]:
+    """The piece's OBJ text around its ``o`` line: a visual and its collision are the same prism (equal
+    numbers write the same: :func:`~phyrogen_core.export.formatting.number` writes floats, -0.0 as 0)."""
     n = len(piece)
     half = height / 2
-    lines = [f"# convex prism piece, {n} sides, height {number(height)}", f"o {name}"]
+    lines = [f"# convex prism piece, {n} sides, height {number(height)}"]
     for z in (-half, half):
         lines += [f"v {number(x)} {number(y)} {number(z)}" for x, y in piece]
     bottom = [1 + i for i in range(n)]
@@ -35,7 +44,7 @@ def prism_piece_obj(piece: tuple[Point2, ...], height: float, name: str) -> str:
         j = (i + 1) % n
         lines.append(f"f {bottom[i]} {bottom[j]} {top[j]}")
         lines.append(f"f {bottom[i]} {top[j]} {top[i]}")
-    return "\n".join(lines) + "\n"
+    return lines[0], "".join(line + "\n" for line in lines[1:])
 
 
 def read_prism_piece(text: str, limit: float = math.inf) -> tuple[tuple[Point2, ...], float]:

@@ -48,8 +48,10 @@ def write_export_files(folder: PuzzleFolder, chain: KinematicChain, metadata: st
     """The export stage's files of ``chain`` into ``folder`` (a fresh temporary folder)."""
     urdf_text, meshes = chain_to_urdf(chain)
     _write_file(folder.urdf, urdf_text.encode("utf-8"))
-    for file_name, text in meshes.items():
-        _write_file(folder.meshes / file_name, text.encode("utf-8"))
+    if meshes:  # one folder for them all, made once (Lockbox Random: 18 meshes a puzzle)
+        folder.meshes.mkdir(parents=True, exist_ok=True)
+        for file_name, text in meshes.items():
+            (folder.meshes / file_name).write_bytes(text.encode("utf-8"))
     _write_file(folder.srdf, chain_to_srdf(chain).encode("utf-8"))
     _write_file(folder.metadata, metadata.encode("utf-8"))
 

@@ -61,8 +61,9 @@ def chain_to_urdf(chain: KinematicChain, mesh_dir: str = "../meshes") -> tuple[s
     """
     meshes: dict[str, str] = {}
     lines = ['<?xml version="1.0"?>', f"<robot name={attribute(chain.name)}>"]
+    inertials: dict[tuple, list[str]] = {}  # a link's inertial lines by its collisions and mass
     for link in chain.links:
-        lines += _link_lines(link, mesh_dir.rstrip("/"), meshes)
+        lines += _link_lines(link, mesh_dir.rstrip("/"), meshes, inertials)
     for joint in sorted(chain.joints, key=lambda j: j.name):
         lines += _joint_lines(joint)
     lines.append("</robot>")
@@ -75,9 +76,15 @@ def color_name(rgba: tuple[float, float, float, float]) -> str:
     return known if known is not None else "rgba_" + "_".join(number(c) for c in rgba)
 
 
-def _link_lines(link: Link, mesh_dir: str, meshes: dict[str, str]) -> list[str]:
+def _link_lines(link: Link, mesh_dir: str, meshes: dict[str, str], inertials: dict[tuple, list[str]]) -> list[str]:
     lines = [f"  <link name={attribute(link.name)}>"]
-    lines += _inertial_lines(link)
+    # Links of equal collisions and mass (Rooms' walls: 36 links, 7 kinds) have the same inertial text:
+    # equal numbers write the same (formatting.number writes floats, -0.0 as 0).
+    key = (link.collisions, link.mass)
+    inertial = inertials.get(key)
+    if inertial is None:
+        inertial = inertials[key] = _inertial_lines(link)
+    lines += inertial
     for index, geometry in enumerate(link.visuals):
         lines += _geometry_lines(link.name, "visual", index, geometry, mesh_dir, meshes)
     for index, geometry in enumerate(link.collisions):
