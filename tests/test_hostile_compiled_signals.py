@@ -276,10 +276,16 @@ else:
     signal.signal(signal.SIGINT, signal.default_int_handler)  # raises KeyboardInterrupt where it runs
 
 
+handled, wakeup = os.pipe()
+os.set_blocking(wakeup, False)
+signal.set_wakeup_fd(wakeup)  # Python's C handler writes here: the signal is pending for the main thread
+
+
 def send():
     while flags[1] == 0:
         time.sleep(0.001)
     os.kill(os.getpid(), signal.SIGINT)  # handled in C at once; in Python at the main thread's next bytecode
+    os.read(handled, 1)
     flags[0] = 1
 
 
