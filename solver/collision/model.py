@@ -27,7 +27,7 @@ from phyrogen_core.chain import Joint, JointType, KinematicChain, Role, joint_mo
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from solver.collision import kernels as _kernels
 from solver.collision import skipping_move as _skipping
-from solver.collision.shape_table import ShapeTable, shape_table
+from solver.collision.shape_table import ShapeTable, descendants, shape_table
 
 _FLOAT64 = np.dtype(np.float64)
 DEFAULT_TOLERANCE = 1e-6
@@ -108,14 +108,27 @@ def _rest_transforms(chain: KinematicChain, locked: Mapping[str, float]) -> dict
     matrices, each joint's origin and motion matrix kept by its exact numbers (building them is most of
     the cost, and a puzzle's models are built from the same joints many times)."""
     world = {chain.root: np.eye(4)}
+    keys: dict[str, tuple] = {chain.root: ()}
     for link_name in chain.links_in_tree_order[1:]:
         joint = chain.parent_joint(link_name)
         assert joint is not None
         q = float(locked.get(joint.name, 0.0)) if joint.is_active else 0.0
-        origin = _kept(("origin", _exact(*joint.origin.xyz, *joint.origin.rpy)), pose_matrix, joint.origin)
-        motion = _kept(("motion", joint.type, _exact(*joint.axis, q)), joint_motion, joint, q)
-        world[link_name] = (world[joint.parent] @ origin) @ motion
+        origin_key = ("origin", _exact(*joint.origin.xyz, *joint.origin.rpy))
+        motion_key = ("motion", joint.type, _exact(*joint.axis, q))
+        # The product too, by its factors' keys and its parent's (a puzzle's growing chains share most links).
+        key = keys[link_name] = (keys[joint.parent], origin_key, motion_key)
+        found = _PRODUCTS.get(key)
+        if found is None:
+            origin = _kept(origin_key, pose_matrix, joint.origin)
+            motion = _kept(motion_key, joint_motion, joint, q)
+            if len(_PRODUCTS) >= _SHAPES_KEPT:
+                _PRODUCTS.clear()
+            found = _PRODUCTS[key] = _read_only((world[joint.parent] @ origin) @ motion)
+        world[link_name] = found
     return world
+
+
+_PRODUCTS: dict[tuple, np.ndarray] = {}
 
 
 def _exact(*values: float) -> bytes:
@@ -182,27 +195,26 @@ def _chain_outlines(chain: KinematicChain, links: Sequence[str], rest: Mapping[s
         if link.role is Role.GOAL_MARKER:
             continue
         # Rest-pose z of the link frame; the planar motion never changes it.
-        frame = np.eye(4)
-        frame[2, 3] = rest[name][2, 3]
+        z = rest[name][2, 3]
         for geometry in link.collisions:
-            outlines += _outlines_of_geometry(geometry, index, link.object_name or name, frame)
+            key = (geometry.shape, geometry.origin, float(z), index, link.object_name or name)
+            found = _PLACED.get(key)
+            if found is None:  # kept by what _outlines_of_geometry reads (its cache holds the same z key)
+                frame = np.eye(4)
+                frame[2, 3] = z
+                if len(_PLACED) >= _SHAPES_KEPT:
+                    _PLACED.clear()
+                found = _PLACED[key] = _outlines_of_geometry(geometry, index, link.object_name or name, frame)
+            outlines += found
     return outlines
+
+
+_PLACED: dict[tuple, list[_Outline]] = {}
 
 
 def _heights(rest: Mapping[str, np.ndarray], links: Sequence[str]) -> bytes:
     """Every link frame's rest height, by its exact bits."""
     return _exact(*(rest[name][2, 3] for name in links))
-
-
-def _descendants(chain: KinematicChain, links: Sequence[str], link_index: Mapping[str, int]) -> dict[str, set[int]]:
-    out: dict[str, set[int]] = {}
-    for name in reversed(links):
-        mine = {link_index[name]}
-        for joint in chain.joints:
-            if joint.parent == name:
-                mine |= out[joint.child]
-        out[name] = mine
-    return out
 
 
 class _ChainParts:
@@ -218,7 +230,7 @@ class _ChainParts:
         self.heights = _heights(self.rest, links)
         self.outlines = _chain_outlines(chain, links, self.rest)
         self.table = shape_table(self.outlines)
-        self.descendants = _descendants(chain, links, self.link_index)
+        self.descendants = descendants(chain, links, self.link_index)
         self.reach: dict[str, float] = {}
 
 
@@ -533,7 +545,7 @@ class CollisionModel:
     def _joint_reach(self) -> np.ndarray:
         parts = self._parts
         known = {} if parts is None else parts.reach  # a revolute joint's reach, by name
-        descendants = _descendants(self.chain, self._links, self._link_index) if parts is None else parts.descendants
+        below = descendants(self.chain, self._links, self._link_index) if parts is None else parts.descendants
         reach = np.ones(len(self.joint_order))
         for index, name in enumerate(self.joint_order):
             joint = self.chain.joint(name)
@@ -541,16 +553,16 @@ class CollisionModel:
                 continue
             found = known.get(name)
             if found is None:
-                found = known[name] = self._revolute_reach(joint, descendants)
+                found = known[name] = self._revolute_reach(joint, below)
             reach[index] = found
         return reach
 
-    def _revolute_reach(self, joint: Joint, descendants: dict[str, set[int]]) -> float:
+    def _revolute_reach(self, joint: Joint, below: dict[str, set[int]]) -> float:
         rest = self._rest
         axis_xy = rest[joint.child][:2, 3]
         best = 0.0
         for o in self._outlines:
-            if o.link not in descendants[joint.child]:
+            if o.link not in below[joint.child]:
                 continue
             m = rest[self._links[o.link]]
             pts = o.vertices if not o.is_circle else o.center[None, :]

@@ -11,7 +11,7 @@ the model always listed them.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,3 +74,15 @@ def shape_table(outlines: Sequence) -> ShapeTable:
     swap = circle[first] & ~circle[second]
     pairs = np.column_stack([np.where(swap, second, first), np.where(swap, first, second)]).astype(np.int64)
     return ShapeTable(link, nv, center, radius, rho, verts, normals, extent, pairs.reshape(-1, 2), overlap)
+
+
+def descendants(chain, links: Sequence[str], link_index: Mapping[str, int]) -> dict[str, set[int]]:
+    """Each link's index and those of every link below it (``links``: the chain's, parents first)."""
+    out: dict[str, set[int]] = {}
+    for name in reversed(links):
+        mine = {link_index[name]}
+        for joint in chain.joints:
+            if joint.parent == name:
+                mine |= out[joint.child]
+        out[name] = mine
+    return out
