@@ -1,8 +1,9 @@
 """How a dataset's cheap entries are cut into worker processes' batches (solver.pipelines.dataset.build).
 
-A fresh process costs about two Grid World puzzles, so long requests run 32 entries a process; a short
-one is cut into four batches a worker, so that no worker is left idle while another makes them all, and
-larger puzzles run in shorter batches, so that none is left with a long queue at the end.
+A fresh process costs about two Grid World puzzles, so long requests run 32 entries of seven objects a
+process, up to 64 of smaller ones; a short one is cut into four batches a worker, so that no worker is left
+idle while another makes them all, and larger puzzles run in shorter batches, so that none is left with a
+long queue at the end.
 Every entry is made exactly once, in its order, whatever the cut.
 """
 
@@ -45,9 +46,12 @@ def test_larger_puzzles_run_in_shorter_batches():
         assert sorted(t.index for b in batches for t in b) == list(range(count))  # each once
         return [len(b) for b in batches]
 
-    # Up to the largest default size, seven objects (n = 6), full batches, as for any generator.
-    assert cut("3", 2 * BATCH_SIZE) == [BATCH_SIZE] * 2
+    # At the largest default size, seven objects (n = 6), full batches; smaller puzzles in longer ones, up to
+    # twice as long: n = 3 (4 objects) 64 a batch, n = 4 (5 objects) 62; never more than twice.
     assert cut("6", 2 * BATCH_SIZE) == [BATCH_SIZE] * 2
+    assert cut("3", 4 * BATCH_SIZE) == [2 * BATCH_SIZE] * 2
+    assert cut("4", 2 * BATCH_SIZE) == [62, 2]
+    assert cut("1", 4 * BATCH_SIZE) == [2 * BATCH_SIZE] * 2
     # Larger ones in shorter batches: n = 8 (9 objects) 19 a batch, n = 20 (21 objects) three.
     assert cut("8", 2 * BATCH_SIZE) == [19] * 3 + [7]
     assert cut("20", BATCH_SIZE) == [3] * 10 + [2]

@@ -86,7 +86,9 @@ from solver.pipelines.generation import LOOKAHEAD, generate_here, versions, warm
 if TYPE_CHECKING:
     from solver.benchmark.difficulty import DifficultySettings
 
-PRELOAD = [*GENERATION_PRELOAD, "solver.pipelines.dataset.build"]
+PRELOAD = [*(m for m in GENERATION_PRELOAD if m != "solver.benchmark.difficulty"), "solver.pipelines.dataset.build"]
+"""What the workers' server imports: generation's stack but the difficulty measure, which only a request with
+``--difficulty`` runs (its tasks bring it along: about 0.015 CPU s a worker, beside seconds a puzzle)."""
 
 
 @dataclass(frozen=True)
@@ -210,16 +212,21 @@ def write_record(shard_dir: Path, task: EntryTask, outcome: EntryOutcome) -> Pat
 
 # -- backends ------------------------------------------------------------------------
 BATCH_SIZE = 32
-"""Entries of Grid World's size that one worker process makes in a row. Every puzzle seeds its random
-sources itself (OMPL's included, :func:`solver.planning.ompl_setup.seed_ompl`), so a batch gives the
-puzzles single processes give. A fresh worker costs about 0.05 CPU s before its first puzzle (the forked
-server's pages it touches), two Grid World puzzles since the necessity proof (0.025 CPU s each): batches
-of 32 keep that near 5 %, where 8 left it at 20 %. A request of fewer than 32 entries per worker is cut
-into four batches per worker instead, so that every worker gets a share. Larger puzzles run in shorter
-batches (:func:`_batch_length`), so that no worker is left with a long queue at the end."""
+"""Entries of Lockbox Random's size (:data:`REFERENCE_OBJECTS`) that one worker process makes in a row.
+Every puzzle seeds its random sources itself (OMPL's included, :func:`solver.planning.ompl_setup.seed_ompl`),
+so a batch gives the puzzles single processes give. A fresh worker costs about 0.02-0.03 CPU s (the
+server's fork, about 0.008, and the pages of the server's the worker then touches and so copies, about
+0.013, before it has made its first puzzle: 2-core dev machine), a Simple Slider or Grid World puzzle
+0.009-0.014. A request of fewer than 32 entries per worker is cut into four batches per worker instead, so
+that every worker gets a share. Smaller puzzles run in longer batches, larger ones in shorter
+(:func:`_batch_length`), so that no batch holds more work than a full one of the reference size and no
+worker is left with a long queue at the end."""
 REFERENCE_OBJECTS = 7
-"""The most objects a puzzle of a full batch has: the largest default size of the bundled generators
-(Lockbox Random's seven parts, 0.05-0.07 CPU s a puzzle in a whole run: 32 of them are no long queue)."""
+"""The objects of a puzzle of a full batch: the largest default size of the bundled generators (Lockbox
+Random's seven parts, 0.05-0.07 CPU s a puzzle in a whole run: 32 of them are no long queue)."""
+LONGEST_BATCH = 2 * BATCH_SIZE
+"""The most entries a batch holds, however small its puzzles (four objects: Simple Slider's and Rooms'
+benchmark sizes, 0.009-0.07 CPU s a puzzle)."""
 
 
 def make_batch(batch: list[EntryTask]) -> list[EntryOutcome]:
@@ -265,13 +272,14 @@ def _batches(tasks: Iterable[EntryTask], size: int, workers: int = 1) -> Iterato
     """``tasks`` cut into batches of entries of one cost (:func:`_cost_hint`), each in the order read."""
     tasks = iter(tasks)
     head = list(itertools.islice(tasks, size * workers))
-    short = size
+    short = None
     if len(head) < size * workers:  # a small request: four batches a worker (see BATCH_SIZE)
         short = min(size, max(1, math.ceil(len(head) / (4 * workers))))
     open_batches: dict[tuple[float, int], list[EntryTask]] = {}
     for task in itertools.chain(head, tasks):
         scale, objects = _cost_hint(task)
-        key = (scale, min(short, _batch_length(size, objects)))
+        length = _batch_length(size, objects)
+        key = (scale, length if short is None else min(short, length))
         batch = open_batches.setdefault(key, [])
         batch.append(task)
         if len(batch) == key[1]:
@@ -280,11 +288,12 @@ def _batches(tasks: Iterable[EntryTask], size: int, workers: int = 1) -> Iterato
 
 
 def _batch_length(size: int, objects: int) -> int:
-    """How many entries of ``objects`` objects a batch holds: ``size`` up to :data:`REFERENCE_OBJECTS`,
-    fewer for larger puzzles, whose cost grows with the square of their objects (Move N Times, n = 2..5,
-    3..6 objects: 5.0-5.3 ms x objects^2 a puzzle, 2-core dev machine), so that a batch holds no more
-    work than a full one of the largest default size; the largest puzzles run alone."""
-    return max(1, min(size, size * REFERENCE_OBJECTS ** 2 // max(1, objects) ** 2))
+    """How many entries of ``objects`` objects a batch holds: ``size`` at :data:`REFERENCE_OBJECTS`, more
+    for smaller puzzles (up to twice ``size``: :data:`LONGEST_BATCH`) and fewer for larger ones, whose
+    cost grows with the square of their objects (Move N Times, n = 2..5, 3..6 objects: 5.0-5.3 ms x
+    objects^2 a puzzle, 2-core dev machine), so that a batch holds no more work than a full one of the
+    largest default size; the largest puzzles run alone."""
+    return max(1, min(2 * size, size * REFERENCE_OBJECTS ** 2 // max(1, objects) ** 2))
 
 
 def _server_hint(batch: list[EntryTask]) -> str | None:
