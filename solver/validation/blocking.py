@@ -11,7 +11,8 @@ go to let the target by. :class:`BlockingProver` looks for such an answer, as a 
 2. *Reachable cells.* A cell of an object is blocked when the object, anywhere in the cell,
    collides with an object that is fixed, or with an object in every cell that object can reach. A
    one-joint object passes every value between two others, so it can reach only the run of
-   unblocked cells around its start; this is repeated until nothing changes.
+   unblocked cells around its start; this is repeated until nothing changes, then (where the goal is left
+   in reach) with the cell pairs two objects reach together (:mod:`solver.validation.cell_reach`).
 3. *Goal states.* With the target's goal joints at their goal values, every object's cells
    are pruned by arc consistency: a cell stays only while, for every other object, some cell
    of it left is clear of this one. An object left without cells means no valid goal state
@@ -52,8 +53,9 @@ from phyrogen_core.geometry import Box, ConvexPrism
 from phyrogen_core.objects import Motion, PuzzleObject
 from phyrogen_core.puzzle import Goal
 from solver.planning.problem import GOAL_SLACK, LOCKED_WIDTH, shrunk_tolerance
-from solver.validation import cell_pairs
+from solver.validation import cell_pairs, cell_reach
 from solver.validation.cell_pairs import or_throughout, refine, widest_pairs
+from solver.validation.cell_reach import pair_spans, walls
 
 PROOF_EROSION = 0.06
 """Metres any point of an object may move from a cell's centre within the cell (cells are twice as wide)."""
@@ -61,6 +63,15 @@ LEAST_EROSION = 0.006
 """The finest cells: every cell stays wider (1.2 cm of any point's motion) than the judges' motion checks
 step (0.5 cm, 1 cm: :data:`~solver.validation.judge.JUDGE_SETTINGS`, the second judge's), so a judge's
 motion through a cell blocked throughout checks a state in it."""
+DEEP_EROSION = 0.0005
+"""The finest cells of a *deep* proof (a question asked again, :meth:`BlockingProver.proves`): 1 mm of any
+point's motion, or fewer cells where that takes more than :data:`DEEP_CELLS`. They are narrower than the
+judges' motion-check steps, so a run of blocked cells keeps an object on its side only when the run is at
+least as wide as a cell of :data:`LEAST_EROSION` (:func:`~solver.validation.cell_reach.walls`). Continuous
+Space's slivers (a bar solved at twice the margin, not at the margin) block by a few millimetres more than the
+tolerance: less than the bound 1.2 cm cells leave for the motion within them."""
+DEEP_CELLS = 2048
+"""The most cells of one object in a deep proof (a table of two: 4 million pairs, kept while the proof runs)."""
 PROOF_SLACK = 1e-6
 """Metres added to the judge's tolerance: a pair proven colliding collides by more than the rounding
 between the proof's and the collision model's coordinates."""
@@ -191,9 +202,11 @@ class BlockingProver:
     """Proves objects necessary by geometry (see the module docstring). Keeps what it computed about
     each object and each pair of objects, so the questions of one puzzle share it."""
 
-    def __init__(self, erosion: float = PROOF_EROSION, fine: float = LEAST_EROSION):
+    def __init__(self, erosion: float = PROOF_EROSION, fine: float = LEAST_EROSION, deep: float = DEEP_EROSION):
         self.erosion = erosion
         self.fine = max(fine, LEAST_EROSION)
+        self.deep = min(deep, self.fine)
+        self._failed: set[tuple] = set()  # questions the standard cells did not prove: asked again, deep
         self._outlines: dict[PuzzleObject, tuple[_Outline, ...]] = {}
         self._cells: dict[tuple, _Cells] = {}
         self._tables: dict[tuple, np.ndarray] = {}
@@ -227,20 +240,27 @@ class BlockingProver:
             found = self._reaches[key] = _reach(self.outlines(obj))
         return found
 
+    def _joint_reach(self, obj: PuzzleObject) -> float:
+        """Metres of any point's motion per unit of the object's joint, at most (as the cells are sized)."""
+        return 1.0 if obj.motion is Motion.PRISMATIC else max(self._reach(obj), 1e-3)
+
     def free_cells(self, obj: PuzzleObject, level: int | None = None) -> _Cells:
-        """A one-joint object's cells over its whole range at ``level`` (None: the finest): level 0 the
-        widest, in which no point moves more than :attr:`erosion` from a cell's centre, each next level
-        halving every cell, down to cells at least twice :attr:`fine` wide in any point's motion."""
+        """A one-joint object's cells over its whole range at ``level`` (None: the finest of a standard proof):
+        level 0 the widest, in which no point moves more than :attr:`erosion` from a cell's centre, each next
+        level halving every cell, down to cells at least twice :attr:`fine` wide in any point's motion (a
+        standard proof's finest) and further down to twice :attr:`deep` (a deep proof's, :meth:`deepest`)."""
         key = (self._id(obj), "levels")
         found = self._cells.get(key)
         (lower, upper), = obj.limits
         if found is None:
-            reach = 1.0 if obj.motion is Motion.PRISMATIC else max(self._reach(obj), 1e-3)
+            reach = self._joint_reach(obj)
             count = max(1, math.ceil((upper - lower) * reach / (2 * self.erosion)))
-            halvings = max(0, math.floor(math.log2((upper - lower) * reach / count / (2 * self.fine))))
-            found = self._cells[key] = (count, [None] * (halvings + 1))
-        count, levels = found
-        level = len(levels) - 1 if level is None else level
+            halvings, deep = (max(0, math.floor(math.log2((upper - lower) * reach / count / (2 * fine))))
+                              for fine in (self.fine, self.deep))
+            deep = max(halvings, min(deep, math.floor(math.log2(max(1, DEEP_CELLS // count)))))
+            found = self._cells[key] = (count, [None] * (deep + 1), halvings)
+        count, levels, finest = found
+        level = finest if level is None else level
         if levels[level] is None:
             count <<= level
             width = (upper - lower) / count
@@ -251,6 +271,11 @@ class BlockingProver:
             motions[:, 0 if obj.motion is Motion.PRISMATIC else 1] = width / 2
             levels[level] = _Cells(poses, motions, values, lower, width, level)
         return levels[level]
+
+    def deepest(self, obj: PuzzleObject) -> _Cells:
+        """A one-joint object's cells at a deep proof's finest level."""
+        self.free_cells(obj, 0)
+        return self.free_cells(obj, len(self._cells[(self._id(obj), "levels")][1]) - 1)
 
     def _levels(self, obj: PuzzleObject, cells: _Cells) -> tuple[_Cells, ...]:
         """The object's cells at every level down to ``cells``', widest first (one pose: itself)."""
@@ -367,9 +392,13 @@ class BlockingProver:
         if flipped is not None:
             return flipped.T
         (obj_a, where_a, cells_a), (obj_b, where_b, cells_b) = a, b
-        table = np.zeros((len(cells_a.poses), len(cells_b.poses)), dtype=bool)
+        shape = (len(cells_a.poses), len(cells_b.poses))
         box_a, box_b = self._box(obj_a, where_a, cells_a), self._box(obj_b, where_b, cells_b)
-        if np.all(box_a[:2] < box_b[2:]) and np.all(box_b[:2] < box_a[2:]):
+        near = np.all(box_a[:2] < box_b[2:]) and np.all(box_b[:2] < box_a[2:])
+        # Never near: no cell pair; a large table (a deep proof's) then takes no memory.
+        table = np.zeros(shape, dtype=bool) if near or shape[0] * shape[1] < 1 << 16 else \
+            np.broadcast_to(np.zeros((1, 1), dtype=bool), shape)
+        if near:
             tolerance = shrunk_tolerance(shrink)
             for index_a, outline_a in enumerate(self.outlines(obj_a)):
                 for index_b, outline_b in enumerate(self.outlines(obj_b)):
@@ -393,7 +422,22 @@ class BlockingProver:
     # -- the proof ---------------------------------------------------------------
     def proves(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], shrink: float) -> bool:
         """Whether, with the objects ``fixed`` held at their start pose and every shape shrunk by
-        ``shrink`` metres, no valid state with the target at its goal can be reached from the start."""
+        ``shrink`` metres, no valid state with the target at its goal can be reached from the start.
+
+        A question this prover failed to prove before, asked again, is tried once more with the cells of a
+        deep proof (:data:`DEEP_EROSION`): the judge asks again only where a search is due that a sliver of
+        slack may make long (:func:`~solver.validation.judge.judge`), so cheap questions stay cheap."""
+        question = (tuple(self._id(obj) for obj in objects), goal.target, tuple(sorted(goal.values.items())),
+                    goal.tolerance, frozenset(fixed), shrink)
+        if question in self._failed:
+            return self._proves(objects, goal, fixed, shrink, deep=True)
+        if self._proves(objects, goal, fixed, shrink, deep=False):
+            return True
+        self._failed.add(question)
+        return False
+
+    def _proves(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], shrink: float,
+                deep: bool) -> bool:
         fixed = set(fixed)
         points: list[tuple[PuzzleObject, tuple, _Cells]] = []
         free: list[tuple[PuzzleObject, tuple, _Cells]] = []
@@ -427,6 +471,14 @@ class BlockingProver:
             return False
         if goal_point is not None:
             points = [*points, goal_point]
+        if deep:  # the standard proof failed: only finer cells can prove more
+            finer = [(obj, ("level", cells.level), cells) for obj, _, _ in free
+                     for cells in (self.deepest(obj),)]
+            kept = set(self._tables), set(self._blocks)
+            proven = any(a[2].level > b[2].level for a, b in zip(finer, free, strict=True)) and \
+                self._settled(finer, points, target, goal, shrink)
+            self._forget(*kept)
+            return proven
         if not any(cells.level for _, _, cells in free):
             return self._settled(free, points, target, goal, shrink)
         # A proof holds at the widest cells or at the finest (either will do: the answer is the same in either
@@ -444,29 +496,45 @@ class BlockingProver:
         self._finest_first = self._settled(free, points, target, goal, shrink)
         return self._finest_first
 
-    def _settled(self, free, points, target: int | None, goal: Goal, shrink: float) -> bool:
-        """Steps 2 and 3 of the module docstring over the cells of ``free``: whether no goal state is left."""
-        reach = self._reachable(free, points, shrink)
-        if reach is None:
-            return False
-        domains = [mask.copy() for mask in reach]
-        if target is not None:
-            obj, _, cells = free[target]
-            (value,) = (goal.values[j] for j in obj.joint_names)
-            near = goal.tolerance + GOAL_SLACK
-            low = cells.lower + cells.width * np.arange(len(domains[target]))
-            domains[target] &= (low <= value + near) & (low + cells.width >= value - near)
-        return self._emptied(free, points, domains, shrink)
+    def _forget(self, tables: set, blocks: set) -> None:
+        """Drops the tables made since the prover held only these keys (a deep proof's: large, seldom reused)."""
+        for made, before in ((self._tables, tables), (self._blocks, blocks)):
+            for key in set(made) - before:
+                del made[key]
 
-    def _reachable(self, free, points, shrink: float) -> list[np.ndarray] | None:
-        """Per free object, its reachable cells (step 2 of the module docstring); None when a start
-        cell itself is blocked (the model and the proof disagree: no proof)."""
+    def _settled(self, free, points, target: int | None, goal: Goal, shrink: float) -> bool:
+        """Steps 2 and 3 of the module docstring over the cells of ``free``: whether no goal state is left. The
+        reach of objects one at a time first; where that leaves a goal state, of pairs too (dearer)."""
+        alone = None
+        for pairs in (False, True):
+            reach = self._reachable(free, points, shrink, pairs)
+            if reach is None or pairs and all(np.array_equal(a, b) for a, b in zip(reach, alone, strict=True)):
+                return False
+            domains = [mask.copy() for mask in reach]
+            if target is not None:
+                obj, _, cells = free[target]
+                (value,) = (goal.values[j] for j in obj.joint_names)
+                near = goal.tolerance + GOAL_SLACK
+                low = cells.lower + cells.width * np.arange(len(domains[target]))
+                domains[target] &= (low <= value + near) & (low + cells.width >= value - near)
+            if self._emptied(free, points, domains, shrink):
+                return True
+            alone = reach
+        return False
+
+    def _reachable(self, free, points, shrink: float, pairs: bool = True) -> list[np.ndarray] | None:
+        """Per free object, its reachable cells (step 2 of the module docstring), with ``pairs`` also where two
+        objects can get together; None when a start cell itself is blocked (the model and the proof disagree:
+        no proof)."""
         reach = [np.ones(len(cells.poses), dtype=bool) for _, _, cells in free]
         starts = []
         for obj, _, cells in free:
             (lo, hi), = obj.limits
             start = min(max(0.0, lo), hi)
             starts.append(min(len(cells.poses) - 1, int((start - cells.lower) // cells.width)) if cells.width else 0)
+        # Walls: runs of blocked cells at least 1.2 cm of motion wide, which no judge's motion step jumps.
+        steps = [max(1, math.ceil(2 * LEAST_EROSION / self._joint_reach(obj) / cells.width - 1e-9))
+                 if cells.width else 1 for obj, _, cells in free]
         fixed_blocks = []
         for entry in free:
             blocked = np.zeros(len(entry[2].poses), dtype=bool)
@@ -477,24 +545,33 @@ class BlockingProver:
         spans = [(0, len(mask) - 1) for mask in reach]
         tables = {(i, k): table for i, entry in enumerate(free) for k, other in enumerate(free)
                   if k != i and (table := self._blocking(entry, other, shrink)) is not None}
+        blocks = list(fixed_blocks)
         changed = True
         while changed:
             changed = False
             for i in range(len(free)):
-                blocked = fixed_blocks[i].copy()
+                blocked = blocks[i] = fixed_blocks[i].copy()
                 for k in range(len(free)):
                     if (i, k) in tables:
                         or_throughout(tables[i, k], spans[k][0], spans[k][1], blocked)
                 start = starts[i]
                 if blocked[start]:
                     return None
-                before, after = np.flatnonzero(blocked[:start]), np.flatnonzero(blocked[start + 1:])
-                left = max(spans[i][0], before[-1] + 1 if len(before) else 0)
-                right = min(spans[i][1], start + after[0] if len(after) else len(blocked) - 1)
+                left, right = walls(blocked, start, steps[i])
+                left, right = max(spans[i][0], left), min(spans[i][1], right)
                 if (left, right) != spans[i]:
                     spans[i], changed = (left, right), True
-                    reach[i] = np.zeros_like(blocked)
-                    reach[i][left:right + 1] = True
+            # The runs settled one by one: two objects in each other's way keep each other to the pairs of cells
+            # they can reach together (cell_reach), which can hold less than either run. (Not at a deep proof's
+            # cells: a flood through them costs a hundred times more, for few proofs.)
+            for i, k in [(i, k) for i, k in tables if i < k and steps[i] == steps[k] == 1] if pairs and not changed \
+                    else ():
+                pair = pair_spans(tables[i, k], blocks[i], blocks[k], spans[i], spans[k], starts[i], starts[k],
+                                  steps[i], steps[k])
+                if pair != (spans[i], spans[k]):
+                    (spans[i], spans[k]), changed = pair, True
+        for mask, (left, right) in zip(reach, spans, strict=True):
+            mask[:left] = mask[right + 1:] = False
         return reach
 
     def _emptied(self, free, points, domains: list[np.ndarray], shrink: float) -> bool:
@@ -520,3 +597,4 @@ class BlockingProver:
 def warm_up() -> None:
     """Load the proof's compiled test (from numba's cache, or compile it), as a server does before it forks."""
     cell_pairs.warm_up()
+    cell_reach.warm_up()

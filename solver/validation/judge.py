@@ -79,9 +79,9 @@ MARGINAL_BUDGET_SCALE = 8
 in Continuous Space seed 500 a bar that blocks by less than the margin needed 600-10 000 queries
 to be found superfluous, so 4000 missed it about half the time."""
 WARM_RESTARTS = 8
-"""Warm-started runs (:func:`attempt_warm`, on seeds of their own) at the required margin where both judges'
-longer searches failed and the rung above was solved, each with a :data:`WARM_SHARE` of the rung's base budget
-(together 2x that budget, against the judges' 8x each). A failed search of LA-RRT is heavy-tailed: on a sliver
+"""Warm-started runs (:func:`attempt_warm`, on seeds of their own) at the required margin where the rung above
+was solved, before both judges' longer searches (:func:`judge`), each with a :data:`WARM_SHARE` of the rung's base
+budget (together 2x that budget, against the judges' 8x each). A failed search of LA-RRT is heavy-tailed: on a sliver
 blocker a run either solves soon or wanders for tens of thousands of queries (Continuous Space 9940007: of 10
 cold runs of the first judge, 3 unsolved at 100 000 queries, 7 solved within 11 400), and most warm runs that
 solve do it by mending the rung above's path, within a few hundred queries, so many short runs, each with its
@@ -97,6 +97,9 @@ GOAL_REPAIR_DRAWS = 512
 SHIFT_REPAIR_POINTS = 24
 """Points of a colliding run of the rung above's witness checked per offset before the run is checked whole
 (:func:`shift_repair`)."""
+SCREEN_CHUNKS = 4
+"""Pieces the screened points of a run are checked in by :func:`shift_repair` (draws failing one piece skip the
+rest; which draws pass does not depend on it)."""
 GOAL_REPAIR_ROOTS = 8
 """Goal roots :func:`goal_repair` gives at most: the valid goal states of a batch can lie in pockets of slack
 apart, of which only one may connect."""
@@ -117,6 +120,8 @@ FIRST_JUDGE = "la_rrt_push"
 SECOND_JUDGE = "la_rrt_paper"
 WARM_JUDGE = "la_rrt_push_warm"
 """The first judge warm-started from the rung above's solution (:func:`attempt_warm`)."""
+CARRIED = "carried"
+"""The rung above's solution, holding as it stands at a lower rung (:func:`attempt_carried`)."""
 GEOMETRY = "geometry"
 """The judge of an attempt settled by :class:`~solver.validation.blocking.BlockingProver`, not by a search."""
 NO_GOAL_STATE = "no valid goal state"
@@ -156,7 +161,34 @@ def attempt_fixed(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrin
     return Attempt(fixed, shrink, result.solved, path, queries)
 
 
-def witness_nodes(problem: Problem, chain: KinematicChain, witness: Path, shrink: float, rng: np.random.Generator
+def attempt_carried(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrink: float, witness: Path
+                    ) -> Attempt | None:
+    """``witness`` (a solution with the same objects fixed and the shapes shrunk more) as a solution at
+    ``shrink``, where every motion of it holds there at the first judge's resolution, as the first judge's own
+    solutions do; else None. One collision query."""
+    if not witness:
+        return None
+    fixed = tuple(fixed)
+    problem = problem_for_chain(chain, goal, fixed=fixed, shrink=shrink)
+    columns = [chain.joint_order.index(name) for name in problem.model.joint_order]
+    states = np.ascontiguousarray(np.asarray(witness, dtype=np.float64)[:, columns])
+    if not (problem.model.check_prepared(states[:1]).all() and  # (the start: path_is_valid assumes it valid)
+            path_is_valid(problem.model, states, problem.model.motion_steps(JUDGE_SETTINGS.resolution))):
+        return None
+    return Attempt(fixed, shrink, True, witness, 1, CARRIED)
+
+
+def witness_points(problem: Problem, chain: KinematicChain, witness: Path) -> tuple[np.ndarray, ...]:
+    """``witness`` in ``problem``'s joint order, its points every :data:`FINE_RESOLUTION`, the segment of each
+    point and which points are valid: what :func:`witness_nodes` starts from, the same for every warm restart."""
+    columns = [chain.joint_order.index(name) for name in problem.model.joint_order]
+    states = np.ascontiguousarray(np.asarray(witness, dtype=np.float64)[:, columns])
+    points, segment = segment_points(states, problem.model.motion_steps(FINE_RESOLUTION))
+    return states, points, segment, problem.model.check_prepared(points)
+
+
+def witness_nodes(problem: Problem, chain: KinematicChain, witness: Path, shrink: float, rng: np.random.Generator,
+                  dense: tuple[np.ndarray, ...] | None = None
                   ) -> tuple[np.ndarray | tuple[tuple[np.ndarray, np.ndarray], ...], int]:
     """A warm start from ``witness`` (a path in ``chain``'s joint order, found where shapes were shrunk more) and
     the collision queries spent: a solution in ``problem``'s joint order where the witness holds in ``problem``
@@ -165,10 +197,7 @@ def witness_nodes(problem: Problem, chain: KinematicChain, witness: Path, shrink
     (:func:`~solver.planning.la_rrt.la_rrt_within`): the start tree holds the witness's states up to its first
     colliding point, the goal tree those from its goal state back to its last colliding point, or, where the
     goal state itself collides, valid goal states near it (:func:`goal_repair`), if any are found."""
-    columns = [chain.joint_order.index(name) for name in problem.model.joint_order]
-    states = np.ascontiguousarray(np.asarray(witness, dtype=np.float64)[:, columns])
-    points, segment = segment_points(states, problem.model.motion_steps(FINE_RESOLUTION))
-    free = problem.model.check_prepared(points)
+    states, points, segment, free = dense if dense is not None else witness_points(problem, chain, witness)
     if free.all():
         return states, 1
     repaired, queries = shift_repair(problem, np.vstack([states[:1], points]), np.r_[True, free], shrink, rng)
@@ -213,9 +242,14 @@ def shift_repair(problem: Problem, points: np.ndarray, free: np.ndarray, shrink:
             queries += 1
             # The run's middle point first, for every draw; the rest of the screened points for those it passes.
             alive = np.flatnonzero(_valid(problem, screened[len(screened) // 2] + offsets))
-            candidates = (screened[None] + offsets[alive, None]).reshape(-1, len(moved))
+            # The rest a few points at a time, for the draws still passing: the same draws pass as when every
+            # point of every draw is checked at once, at a fraction of the checks where most fail.
+            for chunk in np.array_split(np.arange(len(screened)), SCREEN_CHUNKS):
+                if len(alive) and len(chunk):
+                    valid = _valid(problem, (screened[chunk][None] + offsets[alive, None]).reshape(-1, len(moved)))
+                    alive = alive[valid.reshape(len(alive), len(chunk)).all(axis=1)]
             passed = np.zeros(GOAL_REPAIR_DRAWS, dtype=bool)
-            passed[alive] = _valid(problem, candidates).reshape(len(alive), len(screened)).all(axis=1)
+            passed[alive] = True
             found = None
             for k in np.flatnonzero(passed)[np.argsort(np.abs(offsets[passed] * reach).sum(axis=1), kind="stable")][:4]:
                 run = np.vstack([points[a - 1:a], points[a:b + 1] + offsets[k], points[b + 1:b + 2]])
@@ -261,13 +295,13 @@ def goal_repair(problem: Problem, state: np.ndarray, shrink: float,
 
 
 def attempt_warm(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrink: float, budget: int,
-                 rng: np.random.Generator, witness: Path) -> Attempt:
+                 rng: np.random.Generator, witness: Path, dense: tuple[np.ndarray, ...] | None = None) -> Attempt:
     """The first judge warm-started from ``witness``, a solution found with the same objects fixed and the
     shapes shrunk more (:func:`witness_nodes`): where the witness collides only by a sliver, the trees start
     on both sides of the sliver. The witness itself where it holds as it stands."""
     fixed = tuple(fixed)
     problem = problem_for_chain(chain, goal, fixed=fixed, shrink=shrink)
-    nodes, spent = witness_nodes(problem, chain, witness, shrink, rng)
+    nodes, spent = witness_nodes(problem, chain, witness, shrink, rng, dense)
     if isinstance(nodes, np.ndarray):  # the witness repaired: a solution
         return Attempt(fixed, shrink, True, chain_path(problem, nodes), spent, WARM_JUDGE)
     result, queries = la_rrt_within(problem, max(budget - spent, 0), rng, JUDGE_SETTINGS, nodes=nodes)
@@ -363,42 +397,69 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     judge) and a seed from ``second_seed`` (default :func:`question_seed`); it never draws from
     ``rng``, so where it solves nothing the first judge's runs are what they were without it.
 
-    At the required margin, reached only by objects solved at the rung above, a failure of both judges
-    is followed by :data:`WARM_RESTARTS` warm-started runs from the rung above's solution
-    (:func:`attempt_warm`: that path mended where it collides by a sliver, or the trees grown from both sides
-    of the sliver), on seeds of their own, each with a :data:`WARM_SHARE` of ``budget``: they never draw from
-    ``rng`` and only run where the verdict would have been "necessary", so a puzzle changes only where one of
-    them solves (the object is then superfluous), and a necessary verdict's reason stays the judges'.
+    Below the top rung, the rung above's solution is tried first as it stands (:func:`attempt_carried`): a
+    path that holds at this rung's shrink at the first judge's resolution solves it, with no search.
 
-    ``proof(shrink)``, when given (with a second judge), is asked at the top rung *before* the first
-    judge, and at a lower rung before the second judge: True (a geometric proof that the puzzle is
-    unsolvable at that shrink, :class:`~solver.validation.blocking.BlockingProver`) settles the rung
-    without a search. Both judges could only have failed there, so the verdict and the margin are
-    what they were without the proof. At the top rung it spares the first judge's whole failing
-    search (most of a Grid World puzzle's time), which would have drawn from ``rng`` (the validator's
-    stream, not the Maker's): a later search of the validator that draws from it (RRT-Connect where
-    no certificate extends, the certificate's repair, a later question's first judge) then draws
-    other numbers than without the proof, and can find another certificate, measure another margin
-    or accept another candidate; every verdict is still both judges' or a proof's
-    (docs/performance.md says how often puzzles changed). Below the top rung the proof is asked
-    only after the first judge failed, so it changes no draw.
+    At the required margin, reached only by objects solved at the rung above (the marginal rung), the
+    :data:`WARM_RESTARTS` warm-started runs from the rung above's solution (:func:`attempt_warm`: that path
+    mended where it collides by a sliver, or the trees grown from both sides of the sliver), on seeds of their
+    own, each with a :data:`WARM_SHARE` of ``budget``, run *before* the judges' long searches: they never draw
+    from ``rng``, and the first of them mends most slivers in a few hundred queries. Only where none solves do
+    the first judge (``budget`` times :data:`MARGINAL_BUDGET_SCALE`) and the second run, as they did before, so
+    a necessary verdict rests on the same searches with the same budgets, and its reason stays the judges'.
+
+    ``proof(shrink)``, when given (with a second judge), is asked at every rung *before* any search, and
+    asked again (the prover then tries finer cells, :meth:`~solver.validation.blocking.BlockingProver.proves`)
+    after the first warm restart failed at the marginal rung and after the first judge failed elsewhere: True
+    (a geometric proof that the puzzle is unsolvable at that shrink) settles the rung without a search. Both
+    judges could only have failed there, so the verdict and the margin are what they were without the proof.
+    A proof, a carried path or a warm restart that spares the first judge's search spares its draws from
+    ``rng`` (the validator's stream, not the Maker's): a later search of the validator that draws from it
+    (RRT-Connect where no certificate extends, the certificate's repair, a later question's first judge) then
+    draws other numbers, and can find another certificate, measure another margin or accept another
+    candidate; every verdict is still both judges' or a proof's (docs/performance.md says how often puzzles
+    changed).
     """
     queries = second_checks = 0
     attempt = above = None
     attempts: list[Attempt] = []
     levels = MARGIN_LEVELS if margin > 0 else (1,)
+    proving = bool(second_budget) and proof is not None
     for level in levels:
         # Reaching the required rung means the puzzle was solved at every rung above it: the
         # objects block by a sliver at most, and a verdict there needs a longer search.
         scale = MARGINAL_BUDGET_SCALE if level == levels[-1] and len(levels) > 1 else 1
-        asked = level == levels[0] and second_budget and proof is not None  # the top rung: before the first judge
-        if asked and proof(level * margin):
+        if above is not None:  # the rung above's solution, where it holds here as it stands
+            carried = attempt_carried(chain, goal, fixed, level * margin, above.path)
+            if carried is not None:
+                attempts.append(carried)
+                queries += carried.queries
+                attempt = above = carried
+                continue
+        # The proof before any search; asked again (finer cells, :meth:`BlockingProver.proves`) before the
+        # marginal rung's long searches, and after a failed search elsewhere.
+        if proving and proof(level * margin):
             attempts.append(Attempt(tuple(fixed), level * margin, False, judge=GEOMETRY))
             return Necessity(True, level * margin, queries, None, tuple(attempts), second_checks)
+        marginal = scale > 1 and above is not None and bool(second_budget)
+        if marginal:
+            # The warm restarts before the long searches: they draw nothing from rng, and the first mends most
+            # slivers in a few hundred queries; the proof's finer cells only where it did not.
+            if second_seed is None:
+                second_seed = question_seed(chain, fixed)
+            warm = _warm_restarts(chain, goal, fixed, level * margin, max(1, int(budget * WARM_SHARE)), second_seed,
+                                  above.path, proof=proof if proving else None)
+            attempts.extend(warm)
+            queries += sum(a.queries for a in warm)
+            if warm[-1].judge == GEOMETRY:
+                return Necessity(True, level * margin, queries, None, tuple(attempts), second_checks)
+            if warm[-1].solved:
+                attempt = above = warm[-1]
+                continue
         attempt = attempt_fixed(chain, goal, fixed, level * margin, budget * scale, rng)
         attempts.append(attempt)
         queries += attempt.queries
-        if not attempt.solved and second_budget and not asked and proof is not None and proof(level * margin):
+        if not attempt.solved and proving and not marginal and proof(level * margin):
             attempt = Attempt(tuple(fixed), level * margin, False, judge=GEOMETRY)
             attempts.append(attempt)
         elif not attempt.solved and second_budget:
@@ -408,13 +469,6 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
                                      stable_seed(second_seed, level))
             attempts.append(attempt)
             second_checks += attempt.queries
-            if not attempt.solved and scale > 1 and above is not None:
-                warm = _warm_restarts(chain, goal, fixed, level * margin, max(1, int(budget * WARM_SHARE)), second_seed,
-                                      above.path)
-                attempts.extend(warm)
-                queries += sum(a.queries for a in warm)
-                if warm and warm[-1].solved:
-                    attempt = warm[-1]
         if not attempt.solved:
             return Necessity(True, level * margin, queries, None, tuple(attempts), second_checks)
         above = attempt
@@ -422,14 +476,19 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
 
 
 def _warm_restarts(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrink: float, budget: int, seed: int,
-                   witness: Path) -> list[Attempt]:
+                   witness: Path, proof: Callable[[float], bool] | None = None) -> list[Attempt]:
     """Up to :data:`WARM_RESTARTS` runs of :func:`attempt_warm` from ``witness``, ``budget`` queries each, each
-    on its own seed from the question's ``seed``, until one solves: every run made."""
+    on its own seed from the question's ``seed``, until one solves: every run made. ``proof``, when given, is
+    asked after the first run fails; where it holds, a :data:`GEOMETRY` attempt ends the list."""
     runs: list[Attempt] = []
+    dense = witness_points(problem_for_chain(chain, goal, fixed=tuple(fixed), shrink=shrink), chain, witness)
     for k in range(WARM_RESTARTS):
         rng = np.random.default_rng(stable_seed(seed, "warm", k))
-        runs.append(attempt_warm(chain, goal, fixed, shrink, budget, rng, witness))
+        runs.append(attempt_warm(chain, goal, fixed, shrink, budget, rng, witness, dense))
         if runs[-1].solved:
+            break
+        if k == 0 and proof is not None and proof(shrink):
+            runs.append(Attempt(tuple(fixed), shrink, False, judge=GEOMETRY))
             break
     return runs
 

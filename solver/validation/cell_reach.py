@@ -1,0 +1,77 @@
+"""Where a free object of :class:`~solver.validation.blocking.BlockingProver` can get to: its run of cells
+between walls, and the runs two objects in each other's way leave each other.
+
+A judge accepts a path only where every state it checks is valid, and between two checked states no joint
+moves more than a step (:data:`~solver.validation.blocking.LEAST_EROSION` bounds it: cells that wide in any
+point's motion are wider than every judge's step). So an object's joint, from cell to checked cell, moves by
+at most ``g`` cells, where ``g`` cells are that wide (one cell at a standard proof's levels, a few at a deep
+proof's): a run of at least ``g`` blocked cells is a wall it cannot jump (:func:`walls`), and the cells of two
+objects i and k at consecutive checked states are at most ``g_i`` and ``g_k`` apart. Every checked state lies
+in a cell pair not blocked throughout (a blocked pair collides wherever in its cells the objects are), so the
+cell pairs of a path are a walk through free cell pairs from the start's, by such moves: the pairs that walk
+can reach (:func:`pair_spans`) hold every state of a path, and their projections hold each object's values.
+That is sound for any objects held to their runs: the runs shrink one step at a time, each step from runs
+that every path keeps to (by the steps before it), so every path keeps to the runs after it too.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+def walls(blocked: np.ndarray, start: int, width: int) -> tuple[int, int]:
+    """The run of cells around ``start`` (not blocked) up to the nearest runs of at least ``width`` blocked
+    cells on either side: its first and last cell."""
+    if width == 1:
+        before, after = np.flatnonzero(blocked[:start]), np.flatnonzero(blocked[start + 1:])
+        return int(before[-1] + 1 if len(before) else 0), int(start + after[0] if len(after) else len(blocked) - 1)
+    edges = np.flatnonzero(np.diff(np.r_[0, blocked.view(np.int8), 0]))
+    firsts, ends = edges[::2], edges[1::2]  # blocked runs firsts[k] .. ends[k] - 1
+    wide = ends - firsts >= width
+    before, after = ends[wide & (ends <= start)], firsts[wide & (firsts > start)]
+    return (int(before[-1]) if len(before) else 0), (int(after[0]) - 1 if len(after) else len(blocked) - 1)
+
+
+@njit(cache=True, nogil=True)
+def flood(free, first, second, reach_first, reach_second):  # pragma: no cover (compiled)
+    """The cells of the grid ``free`` (bool, n x m) reached from (``first``, ``second``) by moves of at most
+    ``reach_first`` rows and ``reach_second`` columns, through free cells only."""
+    n, m = free.shape
+    seen = np.zeros((n, m), dtype=np.bool_)
+    if not free[first, second]:
+        return seen
+    stack = np.empty(n * m, dtype=np.int64)
+    stack[0], top = first * m + second, 1
+    seen[first, second] = True
+    while top:
+        top -= 1
+        a, b = divmod(stack[top], m)
+        for x in range(max(0, a - reach_first), min(n, a + reach_first + 1)):
+            for y in range(max(0, b - reach_second), min(m, b + reach_second + 1)):
+                if free[x, y] and not seen[x, y]:
+                    seen[x, y] = True
+                    stack[top] = x * m + y
+                    top += 1
+    return seen
+
+
+def pair_spans(table: np.ndarray, blocked_i: np.ndarray, blocked_k: np.ndarray, span_i: tuple[int, int],
+               span_k: tuple[int, int], start_i: int, start_k: int, steps_i: int, steps_k: int
+               ) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The runs of objects i and k within ``span_i`` and ``span_k`` that the cell pairs reachable from the start's
+    hold (see the module docstring): ``table`` (cells of i, cells of k) marks the pairs blocked throughout,
+    ``blocked_i`` and ``blocked_k`` the cells each is kept out of whatever the other does, ``steps_i`` and
+    ``steps_k`` the most cells a joint moves between checked states."""
+    (lo_i, hi_i), (lo_k, hi_k) = span_i, span_k
+    free = ~table[lo_i:hi_i + 1, lo_k:hi_k + 1] & ~blocked_i[lo_i:hi_i + 1, None] & ~blocked_k[None, lo_k:hi_k + 1]
+    seen = flood(np.ascontiguousarray(free), start_i - lo_i, start_k - lo_k, steps_i, steps_k)
+    rows, columns = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
+    if not len(rows):  # the start pair itself blocked: the caller has found that already
+        return span_i, span_k
+    return (lo_i + int(rows[0]), lo_i + int(rows[-1])), (lo_k + int(columns[0]), lo_k + int(columns[-1]))
+
+
+def warm_up() -> None:
+    """Load the compiled flood fill (from numba's cache, or compile it)."""
+    flood(np.ones((2, 2), dtype=np.bool_), 0, 0, 1, 1)

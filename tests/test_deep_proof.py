@@ -1,0 +1,211 @@
+"""The geometric proof's finer cells (a question asked again) and its reach of two objects together.
+
+:class:`~solver.validation.blocking.BlockingProver` answers a question it failed once, asked again, with cells
+narrower than the judges' motion steps (a *deep* proof), where a run of blocked cells is a wall only when it is
+as wide as a step (:func:`~solver.validation.cell_reach.walls`); and it follows two objects in each other's way
+through the cell pairs they can reach together (:func:`~solver.validation.cell_reach.pair_spans`). Each claim
+has its check and its control: walls and the flood against walks written out, the deep cells' blocked pairs
+against the judges' collision model (a prover that tests only the cells' centres is caught), and on fresh
+Continuous Space puzzles every question only these proofs settle defeats both judges with ten times their
+budgets while no question the Maker found superfluous is proven. Bounded by counts, never seconds. Seeds
+5731001-5731006 and 7501-7509 are used by no other test.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from phyrogen_core.objects import build_chain
+from phyrogen_core.registry import get_generator
+from solver.validation import validator as validator_module
+from solver.validation.blocking import BlockingProver
+from solver.validation.cell_reach import flood, pair_spans, walls
+from solver.validation.judge import JUDGE_BUDGET, SECOND_JUDGE_BUDGET, attempt_fixed, attempt_second
+
+
+def test_a_wall_is_a_run_of_blocked_cells_as_wide_as_a_step():
+    blocked = np.zeros(20, dtype=bool)
+    blocked[[2, 3, 4]] = True  # a run of 3 on the left
+    blocked[[8, 12, 13]] = True  # runs of 1 and 2 on the right
+    blocked[16:20] = True  # a run of 4
+    start = 6
+    assert walls(blocked, start, 1) == (5, 7)  # cells as wide as a step: every blocked cell is a wall
+    assert walls(blocked, start, 2) == (5, 11)  # the single cell at 8 can be jumped
+    assert walls(blocked, start, 3) == (5, 15)
+    assert walls(blocked, start, 4) == (0, 15)  # control: nothing on the left is that wide
+
+
+def _walked(free: np.ndarray, start: tuple[int, int], reach: tuple[int, int]) -> np.ndarray:
+    """The cells a walk of moves of at most ``reach`` cells reaches, written out breadth first."""
+    seen = np.zeros_like(free)
+    queue = [start] if free[start] else []
+    for cell in queue:
+        seen[cell] = True
+    while queue:
+        a, b = queue.pop(0)
+        for x in range(a - reach[0], a + reach[0] + 1):
+            for y in range(b - reach[1], b + reach[1] + 1):
+                if 0 <= x < free.shape[0] and 0 <= y < free.shape[1] and free[x, y] and not seen[x, y]:
+                    seen[x, y] = True
+                    queue.append((x, y))
+    return seen
+
+
+def test_the_flood_reaches_what_a_walk_written_out_reaches():
+    rng = np.random.default_rng(5731001)
+    differs = 0
+    for _ in range(40):
+        free = rng.random((int(rng.integers(5, 30)), int(rng.integers(5, 30)))) < rng.uniform(0.4, 0.8)
+        start = (int(rng.integers(free.shape[0])), int(rng.integers(free.shape[1])))
+        reach = (int(rng.integers(1, 4)), int(rng.integers(1, 4)))
+        seen = flood(np.ascontiguousarray(free), *start, *reach)
+        assert np.array_equal(seen, _walked(free, start, reach))
+        differs += not np.array_equal(seen, _walked(free, start, (1, 1)))  # control: the reach matters
+    assert differs > 0
+
+
+def test_two_objects_in_each_others_way_are_kept_to_what_they_reach_together():
+    # i can pass cell 5 only where k stands at 6 or more; k can get there only where i stands at 3 or more.
+    table = np.zeros((10, 10), dtype=bool)
+    table[5, :6] = True
+    table[:3, 6:] = True
+    none = np.zeros(10, dtype=bool)
+    assert pair_spans(table, none, none, (0, 9), (0, 9), 0, 0, 1, 1) == ((0, 9), (0, 9))  # a way round: 3, then 6
+    table[:7, 6:] = True  # control: now k gets past 5 only where i stands at 7 or more, beyond cell 5
+    assert pair_spans(table, none, none, (0, 9), (0, 9), 0, 0, 1, 1) == ((0, 4), (0, 5))
+    assert pair_spans(table, none, none, (0, 9), (0, 9), 0, 0, 2, 1) == ((0, 9), (0, 9))  # i jumps cell 5
+    blocked = np.zeros(10, dtype=bool)
+    blocked[4] = True  # i kept out of cell 4 whatever k does: the pairs stop at 3
+    assert pair_spans(table, blocked, none, (0, 9), (0, 9), 0, 0, 1, 1) == ((0, 3), (0, 5))
+
+
+class _Keeping(BlockingProver):
+    """Keeps a deep proof's tables, so that the test can draw states in them."""
+
+    def _forget(self, tables, blocks):
+        pass
+
+
+def _deep_misses(prover: BlockingProver, objects, goal, fixed, shrink, rng) -> tuple[int, int]:
+    """States drawn in the deep cells' blocked pairs (ends included) that the judges' model finds apart."""
+    from solver.collision.model import CollisionModel
+    from solver.planning.problem import shrunk_tolerance
+
+    prover.proves(objects, goal, fixed, shrink)
+    prover.proves(objects, goal, fixed, shrink)  # asked again: the deep cells
+    chain = build_chain(objects)
+    model = CollisionModel(chain, tolerance=shrunk_tolerance(shrink))
+    order = list(chain.joint_order)
+    by_id = {id(o): o for o in objects}
+    checked = missed = 0
+    for (id_a, where_a, id_b, where_b, _), table in prover._tables.items():
+        deep = [where for where in (where_a, where_b) if where[0] == "level"]
+        if not deep or max(where[1] for where in deep) <= max(
+                prover.free_cells(by_id[i]).level for i, w in ((id_a, where_a), (id_b, where_b)) if w[0] == "level"):
+            continue
+        pairs = np.argwhere(table)
+        states = []
+        for cell_a, cell_b in pairs[rng.choice(len(pairs), min(len(pairs), 80), replace=False)]:
+            for fraction in (0.0, 1.0, *rng.uniform(0, 1, 2)):
+                state = np.zeros(len(order))
+                for obj, where, cell in ((by_id[id_a], where_a, cell_a), (by_id[id_b], where_b, cell_b)):
+                    if where[0] == "level":
+                        cells = prover.free_cells(obj, where[1])
+                        state[order.index(obj.joint_names[0])] = cells.lower + cells.width * (cell + fraction)
+                    else:
+                        state[[order.index(n) for n in obj.joint_names]] = where
+                states.append(state)
+        if states:
+            hits = model.colliding_objects_each(np.ascontiguousarray(states))
+            pair = {by_id[id_a].name, by_id[id_b].name}
+            checked += len(hits)
+            missed += sum(1 for h in hits if not any(set(p) == pair for p in h))
+    return checked, missed
+
+
+def _continuous_space_questions(seeds) -> list[tuple]:
+    """(objects, goal, fixed, margin, verdict) of every necessity question the Maker asks on ``seeds``."""
+    from solver.pipelines.generation import generate_here
+
+    asked = []
+    original = validator_module.OmplValidator.necessity
+
+    def necessity(self, objects, goal, fixed, margin, **kw):
+        out = original(self, objects, goal, fixed, margin, **kw)
+        asked.append((tuple(objects), goal, tuple(fixed), margin, self.verdicts[-1]))
+        return out
+
+    validator_module.OmplValidator.necessity = necessity
+    try:
+        params = get_generator("continuous_space").parse_params({})
+        for seed in seeds:
+            generate_here("continuous_space", seed, params)
+    finally:
+        validator_module.OmplValidator.necessity = original
+    return asked
+
+
+def test_every_cell_pair_a_deep_proof_finds_blocked_collides_at_states_drawn_in_both_cells():
+    """Control: a prover that tests only the deep cells' centres (no bound for the motion within) is caught."""
+    rng = np.random.default_rng(7501)
+    asked = _continuous_space_questions([7501])
+    questions = [(q[0], q[1], q[2], q[3] * level) for q in asked[-3:] for level in (1, 4)]
+    total = 0
+    for question in questions:
+        checked, missed = _deep_misses(_Keeping(), *question, rng)
+        assert missed == 0
+        total += checked
+    assert total > 1000
+
+    class CentresOnly(_Keeping):
+        def free_cells(self, obj, level=None):
+            cells = super().free_cells(obj, level)
+            still = np.concatenate([0 * cells.motions[:, :2], cells.motions[:, 2:]], axis=1)
+            return dataclasses.replace(cells, motions=still)
+
+    assert sum(_deep_misses(CentresOnly(), *question, rng)[1] for question in questions) > 0
+
+
+@pytest.mark.slow
+def test_on_fresh_puzzles_questions_only_the_finer_proofs_settle_defeat_both_judges_with_ten_times_their_budgets():
+    """Fresh Continuous Space seeds: the questions a proof settles that the proof before this change (one object
+    at a time, cells as wide as a step: ``steps`` of one and no pair reach) does not, at the rung the Maker
+    settled them, defeat both judges with ten times their budgets. Controls: no question the Maker found
+    superfluous (it holds a path at the margin) is proven, deep or not; with the blocker free nothing is."""
+    asked = _continuous_space_questions(range(7502, 7510))
+
+    class Before(BlockingProver):  # no pair reach, no deep cells
+        def _proves(self, objects, goal, fixed, shrink, deep):
+            return not deep and super()._proves(objects, goal, fixed, shrink, deep)
+
+    import solver.validation.blocking as blocking
+
+    new = []
+    for objects, goal, fixed, margin, verdict in asked:
+        prover = BlockingProver()
+        if not verdict.necessary:
+            for level in (1, 2, 4):
+                assert not (prover.proves(objects, goal, fixed, level * margin) or
+                            prover.proves(objects, goal, fixed, level * margin))
+            continue
+        if verdict.how != "geometry":
+            continue
+        spans = blocking.pair_spans
+        blocking.pair_spans = lambda table, bi, bk, si, sk, *rest: (si, sk)
+        try:
+            old = Before().proves(objects, goal, fixed, verdict.margin)
+        finally:
+            blocking.pair_spans = spans
+        if not old:
+            new.append((objects, goal, fixed, verdict.margin))
+    assert len(new) >= 2, "too few questions on these seeds needed the finer proofs"
+    for index, (objects, goal, fixed, shrink) in enumerate(new):
+        chain = build_chain(objects)
+        first = attempt_fixed(chain, goal, fixed, shrink, 10 * JUDGE_BUDGET, np.random.default_rng(index))
+        second = attempt_second(chain, goal, fixed, shrink, 10 * SECOND_JUDGE_BUDGET, 9100 + index)
+        assert not first.solved and not second.solved, (fixed, shrink)
+        prover = BlockingProver()
+        assert not (prover.proves(objects, goal, [], shrink) or prover.proves(objects, goal, [], shrink))
