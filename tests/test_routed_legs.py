@@ -1,0 +1,141 @@
+"""The compiled RRT-Connect of a routed re-plan's legs (solver/planning/_leg_connect.py), on Move N Times
+seeds drawn fresh each run (printed in every assertion message).
+
+Every leg a generation plans is captured and re-checked here at 2 mm; the same leg planned twice from the
+same random numbers is the same path; and the controls: a leg whose goal lies inside a wall, or past the
+door the leg may not move, is given up within its budget, and a motion through a wall is refused.
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import solver.validation.validator as validator_module
+from phyrogen_core.registry import get_generator
+from solver.pipelines.generation import generate_here
+from solver.planning._leg_connect import _motion_free, _unpacked, rrt_connect_leg
+from solver.planning.problem import FINE_RESOLUTION, verify_certificate
+
+
+def fresh_seed() -> int:
+    return random.SystemRandom().randrange(10**6, 10**9)
+
+
+def generate_capturing_legs(seed: int, n: int = 3):
+    """The puzzle of ``seed`` and every leg its validation planned: (problem, budget, resolution, held, result)."""
+    legs = []
+
+    def capture(problem, budget, rng, resolution, held=()):
+        result = rrt_connect_leg(problem, budget, rng, resolution, held)
+        legs.append((problem, budget, resolution, tuple(held), result))
+        return result
+
+    params = replace(get_generator("move_n_times").default_params(), n=n)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(validator_module, "rrt_connect_leg", capture)
+        puzzle = generate_here("move_n_times", seed, params)
+    return puzzle, legs
+
+
+@pytest.fixture(scope="module")
+def generated():
+    seed = fresh_seed()
+    puzzle, legs = generate_capturing_legs(seed)
+    return seed, puzzle, legs
+
+
+def test_every_leg_found_holds_at_2_mm_and_ends_in_its_goal(generated):
+    seed, puzzle, legs = generated
+    assert verify_certificate(puzzle.chain, puzzle.certificate, puzzle.goal) == [], f"seed {seed}"
+    solved = [leg for leg in legs if leg[4].solved]
+    assert len(solved) >= 3, f"seed {seed}: {len(solved)} of {len(legs)} legs solved"
+    for problem, budget, resolution, held, result in solved:
+        path = np.array(result.path)
+        model = problem.model
+        assert resolution == FINE_RESOLUTION, f"seed {seed}"
+        assert np.array_equal(path[0], problem.start), f"seed {seed}"
+        assert all(path[-1, c] == v for c, v in problem.goal_columns.items()), f"seed {seed}"
+        assert (path >= problem.lower - 1e-12).all() and (path <= problem.upper + 1e-12).all(), f"seed {seed}"
+        assert (path[:, list(held)] == problem.start[list(held)]).all(), f"seed {seed}: a held joint moved"
+        assert model.path_free(np.ascontiguousarray(path), model.motion_steps(FINE_RESOLUTION)), f"seed {seed}"
+        assert 0 < result.checks <= budget + 10, f"seed {seed}: {result.checks} queries of {budget}"
+
+
+def test_the_same_leg_from_the_same_numbers_is_the_same_path(generated):
+    seed, _, legs = generated
+    problem, budget, resolution, held, _ = next(leg for leg in legs if leg[4].solved)
+    first = rrt_connect_leg(problem, budget, np.random.default_rng(seed), resolution, held)
+    second = rrt_connect_leg(problem, budget, np.random.default_rng(seed), resolution, held)
+    assert first == second, f"seed {seed}"
+    other = rrt_connect_leg(problem, budget, np.random.default_rng(seed + 1), resolution, held)
+    assert other.solved, f"seed {seed}"
+
+
+def test_a_generation_is_the_same_twice():
+    seed = fresh_seed()
+    first, _ = generate_capturing_legs(seed)
+    second, _ = generate_capturing_legs(seed)
+    assert first.certificate == second.certificate, f"seed {seed}"
+
+
+def _inside_a_wall(puzzle, problem, columns):
+    """(x, y) of a wall's centre where the target (its ``columns``: x, y, yaw) collides at every yaw."""
+    for wall in (o for o in puzzle.objects if not o.is_movable):
+        state = problem.start.copy()
+        state[columns[0]], state[columns[1]] = wall.pose.xyz[:2]
+        blocked = True
+        for yaw in np.linspace(-np.pi, np.pi, 16):
+            state[columns[2]] = yaw
+            blocked = blocked and not problem.model.is_valid(state)
+        if blocked:
+            return float(state[columns[0]]), float(state[columns[1]])
+    return None
+
+
+def test_a_leg_whose_goal_is_walled_off_is_given_up_within_its_budget(generated):
+    seed, puzzle, legs = generated
+    problem, _, resolution, held, _ = next(leg for leg in legs if leg[4].solved and leg[3])
+    columns = [i for i in range(len(problem.start)) if i not in held]
+    inside = _inside_a_wall(puzzle, problem, columns)
+    assert inside is not None, f"seed {seed}"
+    lower, upper = problem.lower.copy(), problem.upper.copy()
+    lower[columns[:2]] = np.minimum(lower[columns[:2]], inside)
+    upper[columns[:2]] = np.maximum(upper[columns[:2]], inside)
+    walled = replace(problem, goal_columns={columns[0]: inside[0], columns[1]: inside[1]}, lower=lower, upper=upper)
+    result = rrt_connect_leg(walled, 300, np.random.default_rng(seed), resolution, held)
+    assert not result.solved and result.checks == 300, f"seed {seed}: {result}"
+    # The control's control: the same leg with its own goal is found.
+    assert rrt_connect_leg(problem, 300, np.random.default_rng(seed), resolution, held).solved, f"seed {seed}"
+
+
+def test_a_leg_past_the_held_door_fails_and_the_whole_leg_then_succeeds(generated):
+    seed, _, legs = generated
+    failed = [leg for leg in legs if not leg[4].solved and leg[3]]
+    assert failed, f"seed {seed}: every leg went through with the door held"
+    for problem, budget, resolution, held, result in failed:
+        assert result.checks <= budget + 10, f"seed {seed}: {result.checks} queries of {budget}"
+        again = rrt_connect_leg(problem, 4 * budget, np.random.default_rng(seed), resolution, held)
+        assert not again.solved, f"seed {seed}: a leg through the held door was found"
+
+
+def test_a_motion_through_a_wall_is_refused(generated):
+    seed, puzzle, legs = generated
+    problem, _, resolution, held, result = next(leg for leg in legs if leg[4].solved and leg[3])
+    columns = [i for i in range(len(problem.start)) if i not in held]
+    inside = _inside_a_wall(puzzle, problem, columns)
+    assert inside is not None, f"seed {seed}"
+    model = problem.model
+    ints, floats, pair_columns = model.packed
+    steps = model.motion_steps(resolution)
+    through = problem.start.copy()
+    through[columns[0]], through[columns[1]] = inside
+    beyond = through + (through - problem.start)  # on through the wall to the far side
+    unpacked = _unpacked(ints, floats)
+    assert not _motion_free(problem.start, beyond, steps, unpacked, ints[0], pair_columns), f"seed {seed}"
+    # The control: the leg's own first motion is free.
+    path = np.array(result.path)
+    assert _motion_free(path[0], path[1], steps, unpacked, ints[0], pair_columns), f"seed {seed}"
