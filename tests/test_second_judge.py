@@ -28,10 +28,12 @@ from solver.planning.la_rrt import plan_la_rrt
 from solver.planning.problem import problem_for_chain
 from solver.validation.judge import (
     JUDGE_BUDGET,
+    MARGIN_LEVELS,
     NO_GOAL_STATE,
     NO_PATH,
     SECOND_JUDGE,
     SECOND_JUDGE_BUDGET,
+    WARM_JUDGE,
     attempt_fixed,
     attempt_second,
     judge,
@@ -152,8 +154,12 @@ def test_a_superfluous_object_is_caught_by_the_second_judge_alone(slider):
     # ...and the second judge, with the Maker's budget, catches it.
     both = judge(chain, slider.goal, ["obj_99"], margin, 1, np.random.default_rng(3),
                  second_budget=SECOND_JUDGE_BUDGET)
-    assert not both.necessary and both.witness is not None and both.witness.judge == SECOND_JUDGE, both.describe()
-    assert both.reason == f"solved by {SECOND_JUDGE}" and both.second_checks <= 10 * (SECOND_JUDGE_BUDGET + 8)
+    assert not both.necessary and both.witness is not None, both.describe()
+    # Every rung above the margin is the second judge's; at the margin a warm restart from its path (they run
+    # before the long searches) may mend it first.
+    assert [a.judge for a in both.attempts if a.solved][:-1] == [SECOND_JUDGE] * (len(MARGIN_LEVELS) - 1)
+    assert both.witness.judge in (SECOND_JUDGE, WARM_JUDGE), both.attempts
+    assert both.reason == f"solved by {both.witness.judge}" and both.second_checks <= 10 * (SECOND_JUDGE_BUDGET + 8)
     path = np.asarray(both.witness.path)
     column = chain.joint_order.index("obj_99")
     assert np.all(path[:, column] == 0.0) and slider.goal.is_reached(chain.state_dict(path[-1]))
