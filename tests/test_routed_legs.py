@@ -4,6 +4,11 @@ seeds drawn fresh each run (printed in every assertion message).
 Every leg a generation plans is captured and re-checked here at 2 mm; the same leg planned twice from the
 same random numbers is the same path; and the controls: a leg whose goal lies inside a wall, or past the
 door the leg may not move, is given up within its budget, and a motion through a wall is refused.
+
+The certificate's length: the legs' raw certificate of n = 3 defragments to 2n actions at 2 mm (the
+control: undefragmented it has more); the stored one of seed 6120348 kept 17 because the defragmenter
+checks its motions at 2 cm and the certificate check at 2 mm rejects the whole result (xfail until
+solver/planning/defragment.py retries at 2 mm).
 """
 
 from __future__ import annotations
@@ -14,7 +19,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import solver.planning.defragment as defragment_module
 import solver.validation.validator as validator_module
+from phyrogen_core.actions import count_actions
 from phyrogen_core.registry import get_generator
 from solver.pipelines.generation import generate_here
 from solver.planning._leg_connect import _motion_free, _unpacked, rrt_connect_leg
@@ -139,3 +146,37 @@ def test_a_motion_through_a_wall_is_refused(generated):
     # The control: the leg's own first motion is free.
     path = np.array(result.path)
     assert _motion_free(path[0], path[1], steps, unpacked, ints[0], pair_columns), f"seed {seed}"
+
+
+def _raw_certificate(seed: int, n: int = 3):
+    """The puzzle of ``seed`` with its certificate as validation left it (not defragmented)."""
+    params = replace(get_generator("move_n_times").default_params(), n=n)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(defragment_module, "defragment_certificate",
+                      lambda chain, goal, path, *_: tuple(map(tuple, path)))
+        return generate_here("move_n_times", seed, params)
+
+
+@pytest.mark.parametrize("draw", range(3))
+def test_the_legs_certificate_defragments_to_two_actions_a_level(draw):
+    """Each of the n levels needs the door opened and the target moved: 2n actions. 1750128 and 6de768f
+    reach that at 2 mm on every n = 3 seed tried (120 fresh seeds, 20 at n = 5); a leg that moved the
+    door back and forth where the defragmenter cannot undo it would fail here."""
+    seed, n = fresh_seed(), 3
+    puzzle = _raw_certificate(seed, n)
+    raw = puzzle.certificate
+    # The control: undefragmented, the legs' certificate moves door and target together (10-23 actions).
+    assert count_actions(raw, puzzle.chain.factors) > 2 * n, f"seed {seed}"
+    clean = defragment_module.defragment_certificate(puzzle.chain, puzzle.goal, raw, FINE_RESOLUTION)
+    assert verify_certificate(puzzle.chain, clean, puzzle.goal) == [], f"seed {seed}"
+    assert count_actions(clean, puzzle.chain.factors) <= 2 * n, f"seed {seed}"
+
+
+@pytest.mark.xfail(strict=True, reason="defragment_certificate checks motions at 2 cm and, when its result then "
+                   "fails the 2 mm certificate check, keeps the raw certificate (about 2 % of n = 3 seeds, at "
+                   "1750128 too); it needs a retry at 2 mm (solver/planning/defragment.py)")
+def test_a_stored_certificate_of_n_3_has_two_actions_a_level():
+    seed, n = 6120348, 3  # one of the seeds whose coarse defragmentation clips at 2 mm
+    params = replace(get_generator("move_n_times").default_params(), n=n)
+    puzzle = generate_here("move_n_times", seed, params)
+    assert count_actions(puzzle.certificate, puzzle.chain.factors) <= 2 * n, f"seed {seed}"
