@@ -6,9 +6,9 @@ same random numbers is the same path; and the controls: a leg whose goal lies in
 door the leg may not move, is given up within its budget, and a motion through a wall is refused.
 
 The certificate's length: the legs' raw certificate of n = 3 defragments to 2n actions at 2 mm (the
-control: undefragmented it has more); the stored one of seed 6120348 kept 17 because the defragmenter
-checks its motions at 2 cm and the certificate check at 2 mm rejects the whole result (xfail until
-solver/planning/defragment.py retries at 2 mm).
+control: undefragmented it has more); seed 6120348's kept 17 because the defragmenter checks its
+motions at 2 cm and the certificate check at 2 mm rejects the whole result: at 2 mm it reaches 6 (a strict
+xfail until solver/planning/defragment.py retries at 2 mm).
 """
 
 from __future__ import annotations
@@ -172,11 +172,61 @@ def test_the_legs_certificate_defragments_to_two_actions_a_level(draw):
     assert count_actions(clean, puzzle.chain.factors) <= 2 * n, f"seed {seed}"
 
 
+# Seed 6120348 at n = 3 (6de768f): the certificate validation returned, stored as it was because its
+# defragmentation failed the 2 mm check (17 actions; joints obj_00_x, obj_00_y, obj_00_yaw, obj_01). Fixed
+# here so the defragmenter's test does not depend on the legs' random numbers.
+_SEED_6120348_RAW = (
+    (0.0, 0.0, 0.0, 0.0),
+    (-0.08261028279837346, -0.009401968187588983, 0.09720772297522018, -1.2730172870171228),
+    (-0.13728868221830642, -0.2845623095083227, 1.5751373355733922, -1.6830877975160448),
+    (-0.022057515826342633, -0.9667896471084365, 2.877500885192755, -1.879026088959924),
+    (0.8774693814551738, -1.1245834949015332, 1.4687702037706645, 1.235107090529831),
+    (1.091374330569777, -0.616962475817991, 0.9276265769418355, 1.9374098080529898),
+    (0.9000000000000035, -0.699999999999998, -2.1804501865191535, 1.8278719032280062),
+    (1.0813454621898397, -0.7318629374070533, -0.8572588622061326, 1.8278719032280062),
+    (0.9484158701392397, -0.21024202835729383, 0.6652071328248463, 1.8278719032280062),
+    (1.600000000000004, -0.1999999999999975, -0.5010132266025717, 1.8278719032280062),
+    (1.9867159626725006, -0.5600105717781415, -0.663342450775835, 1.8278719032280062),
+    (1.900000000000004, -0.9999999999999982, 1.8643690455197888, 1.8278719032280062),
+    (2.0173281765426503, -1.7950379806724417, 0.8507714333941809, 1.8278719032280062),
+    (1.600000000000004, -1.799999999999999, 1.0076580843279528, 1.8278719032280062),
+    (0.5892063749725881, -2.077295618343966, -2.607140830639534, 1.8278719032280062),
+    (0.7000000000000033, -1.899999999999999, -2.9410605748771497, 1.8278719032280062),
+    (-0.2999999999999976, -1.899999999999999, -1.0671821444994665, 1.8278719032280062),
+    (-1.0537881090325723, -2.1135146622542087, -0.04062666845670915, 1.8278719032280062),
+    (-0.8999999999999981, -1.3999999999999986, -1.1536328447390976, 1.8278719032280062),
+    (-0.9546484719709517, -1.1366374217493773, -0.2502726223918933, -0.10775092927410901),
+    (-1.0999999999999983, -0.4999999999999978, -0.5728851105120571, -1.4827504249871581),
+    (-1.1884833558002283, -0.22404505201137842, 0.7226287900699575, -1.4827504249871581),
+    (-1.799999999999999, -0.3999999999999977, 2.6643505253494313, -1.4827504249871581),
+    (-2.207799257471925, -0.41977924399652566, -2.21635538730187, -1.4827504249871581),
+    (-1.899999999999999, -1.2999999999999985, -1.2664039453982836, -1.4827504249871581),
+    (-1.899999999999999, -2.1999999999999993, 1.8091746078342048, -1.4827504249871581),
+    (-1.9172102920152359, -2.4302131528636433, 0.08156185641914737, -1.4827504249871581),
+    (-1.5543117781151858, -3.0, 2.6023969187461615, -1.4827504249871581),
+)
+
+
+def _seed_6120348():
+    params = replace(get_generator("move_n_times").default_params(), n=3)
+    puzzle = generate_here("move_n_times", 6120348, params)
+    assert puzzle.chain.joint_order == ("obj_00_x", "obj_00_y", "obj_00_yaw", "obj_01")
+    return puzzle
+
+
+def test_a_certificate_whose_2_cm_defragmentation_clips_reaches_2n_at_2_mm():
+    puzzle = _seed_6120348()
+    assert verify_certificate(puzzle.chain, _SEED_6120348_RAW, puzzle.goal) == []
+    assert count_actions(_SEED_6120348_RAW, puzzle.chain.factors) == 17
+    clean = defragment_module.defragment_certificate(puzzle.chain, puzzle.goal, _SEED_6120348_RAW, FINE_RESOLUTION)
+    assert verify_certificate(puzzle.chain, clean, puzzle.goal) == []
+    assert count_actions(clean, puzzle.chain.factors) == 6
+
+
 @pytest.mark.xfail(strict=True, reason="defragment_certificate checks motions at 2 cm and, when its result then "
                    "fails the 2 mm certificate check, keeps the raw certificate (about 2 % of n = 3 seeds, at "
                    "1750128 too); it needs a retry at 2 mm (solver/planning/defragment.py)")
-def test_a_stored_certificate_of_n_3_has_two_actions_a_level():
-    seed, n = 6120348, 3  # one of the seeds whose coarse defragmentation clips at 2 mm
-    params = replace(get_generator("move_n_times").default_params(), n=n)
-    puzzle = generate_here("move_n_times", seed, params)
-    assert count_actions(puzzle.certificate, puzzle.chain.factors) <= 2 * n, f"seed {seed}"
+def test_the_stored_defragmentation_of_a_clipping_certificate_has_2n_actions():
+    puzzle = _seed_6120348()
+    clean = defragment_module.defragment_certificate(puzzle.chain, puzzle.goal, _SEED_6120348_RAW)
+    assert count_actions(clean, puzzle.chain.factors) <= 6
