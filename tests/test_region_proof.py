@@ -194,3 +194,104 @@ def test_the_flood_fill_reaches_exactly_the_8_connected_component_of_the_start()
         assert list(box) == [min(rows), min(columns), max(rows), max(columns)]
         fewer += len(component(closed, start, [(1, 0), (-1, 0), (0, 1), (0, -1)])) < len(expected)
     assert fewer > 0
+
+
+# -- the finest level kept by parent cell (solver.validation.region_blocks) ---------------------
+def _random_level(rng, factor: int = 8):
+    """Obstacles (turned boxes and circles), a parent level's reached cells and a grid of blocks."""
+    nbx, nby = (int(v) for v in rng.integers(4, 14, size=2))
+    width = 0.01
+    size = np.array([nbx, nby]) * factor * width
+    boxes = []
+    for _ in range(int(rng.integers(1, 6))):
+        centre, half, yaw = rng.uniform(0, 1, 2) * size, rng.uniform(0.01, 0.2, 2), rng.uniform(-np.pi, np.pi)
+        c, s = np.cos(yaw), np.sin(yaw)
+        corners = np.array([[-half[0], -half[1]], [half[0], -half[1]], [half[0], half[1]], [-half[0], half[1]]])
+        boxes.append(corners @ np.array([[c, s], [-s, c]]) + centre)
+    vertices = np.array(boxes).reshape(len(boxes), 4, 2)
+    circles = np.array([[*(rng.uniform(0, 1, 2) * size), rng.uniform(0.005, 0.1)]
+                        for _ in range(int(rng.integers(0, 4)))]).reshape(-1, 3)
+    parent = rng.random((nbx + 2, nby + 2)) < 0.85
+    return vertices, np.full(len(boxes), 4, dtype=np.int64), circles, width, parent, nbx, nby
+
+
+def _dense_and_blocks(level, reach: float, start, spread_scale: float = 1.0, factor: int = 8):
+    """The dense grid's fill (region_proof._closed, _reach) and the fill by blocks, as dense grids of
+    reached cells (None when the start is closed)."""
+    from solver.validation import region_blocks
+
+    vertices, counts, circles, width, parent, nbx, nby = level
+    closed = region_proof._closed(vertices, counts, circles, reach, 0.0, 0.0, width, nbx * factor, nby * factor,
+                                  parent, factor, 1, 1)
+    spread = spread_scale * (factor - 1) * width * np.sqrt(0.5) + region_proof.REGION_SLACK
+    index, bits = region_blocks.blocks(vertices, counts, circles, reach, spread, 0.0, 0.0, width, factor, parent,
+                                       1, 1, nbx, nby)
+    opened = region_blocks.is_open(index, bits, factor, *start)
+    assert opened == (not closed[start])
+    if not opened:
+        return None, None
+    dense, _ = region_proof._reach(closed, *start)
+    whole, reached = region_blocks.fill(index, bits, factor, *start)
+    by_blocks = np.zeros_like(dense)
+    for bi in range(nbx):
+        for bj in range(nby):
+            cells = (slice(bi * factor, (bi + 1) * factor), slice(bj * factor, (bj + 1) * factor))
+            if index[bi, bj] == region_blocks.OPEN:
+                by_blocks[cells] = whole[bi, bj]
+            elif index[bi, bj] >= 0:
+                by_blocks[cells] = reached[index[bi, bj]]
+    return dense, by_blocks
+
+
+def test_the_fill_by_blocks_reaches_exactly_the_dense_grids_cells_and_meets_the_same_goal_cells():
+    """On random obstacles and parent levels: the same cells reached, and the same answer for random
+    goal boxes. Control: blocks called open by their centre alone (no spread for their children) let
+    the fill through blocked children on some of the same grids."""
+    from solver.validation import region_blocks
+
+    rng = np.random.default_rng(7467)
+    compared = differs = 0
+    for _ in range(60):
+        level = _random_level(rng)
+        nbx, nby = level[5], level[6]
+        reach = float(rng.uniform(0.0, 0.08))
+        start = (int(rng.integers(nbx * 8)), int(rng.integers(nby * 8)))
+        dense, by_blocks = _dense_and_blocks(level, reach, start)
+        if dense is None:
+            continue
+        compared += 1
+        assert np.array_equal(dense, by_blocks)
+        index, bits = region_blocks.blocks(level[0], level[1], level[2], reach, 7 * 0.01 * np.sqrt(0.5) + 1e-6, 0.0,
+                                           0.0, 0.01, 8, level[4], 1, 1, nbx, nby)
+        whole, reached = region_blocks.fill(index, bits, 8, *start)
+        for _ in range(10):
+            x0, y0 = (int(v) for v in rng.integers(0, [nbx * 8, nby * 8]))
+            x1, y1 = x0 + int(rng.integers(0, 12)), y0 + int(rng.integers(0, 12))
+            assert region_blocks.meets(index, whole, reached, 8, x0, y0, x1, y1) == dense[x0:x1, y0:y1].any()
+        careless, careless_blocks = _dense_and_blocks(level, reach, start, spread_scale=0.0)
+        differs += careless_blocks is not None and not np.array_equal(careless, careless_blocks)
+    assert compared >= 30 and differs > 0
+
+
+def _dense_finest(obstacles, reach, corner, width, factor, parent, parent_first, size, point, goal_low, goal_high):
+    """The finest level as the proof ran it before blocks: a dense grid and its scanline fill."""
+    closed = region_proof._closed(obstacles.vertices, obstacles.counts, obstacles.circles, reach, corner[0], corner[1],
+                                  width, int(size[0]), int(size[1]), parent, factor, int(parent_first[0]),
+                                  int(parent_first[1]))
+    i, j = (int(v) for v in np.floor((point - corner) / width))
+    if not (0 <= i < size[0] and 0 <= j < size[1]) or closed[i, j]:
+        return False
+    reached, box = region_proof._reach(closed, i, j)
+    g0, g1 = region_proof._cells(corner, width, goal_low, goal_high)
+    return box[0] >= 0 and not reached[g0[0]:g1[0], g0[1]:g1[1]].any()
+
+
+@pytest.mark.parametrize("generator, seed, params", [FRESH[1], FRESH[3]])
+def test_the_proof_by_blocks_gives_the_dense_grids_verdicts_on_fresh_puzzles(generator, seed, params, monkeypatch):
+    puzzle, doors, margin = _puzzle(generator, seed, **params)
+    questions = [([door], shrink) for door in doors for shrink in (TOP * margin, 2 * margin, 5 * margin, 6 * margin)]
+    questions.append(([], TOP * margin))
+    verdicts = [region_proof.proves(puzzle.objects, puzzle.goal, fixed, shrink) for fixed, shrink in questions]
+    monkeypatch.setattr(region_proof, "_finest_proves", _dense_finest)
+    assert verdicts == [region_proof.proves(puzzle.objects, puzzle.goal, fixed, shrink) for fixed, shrink in questions]
+    assert any(verdicts) and not all(verdicts)  # both kinds of verdict compared (control: not one answer)

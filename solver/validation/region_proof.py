@@ -25,7 +25,9 @@ where that point can go:
    are necessary. Cells are tried coarse first (:data:`REGION_LEVELS`, down to :data:`REGION_CELL`);
    a finer level searches only the children of the cells the coarser one reached (a cell blocked at
    a coarse level holds only colliding points, so every way through fine cells runs through reached
-   coarse cells too).
+   coarse cells too). The finest level is kept by parent cell (:mod:`solver.validation.region_blocks`):
+   the children of a parent far from every obstacle are filled at once, the others one by one; it
+   reaches the same cells, so the verdicts are those of the dense grid.
 
 Why ``dist(p, O) < r - t`` is a collision in the judges' model
 (:func:`solver.collision.kernels._pair_collides`): a point ``q`` of the obstacle ``O`` lies within
@@ -63,6 +65,8 @@ from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from phyrogen_core.objects import Motion, PuzzleObject
 from phyrogen_core.puzzle import Goal
 from solver.planning.problem import FINE_RESOLUTION, GOAL_SLACK, LOCKED_WIDTH, shrunk_tolerance
+from solver.validation import region_blocks
+from solver.validation.region_blocks import _chord
 
 REGION_CELL = 0.0075
 """Metres across a cell at the finest level. Rooms' robot (0.375 m) against a door's 0.2 m gaps at
@@ -110,9 +114,10 @@ class _Obstacles:
 def _convex_ccw(piece: np.ndarray) -> np.ndarray | None:
     """The polygon when it is strictly convex and counter-clockwise, as the collision model reads it
     (its edge normals point out only then), else None (left out)."""
-    edges = np.roll(piece, -1, axis=0) - piece
-    cross = edges[:, 0] * np.roll(edges[:, 1], -1) - edges[:, 1] * np.roll(edges[:, 0], -1)
-    return piece if np.all(cross > 0) else None
+    points = piece.tolist()  # floats: the same products as numpy's, without its calls' overhead
+    edges = [(bx - ax, by - ay) for (ax, ay), (bx, by) in zip(points, points[1:] + points[:1], strict=True)]
+    crosses = (ex * fy - ey * fx for (ex, ey), (fx, fy) in zip(edges, edges[1:] + edges[:1], strict=True))
+    return piece if all(cross > 0 for cross in crosses) else None
 
 
 def _shapes(obj: PuzzleObject, frame: tuple[float, float, float]):
@@ -149,6 +154,21 @@ def _shapes(obj: PuzzleObject, frame: tuple[float, float, float]):
     return polygons, circles
 
 
+_DISKS: dict[tuple, _Disk | None] = {}
+""":func:`_disk` by what it reads (the target's collision shapes and height) and the tolerance: a puzzle's
+questions ask about the same target at the same margin again and again, its limits grown between them
+(a new object, the same shapes)."""
+
+
+def _kept_disk(target: PuzzleObject, tolerance: float) -> _Disk | None:
+    key = (target.collisions, target.pose.xyz[2], tolerance)
+    if key not in _DISKS:
+        if len(_DISKS) >= _KEPT_MOST:
+            _DISKS.clear()
+        _DISKS[key] = _disk(target, tolerance)
+    return _DISKS[key]
+
+
 def _disk(target: PuzzleObject, tolerance: float) -> _Disk | None:
     """The largest disk this finds inside one of the target's shapes (a polygon's vertex mean and its
     distance to the nearest edge line; a cylinder itself), if wider than ``tolerance``."""
@@ -159,7 +179,7 @@ def _disk(target: PuzzleObject, tolerance: float) -> _Disk | None:
             best = _Disk((x, y), radius, low, high)
     for vertices, low, high in polygons:
         centre = vertices.mean(axis=0)
-        edges = np.roll(vertices, -1, axis=0) - vertices
+        edges = np.concatenate((vertices[1:], vertices[:1])) - vertices  # np.roll's values, at less cost
         normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1)[:, None]
         radius = float(np.min(np.sum(normals * (vertices - centre), axis=1)))
         if best is None or radius > best.radius:
@@ -223,36 +243,6 @@ def _obstacles(objects: Sequence[PuzzleObject], target: PuzzleObject, fixed: set
     circle_array = np.array([c[:3] for c in circles], dtype=np.float64).reshape(len(circles), 3)
     z = np.array([p[1:] for p in polygons] + [c[3:] for c in circles], dtype=np.float64).reshape(-1, 2)
     return _Obstacles(vertices, counts_, circle_array, z)
-
-
-@njit(cache=True, nogil=True)
-def _chord(vertices, count, y, reach):  # pragma: no cover (compiled)
-    """The x interval of the points on the line at ``y`` within ``reach`` of the convex polygon
-    (``lo > hi`` when none): the hull of the chords of its edges' capsules, which cover the boundary
-    of the polygon grown by ``reach``, a convex set."""
-    lo, hi = np.inf, -np.inf
-    for k in range(count):
-        ax, ay = vertices[k, 0], vertices[k, 1]
-        dy = y - ay
-        if abs(dy) <= reach:
-            d = math.sqrt(reach * reach - dy * dy)
-            lo, hi = min(lo, ax - d), max(hi, ax + d)
-        bx, by = vertices[(k + 1) % count, 0], vertices[(k + 1) % count, 1]
-        length = math.hypot(bx - ax, by - ay)
-        nx, ny = (by - ay) / length * reach, -(bx - ax) / length * reach
-        # The band beside the edge: a parallelogram, corners in order.
-        px = (ax + nx, bx + nx, bx - nx, ax - nx)
-        py = (ay + ny, by + ny, by - ny, ay - ny)
-        for j in range(4):
-            x0, y0, x1, y1 = px[j], py[j], px[(j + 1) % 4], py[(j + 1) % 4]
-            if (y0 - y) * (y1 - y) > 0:
-                continue
-            if y0 == y1:
-                lo, hi = min(lo, x0, x1), max(hi, x0, x1)
-            else:
-                x = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
-                lo, hi = min(lo, x), max(hi, x)
-    return lo, hi
 
 
 @njit(cache=True, nogil=True)
@@ -365,7 +355,7 @@ def proves(objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], sh
     if not set(goal.values) <= set(target.joint_names):
         return False
     tolerance = shrunk_tolerance(shrink)
-    disk = _disk(target, tolerance)
+    disk = _kept_disk(target, tolerance)
     if disk is None:
         return False
     obstacles = _obstacles(objects, target, set(fixed), disk, tolerance)
@@ -411,6 +401,9 @@ def proves(objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], sh
             return False
         corner = origin + window * width
         reach = disk.radius - tolerance - width * math.sqrt(0.5) - REGION_SLACK
+        if index > 0 and index + 1 == len(REGION_LEVELS):
+            return _finest_proves(obstacles, reach, corner, width, factor, parent, parent_first, size, point,
+                                  goal_low, goal_high)
         closed = _closed(obstacles.vertices, obstacles.counts, obstacles.circles, reach, corner[0], corner[1], width,
                          int(size[0]), int(size[1]), parent, factor, int(parent_first[0]), int(parent_first[1]))
         i, j = (int(v) for v in np.floor((point - corner) / width))
@@ -420,8 +413,7 @@ def proves(objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], sh
         if box[0] < 0:
             return False
         # Every cell that meets the box where p is at the goal (and a cell more).
-        g0 = np.maximum(0, np.floor((goal_low - corner) / width).astype(np.int64) - 1)
-        g1 = np.maximum(0, np.floor((goal_high - corner) / width).astype(np.int64) + 2)
+        g0, g1 = _cells(corner, width, goal_low, goal_high)
         if not reached[g0[0]:g1[0], g0[1]:g1[1]].any():
             return True
         if index + 1 < len(REGION_LEVELS):
@@ -434,6 +426,34 @@ def proves(objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], sh
     return False
 
 
+def _cells(corner: np.ndarray, width: float, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The first and past-the-last cells that meet the box [low, high] where p is at the goal (and a
+    cell more), clipped at the grid's first cell."""
+    g0 = np.maximum(0, np.floor((low - corner) / width).astype(np.int64) - 1)
+    g1 = np.maximum(0, np.floor((high - corner) / width).astype(np.int64) + 2)
+    return g0, g1
+
+
+def _finest_proves(obstacles: _Obstacles, reach: float, corner: np.ndarray, width: float, factor: int,
+                   parent: np.ndarray, parent_first: np.ndarray, size: np.ndarray, point: np.ndarray,
+                   goal_low: np.ndarray, goal_high: np.ndarray) -> bool:
+    """The finest level, kept by parent cell (:mod:`solver.validation.region_blocks`): whether no cell
+    the fill reaches from the start meets the goal's cells, the verdict of the dense grid's fill."""
+    i, j = (int(v) for v in np.floor((point - corner) / width))
+    if not (0 <= i < size[0] and 0 <= j < size[1]):
+        return False
+    spread = (factor - 1) * width * math.sqrt(0.5)  # a child's centre from its parent's, at most
+    index, bits = region_blocks.blocks(obstacles.vertices, obstacles.counts, obstacles.circles, reach,
+                                       spread + REGION_SLACK, corner[0], corner[1], width, factor, parent,
+                                       int(parent_first[0]), int(parent_first[1]), int(size[0]) // factor,
+                                       int(size[1]) // factor)
+    if not region_blocks.is_open(index, bits, factor, i, j):
+        return False  # the start itself collides (or was not reached): the judges decide
+    whole, reached = region_blocks.fill(index, bits, factor, i, j)
+    g0, g1 = _cells(corner, width, goal_low, goal_high)
+    return not region_blocks.meets(index, whole, reached, factor, int(g0[0]), int(g0[1]), int(g1[0]), int(g1[1]))
+
+
 def warm_up() -> None:
     """Load the proof's compiled functions (from numba's cache, or compile them), as a server does before it forks."""
     square = np.array([[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]])
@@ -441,3 +461,8 @@ def warm_up() -> None:
                      np.zeros((0, 0), dtype=np.bool_), 1, 0, 0)
     reached, _ = _reach(closed, 0, 0)
     _closed(square, np.array([4], dtype=np.int64), np.zeros((0, 3)), 0.1, -1.0, -1.0, 0.25, 24, 24, reached, 2, 0, 0)
+    index, bits = region_blocks.blocks(square, np.array([4], dtype=np.int64), np.array([[3.0, 3.0, 0.5]]), 0.1, 0.2,
+                                       -1.0, -1.0, 0.25, 2, reached, 0, 0, 12, 12)
+    whole, reached = region_blocks.fill(index, bits, 2, 0, 0)
+    region_blocks.is_open(index, bits, 2, 0, 0)
+    region_blocks.meets(index, whole, reached, 2, 0, 0, 24, 24)
