@@ -7,17 +7,17 @@ checks, goal samples): about 6 microseconds a query, while the compiled kernels 
 Most of those queries were spent by the legs the target cannot finish alone (the door in the way), each to
 its whole budget. Here the whole search runs in one compiled call.
 
-This is our own RRT-Connect, not OMPL's, written after OMPL's ``RRTConnect::solve``: the start and goal
-trees take turns to extend towards a uniform draw (by at most 0.2 x the space's largest extent, Euclidean),
-the other tree then connects towards the new node until it is trapped or reaches it; the goal tree gets a
-new root (a goal sample) when it is empty (drawn until one is valid) or when fewer goals were drawn so far
-than half its size (drawn once); a state added to the start tree is checked by the motion to it, one added to the goal tree by its
-own validity and then the motion from it. Every query counts against the budget (checked before each
-iteration, as OMPL checks its termination condition), so the answer is the same on any machine. Its random
-numbers come from the caller's numpy Generator; a goal sample puts the goal joints at their goal values and
-every other free joint anywhere within limits. Nearest nodes are found by a scan (OMPL uses a GNAT; both
-find the nearest). Joints with equal lower and upper limits are held there: the target alone is the
-puzzle's own model with every other joint held, so no model is built per held configuration.
+This is our own RRT-Connect, not OMPL's, written after OMPL's ``RRTConnect::solve``: the start and goal trees
+take turns to extend towards a uniform draw (by at most 0.2 x the space's largest extent, Euclidean), the
+other tree then connects towards the new node until it is trapped or reaches it; the goal tree gets a new root
+(a goal sample) when it is empty (drawn until one is valid) or when fewer goals were drawn so far than half
+its size (drawn once); a state added to the start tree is checked by the motion to it, one added to the goal
+tree by its own validity and then the motion from it. Every query counts against the budget (checked before
+each iteration, as OMPL checks its termination condition), so the answer is the same on any machine. Its
+random numbers come from the caller's numpy Generator; a goal sample puts the goal joints at their goal values
+and every other free joint anywhere within limits. Nearest nodes are found by a scan (OMPL uses a GNAT; both
+find the nearest). Joints with equal lower and upper limits are held there: the target alone is the puzzle's
+own model with every other joint held, so no model is built per held configuration.
 
 The validator's main solve stays OMPL's RRT-Connect (:func:`solver.planning.ompl_setup.rrt_connect`).
 """
