@@ -8,7 +8,7 @@ has its check and its control: walls and the flood against walks written out, th
 against the judges' collision model (a prover that tests only the cells' centres is caught), and on fresh
 Continuous Space puzzles every question only these proofs settle defeats both judges with ten times their
 budgets while no question the Maker found superfluous is proven. Bounded by counts, never seconds. Seeds
-5731001-5731006 and 7501-7509 are used by no other test.
+5731001-5731006, 7501-7509, 8130002 and 8130007 are used by no other test.
 """
 
 from __future__ import annotations
@@ -209,3 +209,39 @@ def test_on_fresh_puzzles_questions_only_the_finer_proofs_settle_defeat_both_jud
         assert not first.solved and not second.solved, (fixed, shrink)
         prover = BlockingProver()
         assert not (prover.proves(objects, goal, [], shrink) or prover.proves(objects, goal, [], shrink))
+
+
+def test_pairs_tried_after_every_level_alone_answer_as_each_level_settled_in_turn():
+    """The prover tries objects one at a time at the widest and the finest cells before pairs at either, the
+    pairs resumed from where one at a time stopped: its answers are those of a prover that settles each level
+    in turn, pairs from scratch (1fcbf94's order), question by question on fresh Continuous Space puzzles.
+    Control: a prover that never follows pairs answers differently on some question, so pairs are exercised."""
+    from solver.validation.blocking import _domains
+
+    class InTurn(BlockingProver):
+        def _settled(self, levels, points, target, goal, shrink):
+            for index, free in enumerate(levels):
+                for pairs in (False, True):
+                    runs = self._narrowed(free, points, shrink)
+                    if runs is not None and (not pairs or self._paired(runs)) and \
+                            self._emptied(free, points, _domains(free, runs, target, goal), shrink):
+                        return index
+            return None
+
+    class Alone(BlockingProver):
+        @staticmethod
+        def _paired(runs):
+            return False
+
+    asked = _continuous_space_questions([8130002, 8130007])
+    answers = {kind: [] for kind in (BlockingProver, InTurn, Alone)}
+    for kind, found in answers.items():
+        prover = None
+        for index, (objects, goal, fixed, margin, _) in enumerate(asked):
+            if index == 0 or objects[0] is not asked[index - 1][0][0]:
+                prover = kind()  # one prover a puzzle, as the validator keeps
+            for level in (4, 2, 1):
+                found.append(prover.proves(objects, goal, fixed, level * margin))
+    assert len(answers[BlockingProver]) >= 30 and any(answers[BlockingProver])
+    assert answers[BlockingProver] == answers[InTurn]
+    assert answers[Alone] != answers[BlockingProver]

@@ -54,8 +54,8 @@ from phyrogen_core.objects import Motion, PuzzleObject
 from phyrogen_core.puzzle import Goal
 from solver.planning.problem import GOAL_SLACK, LOCKED_WIDTH, shrunk_tolerance
 from solver.validation import cell_pairs, cell_reach
-from solver.validation.cell_pairs import or_throughout, refine, widest_pairs
-from solver.validation.cell_reach import pair_spans, walls
+from solver.validation.cell_pairs import refine, widest_pairs
+from solver.validation.cell_reach import Runs, pair_spans
 
 PROOF_EROSION = 0.06
 """Metres any point of an object may move from a cell's centre within the cell (cells are twice as wide)."""
@@ -416,7 +416,8 @@ class BlockingProver:
         key = (self._id(a[0]), a[1], self._id(b[0]), b[1], shrink)
         if key not in self._blocks:
             table = self.table(a, b, shrink)
-            self._blocks[key] = np.ascontiguousarray(table) if table.any() else None
+            # (A table never near is a view of one False: .any() over it crawls, ~4x a contiguous table's.)
+            self._blocks[key] = np.ascontiguousarray(table) if table.strides != (0, 0) and table.any() else None
         return self._blocks[key]
 
     # -- the proof ---------------------------------------------------------------
@@ -476,25 +477,20 @@ class BlockingProver:
                      for cells in (self.deepest(obj),)]
             kept = set(self._tables), set(self._blocks)
             proven = any(a[2].level > b[2].level for a, b in zip(finer, free, strict=True)) and \
-                self._settled(finer, points, target, goal, shrink)
+                self._settled((finer,), points, target, goal, shrink) is not None
             self._forget(*kept)
             return proven
         if not any(cells.level for _, _, cells in free):
-            return self._settled(free, points, target, goal, shrink)
+            return self._settled((free,), points, target, goal, shrink) is not None
         # A proof holds at the widest cells or at the finest (either will do: the answer is the same in either
         # order). The widest first, where most proofs that hold hold (every one of Grid World's), at a
         # fraction of the finest cells' cost; after a proof that held only at the finest, the finest first
         # (Lockbox Random's hold there, and the finest tables' widest verdicts are the widest tables').
         widest = [(obj, ("level", 0), self.free_cells(obj, 0)) for obj, _, _ in free]
-        if self._finest_first:
-            if self._settled(free, points, target, goal, shrink):
-                return True
-            self._finest_first = not self._settled(widest, points, target, goal, shrink)
-            return not self._finest_first
-        if self._settled(widest, points, target, goal, shrink):
-            return True
-        self._finest_first = self._settled(free, points, target, goal, shrink)
-        return self._finest_first
+        held = self._settled((free, widest) if self._finest_first else (widest, free), points, target, goal, shrink)
+        if held == 1:  # held at the second cells tried only: those first next time
+            self._finest_first = not self._finest_first
+        return held is not None
 
     def _forget(self, tables: set, blocks: set) -> None:
         """Drops the tables made since the prover held only these keys (a deep proof's: large, seldom reused)."""
@@ -502,31 +498,26 @@ class BlockingProver:
             for key in set(made) - before:
                 del made[key]
 
-    def _settled(self, free, points, target: int | None, goal: Goal, shrink: float) -> bool:
-        """Steps 2 and 3 of the module docstring over the cells of ``free``: whether no goal state is left. The
-        reach of objects one at a time first; where that leaves a goal state, of pairs too (dearer)."""
-        alone = None
-        for pairs in (False, True):
-            reach = self._reachable(free, points, shrink, pairs)
-            if reach is None or pairs and all(np.array_equal(a, b) for a, b in zip(reach, alone, strict=True)):
-                return False
-            domains = [mask.copy() for mask in reach]
-            if target is not None:
-                obj, _, cells = free[target]
-                (value,) = (goal.values[j] for j in obj.joint_names)
-                near = goal.tolerance + GOAL_SLACK
-                low = cells.lower + cells.width * np.arange(len(domains[target]))
-                domains[target] &= (low <= value + near) & (low + cells.width >= value - near)
-            if self._emptied(free, points, domains, shrink):
-                return True
-            alone = reach
-        return False
+    def _settled(self, levels, points, target: int | None, goal: Goal, shrink: float) -> int | None:
+        """Steps 2 and 3 of the module docstring over the free objects' cells at each of ``levels``: the index of
+        the first whose cells leave no goal state, or None. The reach of objects one at a time at every level
+        first; only where that leaves a goal state at each, of pairs too (dearer), from where it stopped (a
+        proof either way: the answer is the same in any order, and Lockbox Random's pairs never prove more)."""
+        runs = []
+        for index, free in enumerate(levels):
+            runs.append(self._narrowed(free, points, shrink))
+            if runs[-1] is not None and self._emptied(free, points, _domains(free, runs[-1], target, goal), shrink):
+                return index
+        for index, (free, run) in enumerate(zip(levels, runs, strict=True)):
+            if run is not None and self._paired(run) and \
+                    self._emptied(free, points, _domains(free, run, target, goal), shrink):
+                return index
+        return None
 
-    def _reachable(self, free, points, shrink: float, pairs: bool = True) -> list[np.ndarray] | None:
-        """Per free object, its reachable cells (step 2 of the module docstring), with ``pairs`` also where two
-        objects can get together; None when a start cell itself is blocked (the model and the proof disagree:
-        no proof)."""
-        reach = [np.ones(len(cells.poses), dtype=bool) for _, _, cells in free]
+    def _narrowed(self, free, points, shrink: float) -> Runs | None:
+        """Per free object, its run of reachable cells (step 2 of the module docstring: first and last), with
+        what :meth:`_paired` resumes from; None when a start cell itself is blocked (the model and the proof
+        disagree: no proof)."""
         starts = []
         for obj, _, cells in free:
             (lo, hi), = obj.limits
@@ -542,37 +533,31 @@ class BlockingProver:
                 blocked |= self.table(entry, point, shrink)[:, 0]
             fixed_blocks.append(blocked)
         # Each reach is one run of cells (spans: first and last); a table with no cell pair blocked blocks nothing.
-        spans = [(0, len(mask) - 1) for mask in reach]
+        spans = [(0, len(entry[2].poses) - 1) for entry in free]
         tables = {(i, k): table for i, entry in enumerate(free) for k, other in enumerate(free)
                   if k != i and (table := self._blocking(entry, other, shrink)) is not None}
-        blocks = list(fixed_blocks)
-        changed = True
-        while changed:
+        runs = Runs(spans, list(fixed_blocks), fixed_blocks, tables, starts, steps)
+        return runs if runs.swept() else None
+
+    @staticmethod
+    def _paired(runs: Runs) -> bool:
+        """Narrows :meth:`_narrowed`'s runs: two objects keep each other to the cell pairs they reach together
+        (cell_reach), then the runs one by one again, until neither narrows: whether any did (no start blocked).
+        (Not at a deep proof's cells: a flood through them costs a hundred times more, for few proofs.)"""
+        spans, blocks, tables, starts, steps = runs.spans, runs.blocks, runs.tables, runs.starts, runs.steps
+        narrowed = False
+        while True:
             changed = False
-            for i in range(len(free)):
-                blocked = blocks[i] = fixed_blocks[i].copy()
-                for k in range(len(free)):
-                    if (i, k) in tables:
-                        or_throughout(tables[i, k], spans[k][0], spans[k][1], blocked)
-                start = starts[i]
-                if blocked[start]:
-                    return None
-                left, right = walls(blocked, start, steps[i])
-                left, right = max(spans[i][0], left), min(spans[i][1], right)
-                if (left, right) != spans[i]:
-                    spans[i], changed = (left, right), True
-            # The runs settled one by one: two objects in each other's way keep each other to the pairs of cells
-            # they can reach together (cell_reach), which can hold less than either run. (Not at a deep proof's
-            # cells: a flood through them costs a hundred times more, for few proofs.)
-            for i, k in [(i, k) for i, k in tables if i < k and steps[i] == steps[k] == 1] if pairs and not changed \
-                    else ():
+            for i, k in [(i, k) for i, k in tables if i < k and steps[i] == steps[k] == 1]:
                 pair = pair_spans(tables[i, k], blocks[i], blocks[k], spans[i], spans[k], starts[i], starts[k],
                                   steps[i], steps[k])
                 if pair != (spans[i], spans[k]):
                     (spans[i], spans[k]), changed = pair, True
-        for mask, (left, right) in zip(reach, spans, strict=True):
-            mask[:left] = mask[right + 1:] = False
-        return reach
+            if not changed:
+                return narrowed
+            narrowed = True
+            if not runs.swept():
+                return False
 
     def _emptied(self, free, points, domains: list[np.ndarray], shrink: float) -> bool:
         """Arc consistency over goal states (step 3): whether some object is left without cells."""
@@ -592,6 +577,21 @@ class BlockingProver:
                     if not np.array_equal(kept, domains[i]):
                         domains[i], changed = kept, True
         return any(not mask.any() for mask in domains)
+
+
+def _domains(free, runs: Runs, target: int | None, goal: Goal) -> list[np.ndarray]:
+    """Per free object, the cells of its run, the target's only those within its goal's tolerance."""
+    domains = []
+    for (_, _, cells), (left, right) in zip(free, runs.spans, strict=True):
+        domains.append(np.zeros(len(cells.poses), dtype=bool))
+        domains[-1][left:right + 1] = True
+    if target is not None:
+        obj, _, cells = free[target]
+        (value,) = (goal.values[j] for j in obj.joint_names)
+        near = goal.tolerance + GOAL_SLACK
+        low = cells.lower + cells.width * np.arange(len(domains[target]))
+        domains[target] &= (low <= value + near) & (low + cells.width >= value - near)
+    return domains
 
 
 def warm_up() -> None:

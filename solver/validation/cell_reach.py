@@ -16,8 +16,12 @@ that every path keeps to (by the steps before it), so every path keeps to the ru
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
+
+from solver.validation.cell_pairs import or_throughout
 
 
 def walls(blocked: np.ndarray, start: int, width: int) -> tuple[int, int]:
@@ -70,6 +74,43 @@ def pair_spans(table: np.ndarray, blocked_i: np.ndarray, blocked_k: np.ndarray, 
     if not len(rows):  # the start pair itself blocked: the caller has found that already
         return span_i, span_k
     return (lo_i + int(rows[0]), lo_i + int(rows[-1])), (lo_k + int(columns[0]), lo_k + int(columns[-1]))
+
+
+@dataclass
+class Runs:
+    """Free objects' runs of cells while :class:`~solver.validation.blocking.BlockingProver` narrows them."""
+
+    spans: list[tuple[int, int]]
+    """Per object, its run's first and last cell."""
+    blocks: list[np.ndarray]
+    """Per object, its cells blocked in the last sweep (by the fixed objects or others anywhere in their runs)."""
+    fixed: list[np.ndarray]
+    """Per object, its cells the fixed objects block."""
+    tables: dict[tuple[int, int], np.ndarray]
+    """(i, k): the cell pairs of objects i and k blocked throughout (pairs that block none left out)."""
+    starts: list[int]
+    """Per object, its start's cell."""
+    steps: list[int]
+    """Per object, the most cells its joint moves between checked states (a wall's least width)."""
+
+    def swept(self) -> bool:
+        """Narrows each run to the cells between the walls that the fixed objects and the others anywhere in
+        their runs leave it, one object at a time, until none narrows; False when a start cell is blocked."""
+        changed = True
+        while changed:
+            changed = False
+            for i in range(len(self.spans)):
+                blocked = self.blocks[i] = self.fixed[i].copy()
+                for k in range(len(self.spans)):
+                    if (i, k) in self.tables:
+                        or_throughout(self.tables[i, k], self.spans[k][0], self.spans[k][1], blocked)
+                if blocked[self.starts[i]]:
+                    return False
+                left, right = walls(blocked, self.starts[i], self.steps[i])
+                left, right = max(self.spans[i][0], left), min(self.spans[i][1], right)
+                if (left, right) != self.spans[i]:
+                    self.spans[i], changed = (left, right), True
+        return True
 
 
 def warm_up() -> None:
