@@ -223,9 +223,6 @@ def test_a_certificate_whose_2_cm_defragmentation_clips_reaches_2n_at_2_mm():
     assert count_actions(clean, puzzle.chain.factors) == 6
 
 
-@pytest.mark.xfail(strict=True, reason="defragment_certificate checks motions at 2 cm and, when its result then "
-                   "fails the 2 mm certificate check, keeps the raw certificate (about 2 % of n = 3 seeds, at "
-                   "1750128 too); it needs a retry at 2 mm (solver/planning/defragment.py)")
 def test_the_stored_defragmentation_of_a_clipping_certificate_has_2n_actions():
     puzzle = _seed_6120348()
     clean = defragment_module.defragment_certificate(puzzle.chain, puzzle.goal, _SEED_6120348_RAW)
