@@ -7,8 +7,8 @@ door the leg may not move, is given up within its budget, and a motion through a
 
 The certificate's length: the legs' raw certificate of n = 3 defragments to 2n actions at 2 mm (the
 control: undefragmented it has more); seed 6120348's kept 17 because the defragmenter checks its
-motions at 2 cm and the certificate check at 2 mm rejects the whole result: at 2 mm it reaches 6 (a strict
-xfail until solver/planning/defragment.py retries at 2 mm).
+motions at 2 cm and the certificate check at 2 mm rejected the whole result: at 2 mm it reaches 6, which
+solver/planning/defragment.py now retries when the 2 cm result fails the check.
 """
 
 from __future__ import annotations
