@@ -14,6 +14,7 @@ import os
 import signal
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -216,16 +217,20 @@ def test_a_rerun_of_a_finished_dataset_makes_nothing_and_another_request_is_refu
     assert files(reference) == before
 
 
-def recording(backend, log: list, stop_after: int | None = None):
-    """A backend that logs the tasks it is given and, with ``stop_after``, is interrupted then."""
+def recording(backend, log: list, stop_after: int | None = None,
+              stop_when: Callable[[list[int]], bool] | None = None):
+    """A backend that logs the tasks it is given and is interrupted after ``stop_after`` outcomes, or after
+    the first outcome at which ``stop_when(indices of the outcomes given so far)`` holds."""
     def wrapped(tasks, workers, on_running=None):
         def logged():
             for task in tasks:
                 log.append(task.index)
                 yield task
-        for n, outcome in enumerate(backend(logged(), workers, on_running), 1):
+        given: list[int] = []
+        for outcome in backend(logged(), workers, on_running):
             yield outcome
-            if stop_after is not None and n >= stop_after:
+            given.append(outcome.index)
+            if (stop_after is not None and len(given) >= stop_after) or (stop_when is not None and stop_when(given)):
                 raise KeyboardInterrupt
     return wrapped
 
@@ -235,12 +240,21 @@ def test_an_interrupted_dataset_resumes_without_making_anything_twice(reference,
     root = tmp_path / "resumed"
     first: list[int] = []
     made: list[int] = []
+
+    def completed(indices) -> set[int]:
+        return {s for s in range(request.shard_count) if set(request.shard_entries(s)) <= set(indices)}
+
+    # The backend returns batches in the order they finish (imap_unordered over two workers), so which
+    # entries are done after n outcomes depends on the machine's load: a fixed n can complete no shard.
+    # Stopped at the outcome that completes the first shard, the run has a complete shard and others not.
     with pytest.raises(KeyboardInterrupt):
-        build_dataset(request, root, 2, backend=recording(local_backend, first, stop_after=7),
+        build_dataset(request, root, 2, backend=recording(local_backend, first, stop_when=lambda i: bool(completed(i))),
                       on_row=lambda row, now: made.append(row.index) if now else None)
-    assert len(made) == 7
-    parts = sorted((root / "parts").glob("*.parquet"))  # batches of 8 make at least one shard of 5 complete
-    assert parts and all(set(request.shard_entries(int(p.stem.split("-")[1]))) <= set(made) for p in parts)
+    # Its last outcome completed the shard: that part is written before the interrupt comes back out.
+    assert completed(made) and not completed(made[:-1]) and len(made) < request.size
+    parts = {int(p.stem.split("-")[1]) for p in (root / "parts").glob("*.parquet")}
+    assert parts == completed(made)  # every completed shard kept; none of those still waiting (the control)
+    assert completed(made) != set(range(request.shard_count))
     assert not (root / "manifest.parquet").exists()
     done = {int(p.parent.name.rsplit("_", 1)[1]) - SEEDS[0]
             for p in root.glob("shard-*/grid_world/*/puzzle.json")}
