@@ -27,7 +27,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from .objects import PuzzleObject
+from .objects import PuzzleObject, build_chain
 from .puzzle import Goal
 from .seeding import stable_rng
 
@@ -122,6 +122,27 @@ class Validator(Protocol):
 
 
 # -- the algorithm -----------------------------------------------------------
+def _contradicted(validator: Validator, objects: Sequence[PuzzleObject], goal: Goal,
+                  path: Sequence[Sequence[float]], verdict: Any, names: Sequence[str]) -> bool:
+    """Whether a search's "necessary" verdict on ``names`` is refuted by the solution ``path``: cleaned
+    by the validator's optional ``clean(objects, goal, path)`` (a shorter path that still passes its
+    checks), it keeps them all at their creation pose, so the puzzle is solvable with them fixed, at the
+    exact geometry and so at any shrink. A budgeted search can miss such a path (seen in Continuous
+    Space: the defragmented certificate held the "necessary" bar still and the audit found it
+    superfluous); a geometric proof cannot, so it is not re-checked."""
+    clean = getattr(validator, "clean", None)
+    if not isinstance(verdict, Necessary) or verdict.how == BY_GEOMETRY or clean is None:
+        return False
+    return _holds_still(objects, clean(objects, goal, path), names)
+
+
+def _holds_still(objects: Sequence[PuzzleObject], path: Sequence[Sequence[float]], names: Sequence[str]) -> bool:
+    """Whether ``path`` (chain joint order) keeps every object in ``names`` at joint values 0 throughout."""
+    columns = [i for i, joint in enumerate(build_chain(objects).joint_order)
+               if any(joint in o.joint_names for o in objects if o.name in names)]
+    return bool(columns) and len(path) > 0 and not np.any(np.asarray(path, dtype=float)[:, columns])
+
+
 @dataclass(frozen=True)
 class Draft:
     """The puzzle built so far plus whatever a generator needs to extend it."""
@@ -214,7 +235,7 @@ def _make_once(spec: MakerInput, rng: np.random.Generator, validator: Validator,
                 if verdict is None:
                     continue  # superfluous: solvable without moving it
             result = validator.solve(candidate.objects, goal)
-            if not result.solved:
+            if not result.solved or _contradicted(validator, candidate.objects, goal, result.path, verdict, movable):
                 continue
             draft, path = candidate, result.path
             if isinstance(verdict, Necessary):

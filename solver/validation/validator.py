@@ -28,6 +28,7 @@ from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 from solver.collision.model import DEFAULT_TOLERANCE, CollisionModel
 from solver.planning._leg_connect import rrt_connect_leg
+from solver.planning.defragment import defragment_certificate
 from solver.planning.ompl_setup import rrt_connect
 from solver.planning.problem import (
     DEFAULT_RESOLUTION,
@@ -122,6 +123,10 @@ class OmplValidator:
             return problem_for_chain(self._chain(objects), goal)
         except UnreachableGoalError:
             return None
+
+    def clean(self, objects: Sequence[PuzzleObject], goal: Goal, path) -> tuple[tuple[float, ...], ...]:
+        """``path`` defragmented as a certificate is (the Maker checks a search's verdict against it)."""
+        return defragment_certificate(build_chain(tuple(objects)), goal, path)
 
     def solve(self, objects: Sequence[PuzzleObject], goal: Goal, *, budget_scale: float = 1.0) -> SolveResult:
         objects = tuple(objects)
