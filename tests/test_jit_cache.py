@@ -48,3 +48,16 @@ def test_sources_that_cannot_be_read_leave_numbas_rule_in_place(tmp_path):
     (tmp_path / JIT_SOURCES[-1]).unlink()
     assert not refresh_stale_jit_cache(tmp_path)
     assert not (tmp_path / STAMP).exists()
+
+
+def _cached_compiled_files(root):
+    """Files of the solver package whose source asks numba for an on-disk cache."""
+    return {path.relative_to(root).as_posix() for path in root.rglob("*.py") if "cache=True" in path.read_text()}
+
+
+def test_every_file_with_cached_compiled_functions_is_renewed_with_the_others(tmp_path):
+    # Missed before: the region proof's files call each other's compiled functions and were not listed.
+    assert _cached_compiled_files(SOLVER_ROOT) == set(JIT_SOURCES)
+    (tmp_path / "validation").mkdir()
+    (tmp_path / "validation" / "new.py").write_text("@njit(cache=True)\ndef f(): pass\n")
+    assert _cached_compiled_files(tmp_path) == {"validation/new.py"}  # control: a new cached file is found

@@ -123,7 +123,17 @@ def _mark(bits, index, factor, lo, hi, j, origin_x, width):  # pragma: no cover 
 @njit(cache=True, nogil=True)
 def _near(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny):  # pragma: no cover (compiled)
     """(nx, ny) cells whose centres lie within ``reach`` of an obstacle (a cell of the blocks' grid)."""
-    near = np.zeros((nx, ny), dtype=np.bool_)
+    rows = np.zeros((ny, nx), dtype=np.bool_)
+    mark_obstacles(rows, vertices, counts, circles, reach, origin_x, origin_y, width)
+    return rows.T.copy()
+
+
+@njit(cache=True, nogil=True)
+def mark_obstacles(rows, vertices, counts, circles, reach, origin_x, origin_y, width):  # pragma: no cover (compiled)
+    """Mark the cells of ``rows`` (row ``j`` at y = origin_y + (j + 0.5) width, cell ``i`` at x = origin_x +
+    (i + 0.5) width) whose centres lie within ``reach`` of an obstacle: a convex polygon (:func:`_chord`)
+    or a circle."""
+    ny = rows.shape[0]
     for o in range(vertices.shape[0]):
         count = counts[o]
         low, high = np.inf, -np.inf
@@ -133,7 +143,7 @@ def _near(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny): 
         last = min(ny - 1, int(math.floor((high + reach - origin_y) / width - 0.5)))
         for j in range(first, last + 1):
             lo, hi = _chord(vertices[o], count, origin_y + (j + 0.5) * width, reach)
-            _near_row(near, lo, hi, j, origin_x, width)
+            fill_row(rows, lo, hi, j, origin_x, width)
     for o in range(circles.shape[0]):
         cx, cy, grown = circles[o, 0], circles[o, 1], circles[o, 2] + reach
         first = max(0, int(math.ceil((cy - grown - origin_y) / width - 0.5)))
@@ -142,18 +152,18 @@ def _near(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny): 
             dy = origin_y + (j + 0.5) * width - cy
             if abs(dy) <= grown:
                 d = math.sqrt(grown * grown - dy * dy)
-                _near_row(near, cx - d, cx + d, j, origin_x, width)
-    return near
+                fill_row(rows, cx - d, cx + d, j, origin_x, width)
 
 
 @njit(cache=True, nogil=True)
-def _near_row(near, lo, hi, j, origin_x, width):  # pragma: no cover (compiled)
+def fill_row(rows, lo, hi, j, origin_x, width):  # pragma: no cover (compiled)
+    """Mark the cells of row ``j`` (``rows[j]``) whose centres lie in [lo, hi]."""
     if lo > hi:
         return
     first = max(0, int(math.ceil((lo - origin_x) / width - 0.5)))
-    last = min(near.shape[0] - 1, int(math.floor((hi - origin_x) / width - 0.5)))
+    last = min(rows.shape[1] - 1, int(math.floor((hi - origin_x) / width - 0.5)))
     for i in range(first, last + 1):
-        near[i, j] = True
+        rows[j, i] = True
 
 
 @njit(cache=True, nogil=True)

@@ -66,7 +66,6 @@ from phyrogen_core.objects import Motion, PuzzleObject
 from phyrogen_core.puzzle import Goal
 from solver.planning.problem import FINE_RESOLUTION, GOAL_SLACK, LOCKED_WIDTH, shrunk_tolerance
 from solver.validation import region_blocks
-from solver.validation.region_blocks import _chord
 
 REGION_CELL = 0.0075
 """Metres across a cell at the finest level. Rooms' robot (0.375 m) against a door's 0.2 m gaps at
@@ -246,17 +245,6 @@ def _obstacles(objects: Sequence[PuzzleObject], target: PuzzleObject, fixed: set
 
 
 @njit(cache=True, nogil=True)
-def _fill(blocked, lo, hi, j, origin_x, width):  # pragma: no cover (compiled)
-    """Mark the cells of row ``j`` (``blocked[j]``) whose centres lie in [lo, hi]."""
-    if lo > hi:
-        return
-    first = max(0, int(math.ceil((lo - origin_x) / width - 0.5)))
-    last = min(blocked.shape[1] - 1, int(math.floor((hi - origin_x) / width - 0.5)))
-    for i in range(first, last + 1):
-        blocked[j, i] = True
-
-
-@njit(cache=True, nogil=True)
 def _closed(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny, parent, factor, parent_i,
             parent_j):  # pragma: no cover (compiled)
     """(nx, ny) cells a flood fill may not enter: those whose centres lie within ``reach`` of an
@@ -270,27 +258,8 @@ def _closed(vertices, counts, circles, reach, origin_x, origin_y, width, nx, ny,
             for block in range((nx + factor - 1) // factor):
                 if not parent[parent_i + block, row]:
                     closed[j, block * factor:min(nx, (block + 1) * factor)] = True
-    if reach <= 0:
-        return closed.T
-    for o in range(vertices.shape[0]):
-        count = counts[o]
-        low, high = np.inf, -np.inf
-        for k in range(count):
-            low, high = min(low, vertices[o, k, 1]), max(high, vertices[o, k, 1])
-        first = max(0, int(math.ceil((low - reach - origin_y) / width - 0.5)))
-        last = min(ny - 1, int(math.floor((high + reach - origin_y) / width - 0.5)))
-        for j in range(first, last + 1):
-            lo, hi = _chord(vertices[o], count, origin_y + (j + 0.5) * width, reach)
-            _fill(closed, lo, hi, j, origin_x, width)
-    for o in range(circles.shape[0]):
-        cx, cy, grown = circles[o, 0], circles[o, 1], circles[o, 2] + reach
-        first = max(0, int(math.ceil((cy - grown - origin_y) / width - 0.5)))
-        last = min(ny - 1, int(math.floor((cy + grown - origin_y) / width - 0.5)))
-        for j in range(first, last + 1):
-            dy = origin_y + (j + 0.5) * width - cy
-            if abs(dy) <= grown:
-                d = math.sqrt(grown * grown - dy * dy)
-                _fill(closed, cx - d, cx + d, j, origin_x, width)
+    if reach > 0:
+        region_blocks.mark_obstacles(closed, vertices, counts, circles, reach, origin_x, origin_y, width)
     return closed.T
 
 
