@@ -34,39 +34,9 @@ OPEN = -1
 
 
 @njit(cache=True, nogil=True)
-def _chord(vertices, count, y, reach):  # pragma: no cover (compiled)
-    """The x interval of the points on the line at ``y`` within ``reach`` of the convex polygon
-    (``lo > hi`` when none): the hull of the chords of its edges' capsules, which cover the boundary
-    of the polygon grown by ``reach``, a convex set."""
-    lo, hi = np.inf, -np.inf
-    for k in range(count):
-        ax, ay = vertices[k, 0], vertices[k, 1]
-        dy = y - ay
-        if abs(dy) <= reach:
-            d = math.sqrt(reach * reach - dy * dy)
-            lo, hi = min(lo, ax - d), max(hi, ax + d)
-        bx, by = vertices[(k + 1) % count, 0], vertices[(k + 1) % count, 1]
-        length = math.hypot(bx - ax, by - ay)
-        nx, ny = (by - ay) / length * reach, -(bx - ax) / length * reach
-        # The band beside the edge: a parallelogram, corners in order.
-        px = (ax + nx, bx + nx, bx - nx, ax - nx)
-        py = (ay + ny, by + ny, by - ny, ay - ny)
-        for j in range(4):
-            x0, y0, x1, y1 = px[j], py[j], px[(j + 1) % 4], py[(j + 1) % 4]
-            if (y0 - y) * (y1 - y) > 0:
-                continue
-            if y0 == y1:
-                lo, hi = min(lo, x0, x1), max(hi, x0, x1)
-            else:
-                x = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
-                lo, hi = min(lo, x), max(hi, x)
-    return lo, hi
-
-
-@njit(cache=True, nogil=True)
 def _bands(vertices, counts, reach):  # pragma: no cover (compiled)
-    """The corners of every edge's band (:func:`_chord`'s parallelograms), the same arithmetic, once
-    per obstacle instead of once per row: (n, k, 4) x and y."""
+    """The corners of every edge's band, the parallelogram of the points within ``reach`` beside the
+    edge, once per obstacle instead of once per row: (n, k, 4) x and y, for :func:`_chord`."""
     px = np.zeros((vertices.shape[0], vertices.shape[1], 4))
     py = np.zeros((vertices.shape[0], vertices.shape[1], 4))
     for o in range(vertices.shape[0]):
@@ -82,8 +52,10 @@ def _bands(vertices, counts, reach):  # pragma: no cover (compiled)
 
 
 @njit(cache=True, nogil=True)
-def _banded_chord(vertices, count, px, py, y, reach):  # pragma: no cover (compiled)
-    """:func:`_chord` with its bands' corners given (:func:`_bands`): the same interval."""
+def _chord(vertices, count, px, py, y, reach):  # pragma: no cover (compiled)
+    """The x interval of the points on the line at ``y`` within ``reach`` of the convex polygon
+    (``lo > hi`` when none), its edges' bands' corners given (:func:`_bands`): the hull of the chords of
+    its edges' capsules, which cover the boundary of the polygon grown by ``reach``, a convex set."""
     lo, hi = np.inf, -np.inf
     for k in range(count):
         ax = vertices[k, 0]
@@ -134,6 +106,7 @@ def mark_obstacles(rows, vertices, counts, circles, reach, origin_x, origin_y, w
     (i + 0.5) width) whose centres lie within ``reach`` of an obstacle: a convex polygon (:func:`_chord`)
     or a circle."""
     ny = rows.shape[0]
+    px, py = _bands(vertices, counts, reach)
     for o in range(vertices.shape[0]):
         count = counts[o]
         low, high = np.inf, -np.inf
@@ -142,7 +115,7 @@ def mark_obstacles(rows, vertices, counts, circles, reach, origin_x, origin_y, w
         first = max(0, int(math.ceil((low - reach - origin_y) / width - 0.5)))
         last = min(ny - 1, int(math.floor((high + reach - origin_y) / width - 0.5)))
         for j in range(first, last + 1):
-            lo, hi = _chord(vertices[o], count, origin_y + (j + 0.5) * width, reach)
+            lo, hi = _chord(vertices[o], count, px[o], py[o], origin_y + (j + 0.5) * width, reach)
             fill_row(rows, lo, hi, j, origin_x, width)
     for o in range(circles.shape[0]):
         cx, cy, grown = circles[o, 0], circles[o, 1], circles[o, 2] + reach
@@ -199,7 +172,7 @@ def blocks(vertices, counts, circles, reach, spread, origin_x, origin_y, width, 
         first = max(0, int(math.ceil((low - reach - origin_y) / width - 0.5)))
         last = min(ny - 1, int(math.floor((high + reach - origin_y) / width - 0.5)))
         for j in range(first, last + 1):
-            lo, hi = _banded_chord(vertices[o], count, px[o], py[o], origin_y + (j + 0.5) * width, reach)
+            lo, hi = _chord(vertices[o], count, px[o], py[o], origin_y + (j + 0.5) * width, reach)
             _mark(bits, index, factor, lo, hi, j, origin_x, width)
     for o in range(circles.shape[0]):
         cx, cy, grown = circles[o, 0], circles[o, 1], circles[o, 2] + reach
