@@ -16,6 +16,13 @@ two cores for each tree, the ratio (this tree / baseline), the median ``generati
 the manifest (a worker's wall time per puzzle), whether the manifests agree on the columns both
 have, apart from those that may differ (timing, content hash: a ``puzzle.json`` format change
 moves it), how many puzzle folders are byte-identical (the same content hash), and the machine's load.
+
+A run's CPU time has a fixed part (the command's imports, the worker pool and its server, the manifest)
+that a large dataset spreads over many puzzles and a run of tens of puzzles does not. So each tree also
+makes a dataset of the first puzzle alone (``--startup-runs`` times, the least CPU kept), and a second
+table splits the cost: that run's CPU (*start-up*, one puzzle included) and the CPU each further puzzle
+adds, (whole run - start-up) / (puzzles - 1), the cost of a puzzle in a dataset large enough for the
+start-up not to count. Both tables come from the same runs; neither replaces the other.
 """
 
 from __future__ import annotations
@@ -97,6 +104,32 @@ def manifest(root: Path) -> tuple[list[dict], list[float], int, list]:
     return table.drop_columns(list(COMPARED_AWAY)).to_pylist(), seconds, failed, hashes
 
 
+def startup_cpu(tree: Path, generator: str, first: int, settings: list[str], workers: int, out: Path,
+                runs: int) -> float | None:
+    """The least CPU of ``runs`` datasets of the first puzzle alone (None when ``runs`` is 0)."""
+    taken = []
+    for _ in range(runs):
+        taken.append(run_dataset(tree, generator, first, 1, settings, workers, out)[0])
+        shutil.rmtree(out)
+    return min(taken, default=None)
+
+
+def startup_table(rows: list, trees: list[str]) -> str:
+    """The second table (module docstring): each tree's start-up and the CPU a further puzzle adds."""
+    lines = ["", "| generator | puzzles | start-up CPU s (baseline, this tree) | CPU s a further puzzle adds "
+             "(baseline, this tree) | ratio of further puzzles | this tree per hour on 2 cores, start-up aside |",
+             "|---|---:|---|---|---:|---:|"]
+    for generator, count, taken, _, startup in rows:
+        if count < 2:
+            continue
+        further = [max(taken[n][0] - startup[n], 0.0) / (count - 1) for n in trees]
+        ratio = f"{further[0] / further[1]:.2f}x" if further[1] > 0 else "-"
+        hourly = f"{2 * 3600 / further[1]:,.0f}" if further[1] > 0 else "-"
+        lines.append(f"| {generator} | {count} | {startup[trees[0]]:.2f}, {startup[trees[1]]:.2f} "
+                     f"| {further[0]:.4f}, {further[1]:.4f} | {ratio} | {hourly} |")
+    return "\n".join(lines)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--baseline", default="HEAD~1", help="the commit to compare with (default HEAD~1)")
@@ -105,6 +138,8 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=1, help="worker processes of each dataset run")
     parser.add_argument("--repeat", type=int, default=1, help="runs per tree and generator; the least CPU kept")
     parser.add_argument("--start", type=int, default=5_000_001, help="the first seed (choose fresh ones)")
+    parser.add_argument("--startup-runs", type=int, default=3,
+                        help="one-puzzle runs per tree and generator, the least CPU kept (0: no start-up table)")
     args = parser.parse_args()
     _adopt_orphans()
     generators = args.generators.split(",")
@@ -148,7 +183,9 @@ def main() -> int:
                             taken[name] = (cpu, wall)
                             made[name] = manifest(out)
                         shutil.rmtree(out)
-                rows.append((generator, count, taken, made))
+                startup = {name: startup_cpu(tree, generator, args.start, settings, args.workers,
+                                             scratch / "startup", args.startup_runs) for name, tree in trees.items()}
+                rows.append((generator, count, taken, made, startup))
                 base, this = (taken[n][0] / count for n in trees)
                 print(f"{generator:17s} {count:4d} puzzles (seeds {args.start}-{args.start + count - 1}): "
                       f"baseline {base:.4f} CPU s each, this tree {this:.4f} ({base / this:.2f}x)", flush=True)
@@ -162,7 +199,7 @@ def main() -> int:
           "| this tree puzzles / CPU s | ratio | this tree per hour on 2 cores | median generation_seconds "
           "(baseline, this tree) | failed | same puzzles | byte-identical folders |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|---|")
-    for generator, count, taken, made in rows:
+    for generator, count, taken, made, _ in rows:
         (base_cpu, _), (this_cpu, _) = (taken[n] for n in trees)
         medians = ", ".join(f"{statistics.median(made[n][1]):.3f} s" if made[n][1] else "-" for n in trees)
         common = set(made["baseline"][0][0]) & set(made["this tree"][0][0]) if count else set()
@@ -173,6 +210,8 @@ def main() -> int:
               f"| {count / this_cpu:.2f} | {base_cpu / this_cpu:.2f}x | {2 * 3600 * count / this_cpu:,.0f} "
               f"| {medians} | {made['baseline'][2]}, {made['this tree'][2]} | {'yes' if same else 'NO'} "
               f"| {identical}/{count} |")
+    if args.startup_runs:
+        print(startup_table(rows, list(trees)))
     print(f"\n{whole.describe()}")
     return 0
 
