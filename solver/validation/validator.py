@@ -27,7 +27,7 @@ from phyrogen_core.maker import Necessary, SolveResult
 from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 from solver.collision.model import DEFAULT_TOLERANCE, CollisionModel
-from solver.planning._leg_connect import rrt_connect_leg
+from solver.planning._leg_connect import rrt_connect_leg, shortcut
 from solver.planning.defragment import defragment_certificate
 from solver.planning.ompl_setup import rrt_connect
 from solver.planning.problem import (
@@ -316,6 +316,10 @@ class OmplValidator:
         """``states`` with every state dropped that a straight motion from an earlier one can skip
         (greedily, farthest first): planner paths wander, and the stored certificate is cleaned
         in time that grows with its length."""
+        if type(model) is CollisionModel:  # the same motions tried, their verdicts by skipping, in one compiled call
+            kept, checks = shortcut(model, np.ascontiguousarray(states, dtype=np.float64), steps)
+            self.checks += checks
+            return kept
         kept, i = [0], 0
         while i < len(states) - 1:
             j = len(states) - 1
