@@ -1,6 +1,7 @@
 """The workers' server prepared for a dataset's own generator (solver.pipelines._server_warmup): the run's
 first puzzle, generated once in the server and thrown away, loads that generator's compiled kernels'
-signatures instead of every signature numba's cache holds; it changes no byte of the dataset.
+signatures instead of every signature numba's cache holds; it changes no byte of the dataset, and a server
+that dies preparing is started again, cold, instead of failing the run.
 
 Seeds 9987001-9987010 are this file's; no other test uses them.
 """
@@ -71,6 +72,7 @@ def test_a_hint_names_the_puzzle_it_generates_and_a_failed_seed_is_no_error(monk
 PROBE = '''
 import sys
 sys.path.insert(0, sys.argv[1])
+from solver.parallel import pool
 from solver.parallel.pool import fresh_process_pool
 from solver.pipelines.dataset.build import PRELOAD
 from solver.pipelines.generation import warm_hint
@@ -79,7 +81,10 @@ import probe_helper
 
 hint = {"generator": lambda item: warm_hint("simple_slider", 9987001, get_generator("simple_slider").parse_params(
             {"n_objects": "4"})),
-        "none": None, "garbage": lambda item: "not a hint"}[sys.argv[2]]
+        "none": None, "garbage": lambda item: "not a hint", "crash": probe_helper.crashing_hint,
+        "crash-no-retry": probe_helper.crashing_hint}[sys.argv[2]]
+if sys.argv[2] == "crash-no-retry":
+    pool._SERVER_EXIT_POLLS = 0  # the server's death is never seen: the start fails as it did before the retry
 with fresh_process_pool(1, 1, PRELOAD, server_hint=hint) as workers:
     print(*next(workers.imap(probe_helper.probe, [0])))
 '''
@@ -89,13 +94,31 @@ import sys
 def probe(_):
     warm = sys.modules["solver.pipelines._server_warmup"]
     return warm.HINTED, sum(len(kernel.overloads) for kernel in warm._kernels_called_from_python())
+
+
+class _Segfault:
+    def __reduce__(self):
+        import ctypes
+
+        return ctypes.string_at, (8, 1)  # reads address 8 as the hint is read: the server dies of SIGSEGV
+
+
+def crashing_hint(item):
+    import base64
+    import pickle
+
+    return base64.b64encode(pickle.dumps(_Segfault())).decode("ascii")
 '''
 
 
-def _probe(tmp_path: Path, hint: str) -> tuple[bool, int]:
+def _run_probe(tmp_path: Path, hint: str) -> subprocess.CompletedProcess:
     (tmp_path / "probe_helper.py").write_text(HELPER)
-    done = subprocess.run([sys.executable, "-c", PROBE, str(tmp_path), hint], cwd=ROOT, capture_output=True,
+    return subprocess.run([sys.executable, "-c", PROBE, str(tmp_path), hint], cwd=ROOT, capture_output=True,
                           text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def _probe(tmp_path: Path, hint: str) -> tuple[bool, int]:
+    done = _run_probe(tmp_path, hint)
     assert done.returncode == 0, done.stderr[-2000:]
     hinted, loaded = done.stdout.split()
     return hinted == "True", int(loaded)
@@ -108,6 +131,14 @@ def test_a_hinted_server_loads_its_generators_signatures_and_no_others(tmp_path)
     assert 0 < loaded < everything  # (Simple Slider of four objects: 10 of 31 at the time of writing)
     garbled, fallback = _probe(tmp_path, "garbage")  # the control: a hint that fails warms everything up
     assert not garbled and fallback > loaded
+
+
+def test_a_server_that_dies_preparing_for_its_hint_is_started_again_cold(tmp_path):
+    hinted, loaded = _probe(tmp_path, "crash")
+    assert not hinted and loaded == 0  # the task ran, in a worker of a server that prepared nothing
+    # The control: the same hint kills the server, and without the second start the pool's start fails.
+    done = _run_probe(tmp_path, "crash-no-retry")
+    assert done.returncode != 0 and "EOFError" in done.stderr, done.stderr[-2000:]
 
 
 @pytest.mark.slow

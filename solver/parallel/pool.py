@@ -56,6 +56,10 @@ SERVER_HINT = "PHYROGEN_SERVER_HINT"
 """The environment variable through which a pool's ``server_hint`` reaches the server's preload (it is
 set only while the server starts, and the server's preload removes it)."""
 
+COLD_SERVER = "cold"
+"""The :data:`SERVER_HINT` of a server that prepares for nothing beyond its imports: the one started again
+after a server died preparing for its hint (no hint is this text: hints are base64 of a pickle)."""
+
 _server_ready = False  # a worker has started: the server has finished importing its preload
 
 
@@ -197,13 +201,28 @@ class FreshProcessPool:
 
     def _start(self, func, item) -> _Task:
         global _server_ready
+        if _server_ready:
+            return self._start_worker(func, item)
+        hint = self._server_hint(item) if self._server_hint is not None else None
+        _start_server(hint)
+        try:
+            return self._start_worker(func, item)
+        except (EOFError, OSError):
+            # The server died before it forked the first worker: while it prepared the workers (the hint's
+            # puzzle, or every kernel called once: a crash in compiled code, a stale cache). A puzzle that
+            # crashes is the run's own to fail, in its worker; the server starts again with its imports alone.
+            if hint == COLD_SERVER or not _wait_for_dead_server():
+                raise
+            _start_server(COLD_SERVER)
+            return self._start_worker(func, item)
+
+    def _start_worker(self, func, item) -> _Task:
+        global _server_ready
         reader, writer = self._context.Pipe(duplex=False)
         process = self._context.Process(target=_work, args=(writer, func, item), name=self._name, daemon=True)
         # Once the server is up, starting takes milliseconds: an interrupt waits for it, so that
         # no worker is forked without being known here. The first start waits for the server's
         # imports and stays interruptible; a worker forked after that finds its parent gone and ends.
-        if not _server_ready:
-            _start_server(self._server_hint(item) if self._server_hint is not None else None)
         with deferred_signals() if _server_ready else nullcontext():
             try:
                 process.start()
@@ -295,6 +314,31 @@ def _start_server(hint: str | None = None) -> None:
             forkserver.ensure_running()
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+_SERVER_EXIT_POLLS = 200
+"""How often (every 5 ms) a start that failed looks for the server's exit before it gives up (the server
+still runs: the failure was another)."""
+
+
+def _wait_for_dead_server() -> bool:
+    """Whether multiprocessing's fork server process has ended, waiting a moment for it: its socket ends
+    as it exits, a moment before it can be waited for. It is not reaped here: the next ``ensure_running``
+    does that and starts a new one. False when this Python's multiprocessing keeps the server's process id
+    elsewhere."""
+    from multiprocessing import forkserver
+
+    pid = getattr(getattr(forkserver, "_forkserver", None), "_forkserver_pid", None)
+    if not isinstance(pid, int):
+        return False
+    for _ in range(_SERVER_EXIT_POLLS):
+        try:
+            if os.waitid(os.P_PID, pid, os.WEXITED | os.WNOWAIT | os.WNOHANG) is not None:
+                return True
+        except ChildProcessError:  # not this process's child (reaped elsewhere)
+            return False
+        time.sleep(0.005)
+    return False
 
 
 @contextmanager

@@ -14,7 +14,8 @@ Which signatures: given a hint (:data:`solver.parallel.pool.SERVER_HINT`, made b
 puzzle once and throws it away, which loads exactly what that generator's puzzles call (a Simple
 Slider of four objects: 10 signatures, about 0.15 CPU s); without one, or when that fails, it calls
 every kernel on small models and loads every signature that numba's cache holds for the kernels the
-solver calls (31, about 0.45 CPU s).
+solver calls (31, about 0.45 CPU s). A server started again after one died preparing (a crash in compiled
+code) prepares nothing (:data:`solver.parallel.pool.COLD_SERVER`).
 """
 
 import contextlib
@@ -22,7 +23,7 @@ import io
 import os
 
 from phyrogen_core.registry import registry
-from solver.parallel.pool import SERVER_HINT
+from solver.parallel.pool import COLD_SERVER, SERVER_HINT
 
 
 def _warm_up_every_kernel() -> None:
@@ -131,9 +132,13 @@ def _load_cached_signatures() -> None:
 # in every worker. One that does not load is left for the worker to report, with the puzzle it fails.
 with contextlib.suppress(Exception):
     registry()
-HINTED = _warm_up_for(os.environ.pop(SERVER_HINT, None))
-"""Whether this server generated a hint's puzzle to its end (else it warmed every kernel up)."""
-if not HINTED:
+_HINT = os.environ.pop(SERVER_HINT, None)
+COLD = _HINT == COLD_SERVER
+"""Whether this server prepares nothing beyond its imports: it is started again after one died preparing
+(:meth:`solver.parallel.pool.FreshProcessPool._start`); the workers load what they call themselves."""
+HINTED = not COLD and _warm_up_for(_HINT)
+"""Whether this server generated a hint's puzzle to its end (else it warmed every kernel up, unless cold)."""
+if not HINTED and not COLD:
     _warm_up_every_kernel()
 # The package versions every puzzle folder records: importlib.metadata finds and parses each package's
 # METADATA (4.5 ms), once a process; here, not once a worker.
