@@ -17,7 +17,14 @@ import pytest
 import solver.validation.validator as validator_module
 from phyrogen_core.registry import get_generator
 from solver.pipelines.generation import generate_here
-from solver.planning._leg_connect import _motion_free, _skipping_free, _unpacked, rrt_connect_leg, shortcut
+from solver.planning._leg_connect import (
+    _motion_free,
+    _skipping_free,
+    _unpacked,
+    first_colliding_motion,
+    rrt_connect_leg,
+    shortcut,
+)
 from solver.planning.problem import FINE_RESOLUTION
 
 
@@ -102,3 +109,53 @@ def test_the_compiled_shortcut_keeps_what_the_reference_keeps(legs):
         assert all(model.check_motion(a, b, steps) for a, b in zip(kept[:-1], kept[1:], strict=True)), f"seed {seed}"
     # The control: the shortcut had states to drop, so keeping every state would fail the comparison above.
     assert dropped > 0, f"seed {seed}"
+
+
+def test_the_first_colliding_motion_by_skipping_is_the_models(legs):
+    seed, found = legs
+    rng = np.random.default_rng(seed)
+    answers = {"free": 0, "colliding": 0}
+    for problem, resolution, held, _ in found:
+        model = problem.model
+        steps = model.motion_steps(resolution)
+        lower, upper = problem.lower.copy(), problem.upper.copy()
+        lower[list(held)] = upper[list(held)] = problem.start[list(held)]
+        # Short random walks from the leg's start: free, or stopped by a wall somewhere along them.
+        for _ in range(5):
+            states = [problem.start]
+            for _ in range(4):
+                states.append(states[-1] + (lower + (upper - lower) * rng.random(len(lower)) - states[-1]) * 0.3)
+            states = np.ascontiguousarray(states, dtype=np.float64)
+            expected = model.first_colliding_motion(states, steps)
+            assert first_colliding_motion(model, states, steps) == expected, f"seed {seed}"
+            answers["free" if expected < 0 else "colliding"] += 1
+    # The controls: walks that collide (at some motion) and walks that do not both occur.
+    assert answers["free"] >= 10 and answers["colliding"] >= 10, f"seed {seed}: {answers}"
+
+
+def test_a_puzzle_is_the_same_whatever_the_process_made_before():
+    """The free cells of the route are kept for the whole process (validator._walls_clear): the same puzzle
+    and the same query count with the kept answers as without them (the control: the second generation did
+    use them, and a different seed gives a different puzzle)."""
+    seed = fresh_seed()
+    params = replace(get_generator("move_n_times").default_params(), n=3)
+    validator_module._WALLS_CLEAR.clear()
+    cold_stats: dict = {}
+    cold = generate_here("move_n_times", seed, params, stats=cold_stats)
+    kept = len(validator_module._WALLS_CLEAR)
+    assert kept > 0, f"seed {seed}"
+    calls = []
+    original = validator_module._walls_clear
+
+    def counting(*args):
+        calls.append(args[1] in (key[1] for key in validator_module._WALLS_CLEAR))
+        return original(*args)
+
+    warm_stats: dict = {}
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(validator_module, "_walls_clear", counting)
+        warm = generate_here("move_n_times", seed, params, stats=warm_stats)
+    assert any(calls), f"seed {seed}: nothing kept was used"
+    assert warm == cold and warm_stats == cold_stats, f"seed {seed}"
+    other = generate_here("move_n_times", seed + 1, params)
+    assert other.certificate != cold.certificate, f"seed {seed}"

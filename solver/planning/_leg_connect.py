@@ -256,6 +256,26 @@ def shortcut(model: CollisionModel, states: np.ndarray, steps: np.ndarray) -> tu
     return states[kept], int(checks)
 
 
+@njit(cache=True, nogil=True)
+def _first_colliding(states, steps, ints, floats, pair_columns, rho):
+    """:func:`first_colliding_motion`, motions judged by :func:`_skipping_free`, in one compiled call."""
+    model = _unpacked(ints, floats)
+    d = states.shape[1]
+    scratch = (np.empty((1, d)), np.empty((1, d)), np.empty((1, d)), np.empty(1))
+    for i in range(states.shape[0] - 1):
+        if not _skipping_free(states[i], states[i + 1], steps, model, ints[0], pair_columns, rho, scratch):
+            return i
+    return -1
+
+
+def first_colliding_motion(model: CollisionModel, states: np.ndarray, steps: np.ndarray) -> int:
+    """``model.first_colliding_motion(states, steps)``: the index of the first motion of ``states``
+    (C-contiguous float64) that ``model.check_motion`` finds colliding, or -1; the same verdicts, the samples
+    where every pair is proven apart skipped (a certificate's long motions are mostly far from everything)."""
+    ints, floats, pair_columns = model.packed
+    return int(_first_colliding(states, steps, ints, floats, pair_columns, model._shape_rho))
+
+
 def rrt_connect_leg(problem: Problem, budget: int, rng: np.random.Generator, resolution: float,
                     held: Sequence[int] = ()) -> SolveResult:
     """:func:`connect` on ``problem`` (a leg: its start, goal joints and window), the joints ``held``

@@ -17,6 +17,7 @@ sampler draws from its own seeded numpy Generator.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -27,7 +28,7 @@ from phyrogen_core.maker import Necessary, SolveResult
 from phyrogen_core.objects import PuzzleObject, build_chain
 from phyrogen_core.puzzle import Goal
 from solver.collision.model import DEFAULT_TOLERANCE, CollisionModel
-from solver.planning._leg_connect import rrt_connect_leg, shortcut
+from solver.planning._leg_connect import first_colliding_motion, rrt_connect_leg, shortcut
 from solver.planning.defragment import defragment_certificate
 from solver.planning.ompl_setup import rrt_connect
 from solver.planning.problem import (
@@ -214,8 +215,8 @@ class OmplValidator:
         if not model.is_valid(states[0]) or np.any(np.abs(states[0] - problem.start) > 1e-12):
             return None
         motions = model if motions is None else motions
-        if type(motions) is CollisionModel:  # the same checks in the same order, in one compiled call
-            first = motions.first_colliding_motion(states, steps)
+        if type(motions) is CollisionModel:  # the same verdicts in the same order, in one compiled call
+            first = first_colliding_motion(motions, np.ascontiguousarray(states), steps)
             kept = len(states) if first < 0 else first + 1
         else:
             kept = 1
@@ -385,28 +386,9 @@ class OmplValidator:
         if known == len(fixed):
             return clear
         clear = clear.copy()
-        origin = np.asarray(target.pose.xyz[:2])
-        outline = footprint(target)
-        near = np.zeros(clear.shape[:2], dtype=bool)
-        for obj in fixed[known:]:
-            points = footprint(obj)
-            if points is None or outline is None:
-                near[:] = True
-                break
-            reach = float(np.max(np.linalg.norm(outline - origin, axis=1))) + ROUTE_CELL
-            low, high = points.min(axis=0) - origin - reach, points.max(axis=0) - origin + reach
-            near |= ((xs >= low[0]) & (xs <= high[0]))[:, None] & ((ys >= low[1]) & (ys <= high[1]))[None, :]
-        cells_x, cells_y = np.nonzero(near)
+        cells_x, cells_y, ok, checks = _walls_clear(target, fixed[known:], xs, ys)
+        self.checks += checks
         if len(cells_x):
-            model = CollisionModel(build_chain((target, *fixed[known:])))
-            names = target.joint_names
-            count, yaws = len(cells_x), len(_ROUTE_YAWS)
-            values = {names[0]: np.repeat(xs[cells_x], yaws), names[1]: np.repeat(ys[cells_y], yaws)}
-            if len(names) > 2:
-                values[names[2]] = np.tile(_ROUTE_YAWS, count)
-            states = np.column_stack([values[name] for name in model.joint_order])
-            self.checks += len(states)
-            ok = model.check(states).reshape(count, yaws)
             clear[cells_x, cells_y] &= ok
         self._blocked[(target, *fixed)] = clear
         return clear
@@ -457,7 +439,7 @@ class OmplValidator:
             if not goal.is_reached(chain.state_dict(path[-1])):
                 return None
             self.checks += len(path)
-            if model.first_colliding_motion(path, coarse) < 0 and path_is_valid(model, path, fine):
+            if _first_colliding(model, path, coarse) < 0 and path_is_valid(model, path, fine):
                 return tuple(tuple(float(v) for v in row) for row in path)
         return None
 
@@ -493,6 +475,61 @@ class OmplValidator:
             if repaired is not None and not verify_certificate(chain, repaired, goal):
                 return repaired
         return None
+
+
+_WALLS_CLEAR: OrderedDict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray, int]] = OrderedDict()
+_WALLS_CLEAR_KEPT = 64
+
+
+def _walls_clear(target: PuzzleObject, walls: tuple[PuzzleObject, ...], xs: np.ndarray,
+                 ys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The cells of the grid ``xs`` x ``ys`` from which the target could reach one of ``walls``, whether it
+    clears them there at each of :data:`_ROUTE_YAWS` (cells, yaws), and the states checked. A function of
+    the objects' geometry and the grid alone, so the last few answers are kept for the whole process,
+    found by the objects' equality: Move N Times' walls and door track are the same on every seed, and a
+    dataset's worker asks the same question for each of its puzzles. ``checks`` is counted by the caller
+    on every call, kept or not, so a puzzle's query count does not depend on what the process made before."""
+    key = (target, walls, xs.tobytes(), ys.tobytes())
+    found = _WALLS_CLEAR.get(key)
+    if found is not None:
+        _WALLS_CLEAR.move_to_end(key)
+        return found
+    origin = np.asarray(target.pose.xyz[:2])
+    outline = footprint(target)
+    near = np.zeros((len(xs), len(ys)), dtype=bool)
+    for obj in walls:
+        points = footprint(obj)
+        if points is None or outline is None:
+            near[:] = True
+            break
+        reach = float(np.max(np.linalg.norm(outline - origin, axis=1))) + ROUTE_CELL
+        low, high = points.min(axis=0) - origin - reach, points.max(axis=0) - origin + reach
+        near |= ((xs >= low[0]) & (xs <= high[0]))[:, None] & ((ys >= low[1]) & (ys <= high[1]))[None, :]
+    cells_x, cells_y = np.nonzero(near)
+    count, yaws = len(cells_x), len(_ROUTE_YAWS)
+    ok = np.ones((count, yaws), dtype=bool)
+    if count:
+        model = CollisionModel(build_chain((target, *walls)))
+        names = target.joint_names
+        values = {names[0]: np.repeat(xs[cells_x], yaws), names[1]: np.repeat(ys[cells_y], yaws)}
+        if len(names) > 2:
+            values[names[2]] = np.tile(_ROUTE_YAWS, count)
+        states = np.column_stack([values[name] for name in model.joint_order])
+        ok = model.check(states).reshape(count, yaws)
+    found = (cells_x, cells_y, ok, count * yaws if count else 0)
+    for array in found[:3]:
+        array.flags.writeable = False  # shared by every puzzle that asks
+    _WALLS_CLEAR[key] = found
+    if len(_WALLS_CLEAR) > _WALLS_CLEAR_KEPT:
+        _WALLS_CLEAR.popitem(last=False)
+    return found
+
+
+def _first_colliding(model: CollisionModel, states: np.ndarray, steps: np.ndarray) -> int:
+    """``model.first_colliding_motion``'s answer, found by skipping when ``model`` is a plain CollisionModel."""
+    if type(model) is CollisionModel:
+        return first_colliding_motion(model, states, steps)
+    return model.first_colliding_motion(states, steps)
 
 
 def _parking_values(chain, new_joints: list[str]) -> list[float]:
