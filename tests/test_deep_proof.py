@@ -22,7 +22,7 @@ from phyrogen_core.objects import build_chain
 from phyrogen_core.registry import get_generator
 from solver.validation import validator as validator_module
 from solver.validation.blocking import BlockingProver
-from solver.validation.cell_reach import flood, pair_spans, walls
+from solver.validation.cell_reach import emptied, flood, pair_spans, walls
 from solver.validation.judge import JUDGE_BUDGET, SECOND_JUDGE_BUDGET, attempt_fixed, attempt_second
 
 
@@ -65,6 +65,81 @@ def test_the_flood_reaches_what_a_walk_written_out_reaches():
         assert np.array_equal(seen, _walked(free, start, reach))
         differs += not np.array_equal(seen, _walked(free, start, (1, 1)))  # control: the reach matters
     assert differs > 0
+
+
+def _flooded_spans(table, blocked_i, blocked_k, span_i, span_k, start_i, start_k, steps_i, steps_k):
+    """``pair_spans`` written out: the whole grid of free pairs built, flooded, and its rows and columns read."""
+    (lo_i, hi_i), (lo_k, hi_k) = span_i, span_k
+    free = ~table[lo_i:hi_i + 1, lo_k:hi_k + 1] & ~blocked_i[lo_i:hi_i + 1, None] & ~blocked_k[None, lo_k:hi_k + 1]
+    seen = flood(np.ascontiguousarray(free), start_i - lo_i, start_k - lo_k, steps_i, steps_k)
+    rows, columns = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
+    if not len(rows):
+        return span_i, span_k
+    return (lo_i + int(rows[0]), lo_i + int(rows[-1])), (lo_k + int(columns[0]), lo_k + int(columns[-1]))
+
+
+def test_the_runs_two_objects_reach_together_are_the_whole_floods_though_the_fill_stops_early():
+    # pair_spans fills without building the grid and stops once every side is reached; either way round of
+    # the table (a transposed view), random spans, starts and steps, it answers as the whole flood does.
+    rng = np.random.default_rng(5731007)
+    narrowed = differs = 0
+    for trial in range(300):
+        n, m = (int(v) for v in rng.integers(3, 40, size=2))
+        table = rng.random((n, m)) < rng.uniform(0.05, 0.5)
+        if trial % 2:
+            table = np.ascontiguousarray(table.T).T  # the same values in the other memory order
+        blocked_i, blocked_k = rng.random(n) < 0.1, rng.random(m) < 0.1
+        span_i = tuple(sorted(int(v) for v in rng.integers(0, n, size=2)))
+        span_k = tuple(sorted(int(v) for v in rng.integers(0, m, size=2)))
+        start_i, start_k = int(rng.integers(span_i[0], span_i[1] + 1)), int(rng.integers(span_k[0], span_k[1] + 1))
+        steps = (int(rng.integers(1, 3)), int(rng.integers(1, 3)))
+        args = (table, blocked_i, blocked_k, span_i, span_k, start_i, start_k, *steps)
+        expected = _flooded_spans(*args)
+        assert pair_spans(*args) == expected
+        narrowed += expected != (span_i, span_k)
+        # Control: the answer hangs on the table (all pairs free: nothing narrows but a blocked start).
+        differs += pair_spans(np.zeros_like(table), *args[1:]) != expected
+    assert narrowed > 50 and differs > 50
+
+
+def _arc_consistent(tables, domains):
+    """The goal states' arc consistency written out with whole-array operations (a table per ordered pair)."""
+    changed = True
+    while changed:
+        if any(not mask.any() for mask in domains):
+            return True
+        changed = False
+        for i in range(len(domains)):
+            for k in range(len(domains)):
+                if k != i:
+                    kept = domains[i] & ~tables[i, k][:, domains[k]].all(axis=1)
+                    if not np.array_equal(kept, domains[i]):
+                        domains[i], changed = kept, True
+    return any(not mask.any() for mask in domains)
+
+
+def test_the_compiled_arc_consistency_empties_a_domain_exactly_where_the_whole_array_one_does():
+    rng = np.random.default_rng(5731008)
+    emptied_count = 0
+    for _ in range(300):
+        sizes = [int(v) for v in rng.integers(2, 12, size=int(rng.integers(2, 5)))]
+        density = rng.uniform(0.2, 0.9)
+        tables = {}
+        for i, n in enumerate(sizes):
+            for k in range(i + 1, len(sizes)):
+                table = rng.random((n, sizes[k])) < density
+                if rng.random() < 0.2:
+                    table[:] = False  # a pair that blocks nothing: left out of the compiled one's tables
+                tables[i, k], tables[k, i] = table, table.T
+        domains = [rng.random(n) < 0.6 for n in sizes]
+        expected = _arc_consistent(tables, [d.copy() for d in domains])
+        kept = {key: table for key, table in tables.items() if table.any()}
+        assert emptied([d.copy() for d in domains], kept) == expected
+        emptied_count += expected
+        # Control: without the tables nothing is pruned, so only an empty start is emptied.
+        if expected and all(d.any() for d in domains):
+            assert not emptied([d.copy() for d in domains], {})
+    assert 50 < emptied_count < 250
 
 
 def test_two_objects_in_each_others_way_are_kept_to_what_they_reach_together():

@@ -412,13 +412,20 @@ class BlockingProver:
         return table
 
     def _blocking(self, a, b, shrink: float) -> np.ndarray | None:
-        """:meth:`table` in one run of memory (a flipped one copied), or None when it blocks no cell pair. Kept."""
+        """:meth:`table`, or None when it blocks no cell pair. Kept; a table asked the other way round is the
+        kept one's transposed view (the compiled readers take either)."""
         key = (self._id(a[0]), a[1], self._id(b[0]), b[1], shrink)
-        if key not in self._blocks:
-            table = self.table(a, b, shrink)
-            # (A table never near is a view of one False: .any() over it crawls, ~4x a contiguous table's.)
-            self._blocks[key] = np.ascontiguousarray(table) if table.strides != (0, 0) and table.any() else None
-        return self._blocks[key]
+        found = self._blocks.get(key, False)
+        if found is False:
+            flipped = self._blocks.get((key[2], key[3], key[0], key[1], shrink), False)
+            if flipped is not False:
+                found = None if flipped is None else flipped.T
+            else:
+                table = self.table(a, b, shrink)
+                # (A table never near is a view of one False: .any() over it crawls, ~4x a contiguous table's.)
+                found = table if table.strides != (0, 0) and table.any() else None
+            self._blocks[key] = found
+        return found
 
     # -- the proof ---------------------------------------------------------------
     def proves(self, objects: Sequence[PuzzleObject], goal: Goal, fixed: Sequence[str], shrink: float) -> bool:
@@ -564,19 +571,9 @@ class BlockingProver:
         for i, entry in enumerate(free):
             for point in points:
                 domains[i] &= ~self.table(entry, point, shrink)[:, 0]
-        changed = True
-        while changed:
-            if any(not mask.any() for mask in domains):
-                return True
-            changed = False
-            for i, entry in enumerate(free):
-                for k, other in enumerate(free):
-                    if k == i:
-                        continue
-                    kept = domains[i] & ~self.table(entry, other, shrink)[:, domains[k]].all(axis=1)
-                    if not np.array_equal(kept, domains[i]):
-                        domains[i], changed = kept, True
-        return any(not mask.any() for mask in domains)
+        return cell_reach.emptied(domains, {(i, k): table for i, entry in enumerate(free) for k, other in
+                                            enumerate(free) if k != i and
+                                            (table := self._blocking(entry, other, shrink)) is not None})
 
 
 def _domains(free, runs: Runs, target: int | None, goal: Goal) -> list[np.ndarray]:

@@ -60,20 +60,96 @@ def flood(free, first, second, reach_first, reach_second):  # pragma: no cover (
     return seen
 
 
+@njit(cache=True, nogil=True)
+def _reached(table, blocked_i, blocked_k, lo_i, hi_i, lo_k, hi_k, first, second, reach_first,
+             reach_second):  # pragma: no cover (compiled)
+    """The first and last rows and columns of the cells :func:`flood` reaches in ``pair_spans``' grid of free
+    cell pairs (rows ``lo_i``..``hi_i`` of ``table`` and ``blocked_i``, columns ``lo_k``..``hi_k``), relative to
+    its corner, from (``first``, ``second``); (-1, -1, -1, -1) when that cell is not free. A cell is free where
+    neither ``table`` nor either ``blocked`` marks it, tested as the fill comes to it (the grid is not built);
+    the fill stops once it has reached every side of the grid, which no further cell can change."""
+    n, m = hi_i - lo_i + 1, hi_k - lo_k + 1
+    if table[lo_i + first, lo_k + second] or blocked_i[lo_i + first] or blocked_k[lo_k + second]:
+        return -1, -1, -1, -1
+    seen = np.zeros((n, m), dtype=np.bool_)
+    stack = np.empty(n * m, dtype=np.int64)
+    stack[0], top = first * m + second, 1
+    seen[first, second] = True
+    row_low = row_high = first
+    column_low = column_high = second
+    while top:
+        if row_low == 0 and column_low == 0 and row_high == n - 1 and column_high == m - 1:
+            break
+        top -= 1
+        a, b = divmod(stack[top], m)
+        for x in range(max(0, a - reach_first), min(n, a + reach_first + 1)):
+            if blocked_i[lo_i + x]:
+                continue
+            for y in range(max(0, b - reach_second), min(m, b + reach_second + 1)):
+                if not seen[x, y] and not blocked_k[lo_k + y] and not table[lo_i + x, lo_k + y]:
+                    seen[x, y] = True
+                    stack[top] = x * m + y
+                    top += 1
+                    row_low, row_high = min(row_low, x), max(row_high, x)
+                    column_low, column_high = min(column_low, y), max(column_high, y)
+    return row_low, row_high, column_low, column_high
+
+
 def pair_spans(table: np.ndarray, blocked_i: np.ndarray, blocked_k: np.ndarray, span_i: tuple[int, int],
                span_k: tuple[int, int], start_i: int, start_k: int, steps_i: int, steps_k: int
                ) -> tuple[tuple[int, int], tuple[int, int]]:
     """The runs of objects i and k within ``span_i`` and ``span_k`` that the cell pairs reachable from the start's
     hold (see the module docstring): ``table`` (cells of i, cells of k) marks the pairs blocked throughout,
     ``blocked_i`` and ``blocked_k`` the cells each is kept out of whatever the other does, ``steps_i`` and
-    ``steps_k`` the most cells a joint moves between checked states."""
+    ``steps_k`` the most cells a joint moves between checked states. (The rows and columns :func:`flood` reaches
+    through the free pairs, found by :func:`_reached` without building the grid, stopping once nothing can
+    widen them: ``tests/test_deep_proof.py`` holds it to the flood.)"""
     (lo_i, hi_i), (lo_k, hi_k) = span_i, span_k
-    free = ~table[lo_i:hi_i + 1, lo_k:hi_k + 1] & ~blocked_i[lo_i:hi_i + 1, None] & ~blocked_k[None, lo_k:hi_k + 1]
-    seen = flood(np.ascontiguousarray(free), start_i - lo_i, start_k - lo_k, steps_i, steps_k)
-    rows, columns = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
-    if not len(rows):  # the start pair itself blocked: the caller has found that already
+    row_low, row_high, column_low, column_high = _reached(table, blocked_i, blocked_k, lo_i, hi_i, lo_k, hi_k,
+                                                          start_i - lo_i, start_k - lo_k, steps_i, steps_k)
+    if row_low < 0:  # the start pair itself blocked: the caller has found that already
         return span_i, span_k
-    return (lo_i + int(rows[0]), lo_i + int(rows[-1])), (lo_k + int(columns[0]), lo_k + int(columns[-1]))
+    return (lo_i + row_low, lo_i + row_high), (lo_k + column_low, lo_k + column_high)
+
+
+@njit(cache=True, nogil=True)
+def prune(table, domain_i, domain_k):  # pragma: no cover (compiled)
+    """Arc consistency's step for objects i and k: drops from ``domain_i`` (in place) each cell whose row of
+    ``table`` (cells of i, cells of k: the pairs blocked throughout) is blocked at every cell of ``domain_k``
+    (all of them where that is empty); whether any was dropped. A row stops at its first cell left free."""
+    columns = np.flatnonzero(domain_k)
+    changed = False
+    for r in range(len(domain_i)):
+        if domain_i[r]:
+            for c in columns:
+                if not table[r, c]:
+                    break
+            else:
+                domain_i[r] = False
+                changed = True
+    return changed
+
+
+def emptied(domains: list[np.ndarray], tables: dict[tuple[int, int], np.ndarray]) -> bool:
+    """Arc consistency over the free objects' goal cells ``domains`` (narrowed in place), each pair (i, k)
+    keeping to the cells of i that some cell of k's domain leaves free (``tables`` as :class:`Runs`' : a pair
+    that blocks no cell pair left out): whether some object is left without cells."""
+    changed = True
+    while changed:
+        if any(not mask.any() for mask in domains):
+            return True
+        changed = False
+        for i in range(len(domains)):
+            for k in range(len(domains)):
+                if k == i:
+                    continue
+                table = tables.get((i, k))
+                if table is not None:
+                    changed |= prune(table, domains[i], domains[k])
+                elif not domains[k].any() and domains[i].any():  # no cell of k left: none of i has support
+                    domains[i][:] = False
+                    changed = True
+    return any(not mask.any() for mask in domains)
 
 
 @dataclass
@@ -114,5 +190,11 @@ class Runs:
 
 
 def warm_up() -> None:
-    """Load the compiled flood fill (from numba's cache, or compile it)."""
+    """Load the compiled flood fill and arc consistency (from numba's cache, or compile them), for tables in
+    memory order and transposed (a table asked the other way round is a view)."""
     flood(np.ones((2, 2), dtype=np.bool_), 0, 0, 1, 1)
+    cells = np.zeros(2, dtype=np.bool_)
+    for table in (np.zeros((2, 2), dtype=np.bool_), np.zeros((2, 2), dtype=np.bool_).T):
+        pair_spans(table, cells, cells, (0, 1), (0, 1), 0, 0, 1, 1)
+        prune(table, cells.copy(), cells)
+        or_throughout(table, 0, 1, cells.copy())
