@@ -7,6 +7,8 @@ Budgets are counted in collision queries, never seconds, so an answer is the sam
 
 from __future__ import annotations
 
+import ctypes
+
 import numpy as np
 from ompl import base as ob
 from ompl import geometric as og
@@ -17,11 +19,57 @@ from solver.collision.kernels import motion_collides_packed, state_valid_packed
 from solver.collision.model import CollisionModel
 from solver.planning.problem import DEFAULT_RESOLUTION, Problem, goal_distance
 
+_CAPSULE_NEW = ctypes.pythonapi.PyCapsule_New
+_CAPSULE_NEW.restype = ctypes.py_object
+_CAPSULE_NEW.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_void_p]
+_HANDLE = b"nb_handle"  # the capsule name OMPL's bindings read a raw pointer from
+
+
+class _RawStates:
+    """One call to OMPL per state read instead of one indexing call per joint: the space's ``serialize``
+    (a ``memcpy`` of a real vector state's doubles) into a numpy row, the same bits. ``None`` from
+    :meth:`of` where the bindings take no raw pointer, or the copy does not give back what indexing
+    reads (then the callers index joint by joint, as before)."""
+
+    def __init__(self, space, rows: np.ndarray):
+        self.rows = rows  # kept alive with the capsules that point into it
+        self.capsules = [_CAPSULE_NEW(row.ctypes.data, _HANDLE, None) for row in rows]
+        self.read = space.serialize  # read(capsule, state): state -> row
+
+    @classmethod
+    def of(cls, space, dimension: int, count: int) -> _RawStates | None:
+        try:
+            if space.getSerializationLength() != 8 * dimension:
+                return None
+            raw = cls(space, np.zeros((count, dimension)))
+            probe = space.allocState()
+            values = [0.5 + i / 3.0 for i in range(dimension)]
+            for i, v in enumerate(values):
+                probe[i] = v
+            for capsule, row in zip(raw.capsules, raw.rows, strict=True):
+                raw.read(capsule, probe)
+                if row.tolist() != values:
+                    return None
+        except (TypeError, ValueError, AttributeError):
+            return None
+        return raw
+
+
+def _compiled(dispatcher, arguments: tuple):
+    """The machine code numba's ``dispatcher`` runs for exactly these arguments' types, called without its
+    type dispatch (a planner calls it with the same arrays every time); the dispatcher itself where that
+    code is not compiled yet in this process."""
+    try:
+        found = dispatcher.overloads.get(tuple(map(dispatcher.typeof_pyval, arguments)))
+    except (AttributeError, TypeError, ValueError):
+        found = None
+    return dispatcher if found is None else found.entry_point
+
 
 class _MotionValidator(ob.MotionValidator):
     """Checks a whole segment in one compiled call and counts the checks."""
 
-    def __init__(self, si, model: CollisionModel, steps: np.ndarray):
+    def __init__(self, si, model: CollisionModel, steps: np.ndarray, raw: _RawStates | None = None):
         super().__init__(si)
         self.model = model
         self.steps = steps
@@ -31,9 +79,21 @@ class _MotionValidator(ob.MotionValidator):
         self._b = np.empty(self.dimension)
         # Our own model: its packed arrays straight to the compiled motion check (six arguments, not sixteen).
         self._packed = model.packed if type(model) is CollisionModel else None
+        self._raw = raw
+        if raw is not None and self._packed is not None:
+            # The states copied into two rows (one call each), the check's arguments always these arrays.
+            self._read, self._cap_a, self._cap_b = raw.read, raw.capsules[0], raw.capsules[1]
+            self._arguments = (raw.rows[0], raw.rows[1], steps, *self._packed)
+            self._check = _compiled(motion_collides_packed, self._arguments)
+        else:
+            self._raw = None
 
     def checkMotion(self, s1, s2) -> bool:  # noqa: N802 (OMPL's name)
         self.calls += 1
+        if self._raw is not None:
+            self._read(self._cap_a, s1)
+            self._read(self._cap_b, s2)
+            return not self._check(*self._arguments)
         a, b = self._a, self._b
         for i in range(self.dimension):
             a[i] = s1[i]
@@ -93,19 +153,25 @@ def ompl_setup(problem: Problem, steps: np.ndarray, goal_type: type, rng: np.ran
         bounds.setHigh(i, float(problem.upper[i]))
     space.setBounds(bounds)
     si = ob.SpaceInformation(space)
-    validator = _MotionValidator(si, model, steps)
-    buffer = np.empty((1, dimension))
+    raw = _RawStates.of(space, dimension, 3)
+    validator = _MotionValidator(si, model, steps, raw)
+    buffer = np.empty((1, dimension)) if raw is None else raw.rows[2:]
     row = buffer[0]
 
     ints, floats, _ = model.packed if type(model) is CollisionModel else (None, None, None)
+    read, capsule = (None, None) if raw is None else (raw.read, raw.capsules[2])
+    valid = state_valid_packed if ints is None else _compiled(state_valid_packed, (row, ints, floats))
 
     def state_valid(s) -> bool:
         # Counted too: with an invalid goal, RRT-Connect only samples goal states.
         validator.calls += 1
-        for i in range(dimension):
-            row[i] = s[i]
+        if read is not None:
+            read(capsule, s)
+        else:
+            for i in range(dimension):
+                row[i] = s[i]
         if ints is not None:  # our own model: the packed entry point, the same verdicts
-            return state_valid_packed(row, ints, floats)
+            return valid(row, ints, floats)
         return bool(model.check_prepared(buffer)[0])
 
     si.setStateValidityChecker(state_valid)

@@ -63,14 +63,15 @@ def problem_for_chain(chain: KinematicChain, goal: Goal, *, fixed: Sequence[str]
     :class:`UnreachableGoalError` when a goal joint is not an active joint of
     the chain, or is locked away from its goal value.
     """
-    movable = chain.object_names
-    unknown = set(fixed) - set(movable)
+    movable, owner = _owners(chain)
+    fixed_set = set(fixed)
+    unknown = fixed_set - set(movable)
     if unknown:
         raise ValueError(f"cannot fix {sorted(unknown)}: not movable objects of chain {chain.name!r}; "
                          f"valid: {list(movable)}")
     if not (math.isfinite(shrink) and shrink >= 0):
         raise ValueError(f"shrink must be a finite number of metres >= 0, got {shrink!r}")
-    fixed_joints = {j for j in chain.joint_order if chain.object_of_joint(j) in set(fixed)}
+    fixed_joints = {j for j in chain.joint_order if owner[j] in fixed_set}
     locked = [j for j in chain.active_joints if j.upper - j.lower < LOCKED_WIDTH or j.name in fixed_joints]
     locked_names = {j.name for j in locked}
     for name, value in goal.values.items():
@@ -90,6 +91,21 @@ def problem_for_chain(chain: KinematicChain, goal: Goal, *, fixed: Sequence[str]
     start = np.clip(np.zeros(len(order)), lower, upper)
     columns = {order.index(n): float(v) for n, v in goal.values.items() if n in order}
     return Problem(model, start, columns, lower, upper, goal.tolerance)
+
+
+_OWNERS: dict[int, tuple[KinematicChain, tuple[str, ...], dict[str, str]]] = {}
+
+
+def _owners(chain: KinematicChain) -> tuple[tuple[str, ...], dict[str, str]]:
+    """``chain.object_names`` and each active joint's object, the last few kept by the chain's identity (a
+    chain is immutable, and kept with them): the judges ask for many problems of one chain."""
+    found = _OWNERS.get(id(chain))
+    if found is None or found[0] is not chain:
+        if len(_OWNERS) >= _MODELS_KEPT:
+            del _OWNERS[next(iter(_OWNERS))]
+        found = _OWNERS[id(chain)] = (chain, chain.object_names,
+                                      {j: chain.object_of_joint(j) for j in chain.joint_order})
+    return found[1], found[2]
 
 
 _MODELS: dict[tuple, tuple[KinematicChain, CollisionModel]] = {}
@@ -148,11 +164,21 @@ def problem_factors(problem: Problem) -> dict[str, tuple[int, ...]]:
 def chain_path(problem: Problem, path: Sequence[Sequence[float]]) -> Path:
     """``path`` (problem joint order) expanded to every active joint of the chain (locked ones at their value)."""
     model = problem.model
+    if len(path) == 0:
+        return ()
+    # One numpy copy instead of a Python float() per state and joint: the same float64 values.
+    states = np.asarray(path, dtype=np.float64)
     column = {n: i for i, n in enumerate(model.joint_order)}
-    return tuple(
-        tuple(float(state[column[n]]) if n in column else float(model.locked[n]) for n in model.chain.joint_order)
-        for state in path
-    )
+    order = model.chain.joint_order
+    free = [k for k, n in enumerate(order) if n in column]
+    out = np.empty((len(states), len(order)))
+    out[:, free] = states[:, [column[order[k]] for k in free]]
+    for k, n in enumerate(order):
+        if n not in column:
+            out[:, k] = float(model.locked[n])
+    if not order:
+        return ((),) * len(out)
+    return tuple(zip(*out.T.tolist(), strict=True))  # one list per joint, zipped: no list per state
 
 
 def goal_distance(problem: Problem, state) -> float:
