@@ -20,6 +20,7 @@ import math
 import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -27,7 +28,7 @@ from phyrogen_core.chain import Joint, JointType, KinematicChain, Role, joint_mo
 from phyrogen_core.geometry import Box, ConvexPrism, Cylinder
 from solver.collision import kernels as _kernels
 from solver.collision import skipping_move as _skipping
-from solver.collision.shape_table import ShapeTable, descendants, shape_table
+from solver.collision.shape_table import ShapeTable, descendants, revolute_reach, shared_shape_table
 
 _FLOAT64 = np.dtype(np.float64)
 DEFAULT_TOLERANCE = 1e-6
@@ -229,7 +230,7 @@ class _ChainParts:
         self.rest = _rest_transforms(chain, {})
         self.heights = _heights(self.rest, links)
         self.outlines = _chain_outlines(chain, links, self.rest)
-        self.table = shape_table(self.outlines)
+        self.table = shared_shape_table(self.outlines)
         self.descendants = descendants(chain, links, self.link_index)
         self.reach: dict[str, float] = {}
 
@@ -288,7 +289,7 @@ class CollisionModel:
             self._outlines, table = parts.outlines, parts.table
         else:
             self._outlines = _chain_outlines(chain, self._links, rest)
-            table = shape_table(self._outlines)
+            table = shared_shape_table(self._outlines)
         self._compile_arrays(table)
 
     # -- construction ------------------------------------------------------
@@ -340,8 +341,7 @@ class CollisionModel:
         # moving, whose z intervals overlap by more than the tolerance; a circle always second.
         moving = np.zeros(len(self._links), dtype=np.bool_)
         moving[list(self._moving)] = True
-        kept = table.kept_pairs(moving, self.tolerance)
-        self._pairs = np.ascontiguousarray(table.pairs[kept])
+        self._pairs = table.kept(moving, self.tolerance)
         # Which state columns move each pair's shapes (a joint moves its child link and all below).
         link_columns = np.zeros((len(self._links), len(self.joint_order)), dtype=np.bool_)
         for link, parent, *_rest, column, _ax, _ay, _rate in self._joint_steps:
@@ -351,28 +351,35 @@ class CollisionModel:
         shape_links = table.link
         self._pair_columns = np.ascontiguousarray(link_columns[shape_links[self._pairs[:, 0]]] |
                                                   link_columns[shape_links[self._pairs[:, 1]]])
-        outlines = self._outlines
-        self._pair_objects = [(outlines[a].obj, outlines[b].obj) for a, b in self._pairs.tolist()]
-        self._pair_names = [tuple(sorted(names)) for names in self._pair_objects]
         self._arguments = self._args()
         self._state_shape = (len(self.joint_order),)
-        self._packed_int, self._packed_float = self._pack()
+        self._packed_int, self._packed_float = self._pack(table)
+
+    @cached_property
+    def _pair_objects(self) -> list[tuple[str, str]]:
+        """Each pair's object names in its order, sorted below (built when first asked: most models never are)."""
+        return [(self._outlines[a].obj, self._outlines[b].obj) for a, b in self._pairs.tolist()]
+
+    @cached_property
+    def _pair_names(self) -> list[tuple[str, str]]:
+        return [tuple(sorted(names)) for names in self._pair_objects]
 
     def _args(self) -> tuple:
         return (self._kin_int, self._kin_float, len(self._links), self._shape_link, self._shape_nv,
                 self._shape_center, self._shape_radius, self._shape_verts, self._shape_normals,
                 self._shape_extent, self._pairs, self.tolerance)
 
-    def _pack(self) -> tuple[np.ndarray, np.ndarray]:
-        """The kernels' arrays in two flat ones (:func:`~solver.collision.kernels.state_valid_packed`)."""
+    def _pack(self, table: ShapeTable) -> tuple[np.ndarray, np.ndarray]:
+        """The kernels' arrays in two flat ones (:func:`~solver.collision.kernels.state_valid_packed`); the
+        shapes' part is the table's, packed once (:attr:`ShapeTable.packed`)."""
         verts = self._shape_verts
         header = [len(self._links), len(self._kin_int), len(self._shape_link), verts.shape[1], len(self._pairs)]
         assert len(header) == _kernels.PACKED_HEADER
-        ints = np.concatenate([np.array(header, dtype=np.int64), self._kin_int.ravel(), self._shape_link,
-                               self._shape_nv, self._pairs.ravel()]).astype(np.int64)
-        floats = np.concatenate([self._kin_float.ravel(), self._shape_center.ravel(), self._shape_radius,
-                                 verts.ravel(), self._shape_normals.ravel(), self._shape_extent.ravel(),
-                                 [self.tolerance], self._fixed_poses().ravel()]).astype(np.float64)
+        shape_ints, shape_floats = table.packed
+        ints = np.concatenate([np.array(header, dtype=np.int64), self._kin_int.ravel(), shape_ints,
+                               self._pairs.ravel()]).astype(np.int64)
+        floats = np.concatenate([self._kin_float.ravel(), shape_floats, [self.tolerance],
+                                 self._fixed_poses().ravel()]).astype(np.float64)
         return ints, floats
 
     def _fixed_poses(self) -> np.ndarray:
@@ -553,23 +560,10 @@ class CollisionModel:
                 continue
             found = known.get(name)
             if found is None:
-                found = known[name] = self._revolute_reach(joint, below)
+                found = known[name] = revolute_reach(self._outlines, below[joint.child], self._rest, self._links,
+                                                     joint.child)
             reach[index] = found
         return reach
-
-    def _revolute_reach(self, joint: Joint, below: dict[str, set[int]]) -> float:
-        rest = self._rest
-        axis_xy = rest[joint.child][:2, 3]
-        best = 0.0
-        for o in self._outlines:
-            if o.link not in below[joint.child]:
-                continue
-            m = rest[self._links[o.link]]
-            pts = o.vertices if not o.is_circle else o.center[None, :]
-            world = pts @ m[:2, :2].T + m[:2, 3]
-            extra = 0.0 if not o.is_circle else o.radius
-            best = max(best, float(np.max(np.linalg.norm(world - axis_xy, axis=1))) + extra)
-        return max(best, 1e-3)
 
     def motion_steps(self, resolution: float) -> np.ndarray:
         """Per-joint step sizes so that no collision point moves more than ``resolution``."""

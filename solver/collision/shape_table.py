@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -32,6 +33,9 @@ class ShapeTable:
     extent: np.ndarray
     pairs: np.ndarray  # (p, 2) shapes of different objects and links, i < j in triangle order, a circle second
     overlap: np.ndarray  # (p,) how far each pair's z extents overlap (negative: apart)
+    # The kept pairs' arrays by moving links and tolerance: a puzzle's models hold the same objects fixed
+    # again and again (each candidate's judges), and the table is shared by chains of the same shapes.
+    _kept: dict[tuple[bytes, float], np.ndarray] = field(default_factory=dict, compare=False, repr=False)
 
     def kept_pairs(self, moving_links: np.ndarray, tolerance: float) -> np.ndarray:
         """Indices of the pairs a model keeps: one of its shapes on a link that ``moving_links`` (a boolean
@@ -40,6 +44,29 @@ class ShapeTable:
         moving = moving_links[self.link]
         keep = (moving[a] | moving[b]) & ~(self.overlap <= tolerance)
         return np.flatnonzero(keep)
+
+    @cached_property
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The shapes' part of a model's packed arrays (``CollisionModel._pack``): links and vertex counts,
+        then centres, radii, vertices, normals and extents, flat."""
+        ints = np.concatenate([self.link, self.nv]).astype(np.int64)
+        floats = np.concatenate([self.center.ravel(), self.radius, self.verts.ravel(), self.normals.ravel(),
+                                 self.extent.ravel()]).astype(np.float64)
+        return ints, floats
+
+    def kept(self, moving_links: np.ndarray, tolerance: float) -> np.ndarray:
+        """The pairs :meth:`kept_pairs` keeps, as a C-contiguous (p, 2) array: the last few kept (the same
+        numbers, so every model built from them is the same)."""
+        key = (moving_links.tobytes(), tolerance)
+        found = self._kept.get(key)
+        if found is None:
+            if len(self._kept) >= _KEPT_PAIRS:
+                self._kept.clear()
+            found = self._kept[key] = np.ascontiguousarray(self.pairs[self.kept_pairs(moving_links, tolerance)])
+        return found
+
+
+_KEPT_PAIRS = 64
 
 
 def shape_table(outlines: Sequence) -> ShapeTable:
@@ -76,6 +103,26 @@ def shape_table(outlines: Sequence) -> ShapeTable:
     return ShapeTable(link, nv, center, radius, rho, verts, normals, extent, pairs.reshape(-1, 2), overlap)
 
 
+_TABLES: dict[tuple[int, ...], tuple[list, ShapeTable]] = {}
+_TABLES_KEPT = 64
+
+
+def shared_shape_table(outlines: Sequence) -> ShapeTable:
+    """``shape_table(outlines)``, kept by the outlines' identities: a model's outlines are kept objects
+    (``solver.collision.model._PLACED``), so the chains of one puzzle's candidates (each a new chain, most of
+    them of the same shapes) hand over the same outline objects, and their table is the one already built
+    (the outlines are kept with it, so no other outline gets their ids while it is kept)."""
+    key = tuple(map(id, outlines))
+    found = _TABLES.get(key)
+    if found is not None and all(a is b for a, b in zip(found[0], outlines, strict=True)):
+        return found[1]
+    table = shape_table(outlines)
+    if len(_TABLES) >= _TABLES_KEPT:
+        del _TABLES[next(iter(_TABLES))]
+    _TABLES[key] = (list(outlines), table)
+    return table
+
+
 def descendants(chain, links: Sequence[str], link_index: Mapping[str, int]) -> dict[str, set[int]]:
     """Each link's index and those of every link below it (``links``: the chain's, parents first)."""
     out: dict[str, set[int]] = {}
@@ -86,3 +133,33 @@ def descendants(chain, links: Sequence[str], link_index: Mapping[str, int]) -> d
                 mine |= out[joint.child]
         out[name] = mine
     return out
+
+
+_REACHES: dict[tuple, tuple[list, float]] = {}
+_REACHES_KEPT = 1024
+
+
+def revolute_reach(outlines: Sequence, carried_links: set[int], rest: Mapping[str, np.ndarray], links: Sequence[str],
+                   child: str) -> float:
+    """The largest distance from a revolute joint's axis (its ``child`` link's rest origin) of any collision
+    point of the links it carries (``carried_links``), at least 1 mm. Kept by the exact numbers it reads
+    (each carried outline, by identity, and its link's rest pose): a puzzle's candidates are new chains of
+    mostly the same objects at the same poses."""
+    carried = [o for o in outlines if o.link in carried_links]
+    key = (rest[child][:2, 3].tobytes(), *((id(o), rest[links[o.link]][:2].tobytes()) for o in carried))
+    found = _REACHES.get(key)
+    if found is not None and all(a is b for a, b in zip(found[0], carried, strict=True)):
+        return found[1]
+    axis_xy = rest[child][:2, 3]
+    best = 0.0
+    for o in carried:
+        m = rest[links[o.link]]
+        pts = o.vertices if not o.is_circle else o.center[None, :]
+        world = pts @ m[:2, :2].T + m[:2, 3]
+        extra = 0.0 if not o.is_circle else o.radius
+        best = max(best, float(np.max(np.linalg.norm(world - axis_xy, axis=1))) + extra)
+    if len(_REACHES) >= _REACHES_KEPT:
+        _REACHES.clear()
+    value = max(best, 1e-3)
+    _REACHES[key] = (carried, value)  # the outlines kept with their key, so no other outline gets their ids
+    return value
