@@ -58,6 +58,7 @@ def test_chain_path_gives_the_same_floats():
         assert found == expected and _bits(found) == _bits(expected)
         assert all(type(v) is float for state in found for v in state)
     assert chain_path(problem, ()) == () == _reference_chain_path(problem, ())
+    assert chain_path(problem, iter(paths[1])) == _reference_chain_path(problem, paths[1])  # any iterable
     # Negative control: the comparison sees a one-ulp change of one value.
     path = paths[2].copy()
     moved = path.copy()

@@ -164,10 +164,10 @@ def problem_factors(problem: Problem) -> dict[str, tuple[int, ...]]:
 def chain_path(problem: Problem, path: Sequence[Sequence[float]]) -> Path:
     """``path`` (problem joint order) expanded to every active joint of the chain (locked ones at their value)."""
     model = problem.model
-    if len(path) == 0:
-        return ()
     # One numpy copy instead of a Python float() per state and joint: the same float64 values.
-    states = np.asarray(path, dtype=np.float64)
+    states = np.asarray(path if isinstance(path, np.ndarray | Sequence) else list(path), dtype=np.float64)
+    if len(states) == 0:
+        return ()
     column = {n: i for i, n in enumerate(model.joint_order)}
     order = model.chain.joint_order
     free = [k for k, n in enumerate(order) if n in column]
