@@ -18,6 +18,7 @@ import solver.validation.validator as validator_module
 from phyrogen_core.registry import get_generator
 from solver.pipelines.generation import generate_here
 from solver.planning._leg_connect import (
+    _extension_free,
     _motion_free,
     _skipping_free,
     _unpacked,
@@ -71,6 +72,14 @@ def test_skipping_verdicts_are_every_samples_verdicts(legs):
             skipping = _skipping_free(problem.start, end, steps, unpacked, ints[0], pair_columns, model._shape_rho,
                                       scratch)
             assert skipping == every, f"seed {seed}: {problem.start} -> {end}"
+            # What the search asks: the end state (unless known valid), the middle sample, then skipping.
+            extension = _extension_free(problem.start, end, False, steps, unpacked, ints[0], pair_columns,
+                                        np.empty((2, ints[2])), model._shape_rho, scratch)
+            assert extension == every, f"seed {seed}: {problem.start} -> {end}"
+            if model.is_valid(end):  # from a valid end back to the (valid) start, as the goal tree asks
+                back = _motion_free(end, problem.start, steps, unpacked, ints[0], pair_columns)
+                assert _extension_free(end, problem.start, True, steps, unpacked, ints[0], pair_columns,
+                                       np.empty((2, ints[2])), model._shape_rho, scratch) == back, f"seed {seed}"
             verdicts[every] += 1
     # The controls: both verdicts occur often, so a check that always answered one of them would fail above.
     assert verdicts[True] >= 50 and verdicts[False] >= 50, f"seed {seed}: {verdicts}"

@@ -21,10 +21,10 @@ own model with every other joint held, so no model is built per held configurati
 
 A motion is judged by :func:`~solver.collision.skipping_move.motion_ends` (:func:`_skipping_free`): the same
 samples and verdicts as a check of every sample (:func:`_motion_free`), those where every pair is proven apart
-skipped; a motion to a new state of the start tree asks that state first (a failed extension usually ends in a
-wall). Only the verdicts feed the search, so its random numbers and paths are those of the check of every
-sample, at about a third of the cost (Move N Times n = 3). :func:`shortcut` drops the states a leg's path can
-skip, with the same checks.
+skipped, after its middle sample (and, for a motion to a new state of the start tree, that state) is asked
+alone: a failed extension usually ends in a wall or crosses one. Only the verdicts feed the search, so its
+random numbers and paths are those of the check of every sample, at about a third of the cost (Move N Times
+n = 3). :func:`shortcut` and :func:`first_colliding_motion` judge a path's motions the same way.
 
 The validator's main solve stays OMPL's RRT-Connect (:func:`solver.planning.ompl_setup.rrt_connect`).
 """
@@ -84,6 +84,35 @@ def _skipping_free(a, b, steps, model, n_links, pair_columns, rho, scratch):
 
 
 @njit(cache=True, nogil=True)
+def _middle_valid(a, b, steps, model, centres, q):
+    """Whether the middle sample of the motion from ``a`` (valid) to ``b`` is valid: the sample
+    ``motion_ends`` and ``_motion_free`` test there, computed as they compute it."""
+    count = 1
+    for j in range(a.shape[0]):
+        need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
+        if need > count:
+            count = need
+    k = count // 2
+    if k < 1:
+        return True
+    t = k / count
+    for j in range(a.shape[0]):
+        q[j] = a[j] + (b[j] - a[j]) * t
+    return _valid(q, model, centres)
+
+
+@njit(cache=True, nogil=True)
+def _extension_free(a, b, b_valid, steps, model, n_links, pair_columns, centres, rho, scratch):
+    """:func:`_motion_free`'s verdict on the motion from ``a`` (valid) to ``b`` (known valid when ``b_valid``):
+    ``b``, then the middle sample, then the rest by skipping. A failed extension usually ends in a wall or
+    crosses one; the samples are the same, so the verdict is."""
+    if not b_valid and not _valid(b, model, centres):
+        return False
+    return (_middle_valid(a, b, steps, model, centres, scratch[2][0])
+            and _skipping_free(a, b, steps, model, n_links, pair_columns, rho, scratch))
+
+
+@njit(cache=True, nogil=True)
 def _grow(states, parents, sizes, tree, target, max_distance, is_start, steps, model, n_links, pair_columns,
           centres, counted, rho, scratch):
     """OMPL's ``growTree``: extend ``tree`` from its node nearest ``target`` towards it; (status, node)."""
@@ -117,13 +146,12 @@ def _grow(states, parents, sizes, tree, target, max_distance, is_start, steps, m
             new[j] = target[j]
     counted[0] += 1
     if is_start:
-        valid = _valid(new, model, centres) and _skipping_free(near, new, steps, model, n_links, pair_columns, rho,
-                                                               scratch)
+        valid = _extension_free(near, new, False, steps, model, n_links, pair_columns, centres, rho, scratch)
     else:
         valid = _valid(new, model, centres)
         if valid:
             counted[0] += 1
-            valid = _skipping_free(new, near, steps, model, n_links, pair_columns, rho, scratch)
+            valid = _extension_free(new, near, True, steps, model, n_links, pair_columns, centres, rho, scratch)
     if not valid:
         return _TRAPPED, best
     parents[tree, size] = best
