@@ -38,6 +38,29 @@ def test_a_wall_is_a_run_of_blocked_cells_as_wide_as_a_step():
     assert walls(blocked, start, 4) == (0, 15)  # control: nothing on the left is that wide
 
 
+def _walls_written_out(blocked: np.ndarray, start: int, width: int) -> tuple[int, int]:
+    """:func:`walls` from the blocked runs, listed whole."""
+    edges = np.flatnonzero(np.diff(np.r_[0, blocked.view(np.int8), 0]))
+    firsts, ends = edges[::2], edges[1::2]
+    wide = ends - firsts >= width
+    before, after = ends[wide & (ends <= start)], firsts[wide & (firsts > start)]
+    return (int(before[-1]) if len(before) else 0), (int(after[0]) - 1 if len(after) else len(blocked) - 1)
+
+
+def test_walls_scanned_outwards_are_the_runs_listed_whole():
+    rng = np.random.default_rng(5731009)
+    differs = 0
+    for _ in range(500):
+        blocked = rng.random(int(rng.integers(1, 60))) < rng.uniform(0.1, 0.7)
+        free = np.flatnonzero(~blocked)
+        if not len(free):
+            continue
+        start, width = int(rng.choice(free)), int(rng.integers(1, 5))
+        assert walls(blocked, start, width) == _walls_written_out(blocked, start, width)
+        differs += walls(blocked, start, width) != _walls_written_out(blocked, start, width + 1)  # control
+    assert differs > 100
+
+
 def _walked(free: np.ndarray, start: tuple[int, int], reach: tuple[int, int]) -> np.ndarray:
     """The cells a walk of moves of at most ``reach`` cells reaches, written out breadth first."""
     seen = np.zeros_like(free)

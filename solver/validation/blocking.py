@@ -210,7 +210,7 @@ class BlockingProver:
         self._outlines: dict[PuzzleObject, tuple[_Outline, ...]] = {}
         self._cells: dict[tuple, _Cells] = {}
         self._tables: dict[tuple, np.ndarray] = {}
-        self._bounds: dict[tuple, np.ndarray] = {}
+        self._bounds: dict[tuple, tuple] = {}
         self._worlds: dict[tuple, np.ndarray] = {}
         self._widest: dict[tuple, tuple] = {}
         self._runs: dict[tuple, tuple] = {}
@@ -226,18 +226,16 @@ class BlockingProver:
 
     # -- per object ------------------------------------------------------------
     def outlines(self, obj: PuzzleObject) -> tuple[_Outline, ...]:
-        key = self._id(obj)
-        found = self._outlines.get(key)
+        found = self._outlines.get(id(obj))  # found: registered when it was made
         if found is None:
-            found = self._outlines[key] = _outlines(obj)
+            found = self._outlines[self._id(obj)] = _outlines(obj)
         return found
 
     def _reach(self, obj: PuzzleObject) -> float:
         """:func:`_reach` of the object's outlines, kept."""
-        key = self._id(obj)
-        found = self._reaches.get(key)
+        found = self._reaches.get(id(obj))
         if found is None:
-            found = self._reaches[key] = _reach(self.outlines(obj))
+            found = self._reaches[self._id(obj)] = _reach(self.outlines(obj))
         return found
 
     def _joint_reach(self, obj: PuzzleObject) -> float:
@@ -249,10 +247,11 @@ class BlockingProver:
         level 0 the widest, in which no point moves more than :attr:`erosion` from a cell's centre, each next
         level halving every cell, down to cells at least twice :attr:`fine` wide in any point's motion (a
         standard proof's finest) and further down to twice :attr:`deep` (a deep proof's, :meth:`deepest`)."""
-        key = (self._id(obj), "levels")
+        key = (id(obj), "levels")
         found = self._cells.get(key)
         (lower, upper), = obj.limits
         if found is None:
+            self._id(obj)  # registered with its first cells (found: registered before)
             reach = self._joint_reach(obj)
             count = max(1, math.ceil((upper - lower) * reach / (2 * self.erosion)))
             halvings, deep = (max(0, math.floor(math.log2((upper - lower) * reach / count / (2 * fine))))
@@ -306,7 +305,7 @@ class BlockingProver:
 
     def _frames(self, obj: PuzzleObject, where: tuple, cells: _Cells) -> np.ndarray:
         """The object's frame at each cell's centre: (n, 4) of x, y and the yaw's cosine and sine."""
-        key = (self._id(obj), where)
+        key = (id(obj), where)  # (entries' objects are registered: free_cells, placed)
         found = self._worlds.get(key)
         if found is None:
             found = self._worlds[key] = np.ascontiguousarray(np.stack(
@@ -314,15 +313,15 @@ class BlockingProver:
         return found
 
     # -- per pair ----------------------------------------------------------------
-    def _box(self, obj: PuzzleObject, where: tuple, cells: _Cells) -> np.ndarray:
-        """The (x, y) bounds of everything the object covers over its cells: [low x, low y, high x, high y]."""
-        key = (self._id(obj), where)
+    def _box(self, obj: PuzzleObject, where: tuple, cells: _Cells) -> tuple[float, float, float, float]:
+        """The (x, y) bounds of everything the object covers over its cells: low x, low y, high x, high y."""
+        key = (id(obj), where)
         found = self._bounds.get(key)
         if found is None:
             rho = self._reach(obj)
             low = cells.poses[:, :2].min(axis=0) - rho
             high = cells.poses[:, :2].max(axis=0) + rho
-            found = self._bounds[key] = np.concatenate([low, high])
+            found = self._bounds[key] = (float(low[0]), float(low[1]), float(high[0]), float(high[1]))
         return found
 
     def _shape(self, obj: PuzzleObject, where: tuple, cells: _Cells, index: int) -> tuple:
@@ -331,7 +330,7 @@ class BlockingProver:
         prepared when a pair first asks it; where each level's cells start; whether every cell turns about
         one pivot. Kept for the prover's questions."""
         free = cells.values is not None
-        key = (self._id(obj), where)
+        key = (id(obj), where)
         run = self._runs.get(key)
         if run is None or run[0] is not cells:  # a level once made stays: the deepest stands for all
             levels = self._levels(obj, cells)
@@ -358,7 +357,7 @@ class BlockingProver:
         tested again (``cell_pairs.refine``). False when that would take more than :data:`PAIR_WORK` (nothing
         marked then)."""
         (obj_a, where_a, cells_a), (obj_b, where_b, cells_b) = a, b
-        key = (self._id(obj_a), cells_a.values is None and where_a, self._id(obj_b), cells_b.values is None
+        key = (id(obj_a), cells_a.values is None and where_a, id(obj_b), cells_b.values is None
                and where_b, index_a, index_b, threshold)
         widest = self._widest.get(key)
         shape_a, bases_a, one_a = self._shape(obj_a, where_a, cells_a, index_a)
@@ -383,7 +382,7 @@ class BlockingProver:
     def table(self, a: tuple[PuzzleObject, tuple, _Cells], b: tuple[PuzzleObject, tuple, _Cells],
               shrink: float) -> np.ndarray:
         """(cells of a, cells of b): whether a there overlaps b there wherever in both cells they are."""
-        id_a, id_b = self._id(a[0]), self._id(b[0])
+        id_a, id_b = id(a[0]), id(b[0])
         key = (id_a, a[1], id_b, b[1], shrink)
         found = self._tables.get(key)
         if found is not None:
@@ -394,7 +393,7 @@ class BlockingProver:
         (obj_a, where_a, cells_a), (obj_b, where_b, cells_b) = a, b
         shape = (len(cells_a.poses), len(cells_b.poses))
         box_a, box_b = self._box(obj_a, where_a, cells_a), self._box(obj_b, where_b, cells_b)
-        near = np.all(box_a[:2] < box_b[2:]) and np.all(box_b[:2] < box_a[2:])
+        near = box_a[0] < box_b[2] and box_a[1] < box_b[3] and box_b[0] < box_a[2] and box_b[1] < box_a[3]
         # Never near: no cell pair; a large table (a deep proof's) then takes no memory.
         table = np.zeros(shape, dtype=bool) if near or shape[0] * shape[1] < 1 << 16 else \
             np.broadcast_to(np.zeros((1, 1), dtype=bool), shape)
@@ -414,7 +413,7 @@ class BlockingProver:
     def _blocking(self, a, b, shrink: float) -> np.ndarray | None:
         """:meth:`table`, or None when it blocks no cell pair. Kept; a table asked the other way round is the
         kept one's transposed view (the compiled readers take either)."""
-        key = (self._id(a[0]), a[1], self._id(b[0]), b[1], shrink)
+        key = (id(a[0]), a[1], id(b[0]), b[1], shrink)
         found = self._blocks.get(key, False)
         if found is False:
             flipped = self._blocks.get((key[2], key[3], key[0], key[1], shrink), False)
