@@ -73,7 +73,7 @@ def test_raw_state_reads_match_indexing():
 
     for dimension in (1, 4, 13):
         space = ob.RealVectorStateSpace(dimension)
-        raw = _RawStates.of(space, dimension, 2)
+        raw = _RawStates.of(space, dimension, 2, space.allocState())
         assert raw is not None
         state = space.allocState()
         values = np.random.default_rng(dimension).uniform(-1e3, 1e3, dimension)
@@ -83,7 +83,8 @@ def test_raw_state_reads_match_indexing():
         raw.read(raw.capsules[1], state)
         assert _bits([raw.rows[1].tolist()]) == _bits([[state[i] for i in range(dimension)]])
     # Negative control: a space whose states are not `dimension` doubles is refused (read joint by joint).
-    assert _RawStates.of(ob.RealVectorStateSpace(3), 4, 2) is None
+    space = ob.RealVectorStateSpace(3)
+    assert _RawStates.of(space, 4, 2, space.allocState()) is None
 
 
 def test_compiled_entry_answers_as_the_dispatcher():

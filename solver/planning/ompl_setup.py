@@ -37,12 +37,13 @@ class _RawStates:
         self.read = space.serialize  # read(capsule, state): state -> row
 
     @classmethod
-    def of(cls, space, dimension: int, count: int) -> _RawStates | None:
+    def of(cls, space, dimension: int, count: int, probe) -> _RawStates | None:
+        """The rows and their capsules, checked on ``probe`` (a state of ``space`` it overwrites: OMPL's
+        bindings never free an allocated state, so the caller lends one it needs anyway)."""
         try:
             if space.getSerializationLength() != 8 * dimension:
                 return None
             raw = cls(space, np.zeros((count, dimension)))
-            probe = space.allocState()
             values = [0.5 + i / 3.0 for i in range(dimension)]
             for i, v in enumerate(values):
                 probe[i] = v
@@ -153,7 +154,8 @@ def ompl_setup(problem: Problem, steps: np.ndarray, goal_type: type, rng: np.ran
         bounds.setHigh(i, float(problem.upper[i]))
     space.setBounds(bounds)
     si = ob.SpaceInformation(space)
-    raw = _RawStates.of(space, dimension, 3)
+    start = si.allocState()  # first the raw reads' probe, then the start state
+    raw = _RawStates.of(space, dimension, 3, start)
     validator = _MotionValidator(si, model, steps, raw)
     buffer = np.empty((1, dimension)) if raw is None else raw.rows[2:]
     row = buffer[0]
@@ -178,7 +180,6 @@ def ompl_setup(problem: Problem, steps: np.ndarray, goal_type: type, rng: np.ran
     si.setMotionValidator(validator)
     si.setup()
     pdef = ob.ProblemDefinition(si)
-    start = si.allocState()
     for i in range(dimension):
         start[i] = float(problem.start[i])
     pdef.addStartState(start)
