@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from solver.collision.kernels import check_states, motion_collision, nearest_l1, pair_hits
+from solver.collision.kernels import check_states, nearest_l1, pair_hits
+from solver.planning._judge_motion import motion_hit
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2  # as in solver.planning.la_rrt
 
@@ -87,7 +88,7 @@ def run(rng, start, lower, upper, goal_columns, goal_values, weights, extension_
         factor_columns, factor_sizes, pair_objects, object_factor, limit_probability, single_probability,
         goal_root_probability, goal_attempts, max_pushes, push_attempts, budget, queries, capacity,
         kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
-        shape_normals, shape_extent, pairs, tol, pair_columns):
+        shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho):
     """LA-RRT with pushes from ``start`` until a connection whose path holds at ``fine_steps`` or
     until ``queries`` reach ``budget``, in one call. Returns (path or an empty array, iterations,
     queries, clipped). ``factor_columns`` (F, k) lists each factor's state columns (padded with -1,
@@ -99,7 +100,7 @@ def run(rng, start, lower, upper, goal_columns, goal_values, weights, extension_
         extension_range, steps, fine_steps, factor_columns, factor_sizes, pair_objects, object_factor,
         limit_probability, single_probability, goal_root_probability, goal_attempts, max_pushes, push_attempts,
         queries, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
-        shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns)
+        shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho)
     return path, iterations, queries, clipped
 
 
@@ -108,7 +109,7 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
            goal_values, weights, extension_range, steps, fine_steps, factor_columns, factor_sizes, pair_objects,
            object_factor, limit_probability, single_probability, goal_root_probability, goal_attempts, max_pushes,
            push_attempts, queries, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
-           shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns):
+           shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho):
     """The loop of :func:`run` from the trees and counters a call before left, until a path is found
     or ``queries`` reach ``stop`` (the budget, or a step towards it). Returns (path or an empty array,
     iterations, queries, clipped, growing, other), the counters to resume from. ``stop`` is tested
@@ -152,7 +153,7 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
             rng, states, parents, sizes, growing, near, sample, extension_range, single, lower, upper, weights, steps,
             factor_columns, factor_sizes, pair_objects, object_factor, max_pushes, push_attempts, queries,
             kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
-            shape_normals, shape_extent, pairs, tol, pair_columns)
+            shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho)
         if new != near and sizes[other] > 0:
             target = states[growing, new].copy()
             status, reached, queries = _staircase(
@@ -160,15 +161,15 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
                 target, np.inf, False, lower, upper, weights, steps, factor_columns, factor_sizes, pair_objects,
                 object_factor, max_pushes, push_attempts, queries, kin_int, kin_float, n_links, shape_link,
                 shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
-                pair_columns)
+                pair_columns, shape_rho)
             if status == _REACHED:
                 path = connection_path(states, parents, growing, new, other, reached)
                 holds = True
                 for i in range(path.shape[0] - 1):
                     queries += 1
-                    if motion_collision(path[i], path[i + 1], fine_steps, kin_int, kin_float, n_links, shape_link,
+                    if motion_hit(path[i], path[i + 1], fine_steps, kin_int, kin_float, n_links, shape_link,
                                         shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
-                                        shape_extent, pairs, tol, pair_columns) >= 0:
+                                        shape_extent, pairs, tol, pair_columns, shape_rho) >= 0:
                         holds = False
                         break
                 if holds:
@@ -183,7 +184,7 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
 def _staircase(rng, states, parents, sizes, tree, node, target, budget, single, lower, upper, weights, steps,
                factor_columns, factor_sizes, pair_objects, object_factor, max_pushes, push_attempts, queries,
                kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
-               shape_normals, shape_extent, pairs, tol, pair_columns):
+               shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho):
     """LaRrt._staircase with LaRrt._push_blocker: returns (status, last node added or ``node``, queries)."""
     n_factors = factor_sizes.shape[0]
     current = states[tree, node].copy()
@@ -215,9 +216,9 @@ def _staircase(rng, states, parents, sizes, tree, node, target, budget, single, 
         for k in range(count):
             following[factor_columns[f, k]] = values[k]
         queries += 1
-        hit = motion_collision(current, following, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+        hit = motion_hit(current, following, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
                                shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
-                               pair_columns)
+                               pair_columns, shape_rho)
         if hit >= 0:
             if pushes >= max_pushes:
                 return _TRAPPED, node, queries
@@ -268,14 +269,14 @@ def _staircase(rng, states, parents, sizes, tree, node, target, budget, single, 
                                     shape_extent, pairs, tol)[0]:
                     continue  # (an unmoved check, not a query: LaRrt's is_valid is not counted either)
                 queries += 1
-                if motion_collision(aside, freed, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                if motion_hit(aside, freed, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
                                     shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs,
-                                    tol, pair_columns) >= 0:
+                                    tol, pair_columns, shape_rho) >= 0:
                     continue
                 queries += 1
-                if motion_collision(current, aside, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                if motion_hit(current, aside, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
                                     shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs,
-                                    tol, pair_columns) >= 0:
+                                    tol, pair_columns, shape_rho) >= 0:
                     continue
                 pushed = True
                 break

@@ -580,7 +580,8 @@ def _compiled_run(planner: LaRrt, recorder: _BudgetRecorder, model: _CountingMod
             problem.lower, problem.upper, goal_columns, goal_values, planner.weights, planner.range, planner.steps,
             planner.fine_steps, factor_columns, factor_sizes, pair_objects, object_factor, settings.limit_probability,
             settings.single_factor_probability, settings.goal_root_probability, settings.goal_sample_attempts,
-            settings.max_pushes, settings.push_attempts, queries, *real._arguments, real._pair_columns)
+            settings.max_pushes, settings.push_attempts, queries, *real._arguments, real._pair_columns,
+            real._shape_rho)
         if len(path) or queries >= recorder.budget:
             break
     model.queries = int(queries)
