@@ -8,6 +8,7 @@ Seeds 9987001-9987010 are this file's; no other test uses them.
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -77,7 +78,7 @@ from solver.parallel.pool import fresh_process_pool
 from solver.pipelines.dataset.build import PRELOAD
 from solver.pipelines.generation import warm_hint
 from phyrogen_core.registry import get_generator
-import probe_helper
+import probe_helper  # (also the servers' first preload: it keeps their record in the test's folder)
 
 hint = {"generator": lambda item: warm_hint("simple_slider", 9987001, get_generator("simple_slider").parse_params(
             {"n_objects": "4"})),
@@ -85,15 +86,33 @@ hint = {"generator": lambda item: warm_hint("simple_slider", 9987001, get_genera
         "crash-no-retry": probe_helper.crashing_hint}[sys.argv[2]]
 if sys.argv[2] == "crash-no-retry":
     pool._SERVER_EXIT_POLLS = 0  # the server's death is never seen: the start fails as it did before the retry
-with fresh_process_pool(1, 1, PRELOAD, server_hint=hint) as workers:
+with fresh_process_pool(1, 1, ["probe_helper", *PRELOAD], server_hint=hint) as workers:
     print(*next(workers.imap(probe_helper.probe, [0])))
 '''
 HELPER = '''
+import gc
+import os
 import sys
+from pathlib import Path
+
+COLLECTING_DURING_PRELOAD = gc.isenabled()  # (imported by the server, first of its preload)
+
+from solver.pipelines import _warm_record
+
+_warm_record.RECORD_FILE = Path(os.environ["PROBE_RECORD"])
+if os.environ.get("PROBE_NO_PUZZLE"):  # a puzzle generated in the server fails its warm-up
+    from solver.pipelines import generation
+
+    def _no_puzzle(*args, **kwargs):
+        raise RuntimeError("this server was to generate no puzzle")
+
+    generation.generate_here = _no_puzzle
+
 
 def probe(_):
     warm = sys.modules["solver.pipelines._server_warmup"]
-    return warm.HINTED, sum(len(kernel.overloads) for kernel in warm._kernels_called_from_python())
+    return (warm.HINTED, sum(len(kernel.overloads) for kernel in warm._kernels_called_from_python()), warm.RECORDED,
+            COLLECTING_DURING_PRELOAD, gc.isenabled())
 
 
 class _Segfault:
@@ -111,16 +130,24 @@ def crashing_hint(item):
 '''
 
 
-def _run_probe(tmp_path: Path, hint: str) -> subprocess.CompletedProcess:
+def _run_probe(tmp_path: Path, hint: str, *, no_puzzle: bool = False) -> subprocess.CompletedProcess:
     (tmp_path / "probe_helper.py").write_text(HELPER)
+    # (The test's folder on PYTHONPATH: a fork server of Python 3.11 imports its preload on the default path.)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(ROOT), str(tmp_path))),
+           "PROBE_RECORD": str(tmp_path / "record.json")}
+    if no_puzzle:
+        env["PROBE_NO_PUZZLE"] = "1"
     return subprocess.run([sys.executable, "-c", PROBE, str(tmp_path), hint], cwd=ROOT, capture_output=True,
-                          text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+                          text=True, env=env)
 
 
-def _probe(tmp_path: Path, hint: str) -> tuple[bool, int]:
-    done = _run_probe(tmp_path, hint)
+def _probe(tmp_path: Path, hint: str, *, no_puzzle: bool = False, recorded: bool = False) -> tuple[bool, int]:
+    """(whether the server prepared for its hint, the signatures it loaded); ``recorded``: whether it did so
+    from a record, without a puzzle (asserted)."""
+    done = _run_probe(tmp_path, hint, no_puzzle=no_puzzle)
     assert done.returncode == 0, done.stderr[-2000:]
-    hinted, loaded = done.stdout.split()
+    hinted, loaded, from_record, _, _ = done.stdout.split()
+    assert (from_record == "True") == recorded
     return hinted == "True", int(loaded)
 
 
@@ -131,6 +158,27 @@ def test_a_hinted_server_loads_its_generators_signatures_and_no_others(tmp_path)
     assert 0 < loaded < everything  # (Simple Slider of four objects: 10 of 31 at the time of writing)
     garbled, fallback = _probe(tmp_path, "garbage")  # the control: a hint that fails warms everything up
     assert not garbled and fallback > loaded
+
+
+def test_a_later_server_loads_the_record_of_the_first_instead_of_generating_a_puzzle(tmp_path):
+    hinted, loaded = _probe(tmp_path, "generator")  # generates the puzzle, records what it loaded
+    assert hinted and loaded > 0 and (tmp_path / "record.json").is_file()
+    # A server that would fail any puzzle it generated prepares the same from the record.
+    assert _probe(tmp_path, "generator", no_puzzle=True, recorded=True) == (True, loaded)
+    # The control: a record made for other code is not used; that server generates the puzzle (which fails
+    # here: it warms every kernel instead).
+    record = json.loads((tmp_path / "record.json").read_text())
+    (tmp_path / "record.json").write_text(json.dumps({**record, "key": "other code"}))
+    unhinted, everything = _probe(tmp_path, "generator", no_puzzle=True)
+    assert not unhinted and everything > loaded
+
+
+def test_the_server_imports_its_preload_without_collecting_garbage_and_its_workers_collect(tmp_path):
+    done = _run_probe(tmp_path, "generator")
+    assert done.returncode == 0, done.stderr[-2000:]
+    during_preload, in_the_worker = done.stdout.split()[3:]
+    assert during_preload == "False"
+    assert in_the_worker == "True"  # the control: the same probe sees collection on, where it must be
 
 
 def test_a_server_that_dies_preparing_for_its_hint_is_started_again_cold(tmp_path):

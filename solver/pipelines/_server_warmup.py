@@ -12,7 +12,10 @@ here (2-core machine).
 Which signatures: given a hint (:data:`solver.parallel.pool.SERVER_HINT`, made by
 :func:`solver.pipelines.generation.warm_hint`: a dataset's first puzzle), the server generates that
 puzzle once and throws it away, which loads exactly what that generator's puzzles call (a Simple
-Slider of four objects: 10 signatures, about 0.15 CPU s); without one, or when that fails, it calls
+Slider of four objects: 10 signatures, about 0.15 CPU s), and records what it loaded; a later server of
+the same code loads that record instead of generating a puzzle (:mod:`solver.pipelines._warm_record`:
+the puzzle's own cost saved, 0.01-0.05 CPU s, 0.5 for a Continuous Space seed of the heavy tail, and a
+crash in it can no longer take the server down). Without a hint, or when that fails, it calls
 every kernel on small models and loads every signature that numba's cache holds for the kernels the
 solver calls (31, about 0.45 CPU s). A server started again after one died preparing (a crash in compiled
 code) prepares nothing (:data:`solver.parallel.pool.COLD_SERVER`).
@@ -40,17 +43,34 @@ def _warm_up_every_kernel() -> None:
 
 
 def _warm_up_for(hint: str | None) -> bool:
-    """Generate the hint's puzzle once (see the module docstring); whether it ran to its end. Its output
-    goes nowhere: the server shares the command's terminal."""
+    """Load what the hint's generator recorded (:mod:`solver.pipelines._warm_record`), or generate the hint's
+    puzzle once and record what it loaded (see the module docstring); whether either ran to its end. The
+    puzzle's output goes nowhere: the server shares the command's terminal."""
+    global RECORDED
     if not hint:
         return False
-    from solver.pipelines.generation import generate_for_hint
+    import sys
+
+    from solver.pipelines import _warm_record
+    from solver.pipelines.generation import generate_for_hint, hint_generator
 
     try:
+        generator = hint_generator(hint)
+        key = _warm_record.record_key()
+        entry = _warm_record.recorded(generator, key)
+        if entry is not None:
+            _warm_record.load(entry)
+            RECORDED = True
+            return True
+        before = set(sys.modules)
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             generate_for_hint(hint)
     except Exception:  # (a generator only the caller's script registers, a bug: the workers report it)
         return False
+    with contextlib.suppress(Exception):  # (an unwritable record: the next server generates the puzzle again)
+        modules = [name for name in set(sys.modules) - before
+                   if name.partition(".")[0] in ("solver", "phyrogen_core") and sys.modules.get(name) is not None]
+        _warm_record.record(generator, key, _warm_record.loaded_signatures(_kernels_called_from_python()), modules)
     return True
 
 
@@ -132,6 +152,9 @@ def _load_cached_signatures() -> None:
 # in every worker. One that does not load is left for the worker to report, with the puzzle it fails.
 with contextlib.suppress(Exception):
     registry()
+RECORDED = False
+"""Whether this server prepared for its hint from a record (:mod:`solver.pipelines._warm_record`), without
+generating the hint's puzzle."""
 _HINT = os.environ.pop(SERVER_HINT, None)
 COLD = _HINT == COLD_SERVER
 """Whether this server prepares nothing beyond its imports: it is started again after one died preparing

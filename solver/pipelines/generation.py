@@ -72,13 +72,23 @@ def warm_hint(generator: str, seed: int, params: Any) -> str:
     return base64.b64encode(pickle.dumps((generator, seed, params))).decode("ascii")
 
 
-def generate_for_hint(hint: str) -> None:
-    """Generate, in this process, the puzzle named by a :func:`warm_hint`, and discard it; it writes
-    nothing. Raises what the hint's reading or the generation raises."""
+def hint_generator(hint: str) -> str:
+    """The generator of a :func:`warm_hint`'s puzzle."""
+    return str(_read_hint(hint)[0])
+
+
+def _read_hint(hint: str) -> tuple[str, int, Any]:
     import base64
     import pickle
 
     generator, seed, params = pickle.loads(base64.b64decode(hint.encode("ascii")))
+    return generator, seed, params
+
+
+def generate_for_hint(hint: str) -> None:
+    """Generate, in this process, the puzzle named by a :func:`warm_hint`, and discard it; it writes
+    nothing. Raises what the hint's reading or the generation raises."""
+    generator, seed, params = _read_hint(hint)
     try:
         generate_here(generator, seed, params)
     except GenerationError:  # a failed seed: it has loaded what it needed on its way
