@@ -14,6 +14,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import phyrogen_core.generators.move_n_times as move_n_times
 import solver.validation.validator as validator_module
 from phyrogen_core.registry import get_generator
 from solver.pipelines.generation import generate_here
@@ -143,28 +144,30 @@ def test_the_first_colliding_motion_by_skipping_is_the_models(legs):
 
 
 def test_a_puzzle_is_the_same_whatever_the_process_made_before():
-    """The free cells of the route are kept for the whole process (validator._walls_clear): the same puzzle
-    and the same query count with the kept answers as without them (the control: the second generation did
-    use them, and a different seed gives a different puzzle)."""
+    """What a process keeps across puzzles: Move N Times' objects (move_n_times._made, so the chains and collision
+    models kept by identity serve every puzzle) and the route's free cells (validator._walls_clear). The same
+    puzzle and the same query count with them kept as without (the controls: the second generation did share
+    the first one's objects and use its free cells, and a different seed gives a different puzzle)."""
     seed = fresh_seed()
     params = replace(get_generator("move_n_times").default_params(), n=3)
+    move_n_times._MADE.clear()
     validator_module._WALLS_CLEAR.clear()
     cold_stats: dict = {}
     cold = generate_here("move_n_times", seed, params, stats=cold_stats)
-    kept = len(validator_module._WALLS_CLEAR)
-    assert kept > 0, f"seed {seed}"
+    assert len(validator_module._WALLS_CLEAR) > 0, f"seed {seed}"
+    other = generate_here("move_n_times", seed + 1, params)
+    assert other.certificate != cold.certificate, f"seed {seed}"
     calls = []
     original = validator_module._walls_clear
 
     def counting(*args):
-        calls.append(args[1] in (key[1] for key in validator_module._WALLS_CLEAR))
+        calls.append(any(key[1] == args[1] for key in validator_module._WALLS_CLEAR))
         return original(*args)
 
     warm_stats: dict = {}
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(validator_module, "_walls_clear", counting)
         warm = generate_here("move_n_times", seed, params, stats=warm_stats)
-    assert any(calls), f"seed {seed}: nothing kept was used"
+    assert calls and all(calls), f"seed {seed}: free cells computed again"
+    assert all(a is b for a, b in zip(warm.objects, cold.objects, strict=True)), f"seed {seed}: objects made again"
     assert warm == cold and warm_stats == cold_stats, f"seed {seed}"
-    other = generate_here("move_n_times", seed + 1, params)
-    assert other.certificate != cold.certificate, f"seed {seed}"

@@ -136,6 +136,25 @@ class _State:
     goal: tuple[float, float, float]  # x, y, yaw of the target
 
 
+_MADE: dict[tuple[str, str], object] = {}
+_MADE_KEPT = 512
+
+
+def _made(builder, *args):
+    """``builder(*args)``, made once per process for each exact argument list (by ``repr``: 0.0 and -0.0, 0 and
+    0.0 stay apart). The layout is the same on every seed (only the goal is drawn), and the objects are immutable,
+    so a process's puzzles share them: the chains, collision models and route cells that the validator keeps by
+    the objects' identity (``build_chain``, ``collision_model``) then serve every puzzle, not just the first
+    (a dataset's worker makes many). Equal objects either way: the puzzles are the same."""
+    key = (builder.__name__, repr(args))
+    found = _MADE.get(key)
+    if found is None:
+        if len(_MADE) >= _MADE_KEPT:
+            _MADE.clear()
+        found = _MADE[key] = builder(*args)
+    return found
+
+
 def _target(moves: int, motion: Motion, yaw_deg: float) -> PuzzleObject:
     sx, sy, sz = TARGET_SIZE
     role, color = kit.role_and_color(0)
@@ -208,12 +227,12 @@ def _attach(draft: Draft, obj_item: Cuboid | Door | Corridor, joint_item: Motion
         moves = state.moves
         # The prototype's goal: anywhere on the line y = -n, below the outermost corridor.
         goal = (float(rng.uniform(-moves, moves)), -float(moves), float(rng.uniform(-math.pi, math.pi)))
-        return Draft(draft.objects + (_target(moves, joint_item, tf_item),), _State(moves, goal))
+        return Draft(draft.objects + (_made(_target, moves, joint_item, tf_item),), _State(moves, goal))
     first_wall = kit.count_fixed(draft.objects)
     if isinstance(obj_item, Door):
-        door = _door(kit.count_movable(draft.objects), obj_item.moves, joint_item, tf_item, obj_item.clearance)
-        return Draft(draft.objects + (door, *_pocket_walls(first_wall)), draft.context)
-    walls = corridor_walls(obj_item.index, tf_item, first_wall)
+        door = _made(_door, kit.count_movable(draft.objects), obj_item.moves, joint_item, tf_item, obj_item.clearance)
+        return Draft(draft.objects + (door, *_made(_pocket_walls, first_wall)), draft.context)
+    walls = _made(corridor_walls, obj_item.index, tf_item, first_wall)
     state = draft.context
     if not goal_is_clear(state.goal, walls):
         return None  # cannot happen with the prototype's layout; kept as the guard the goal relies on

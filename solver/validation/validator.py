@@ -37,6 +37,7 @@ from solver.planning.problem import (
     Problem,
     UnreachableGoalError,
     chain_path,
+    collision_model,
     in_goal,
     path_is_valid,
     problem_for_chain,
@@ -233,7 +234,7 @@ class OmplValidator:
         if prefix is None or objects[:prefix] not in self._fine or any(o.is_movable for o in objects[prefix:]):
             return None
         part = tuple(o for o in objects[:prefix] if o.is_movable) + objects[prefix:]
-        model = CollisionModel(build_chain(part), problem.model.locked, problem.model.tolerance)
+        model = collision_model(build_chain(part), problem.model.locked, problem.model.tolerance)
         return model if model.joint_order == problem.model.joint_order else None
 
     def _replan_routed(self, objects: tuple[PuzzleObject, ...], goal: Goal, problem: Problem, path,
@@ -426,16 +427,22 @@ class OmplValidator:
         if len(new_joints) > 1:
             return None  # a grid over several new joints is not worth it; RRT-Connect decides
         whole = problem.model
-        model = whole if not whole.locked and whole.tolerance == DEFAULT_TOLERANCE else CollisionModel(chain)
+        model = whole if not whole.locked and whole.tolerance == DEFAULT_TOLERANCE else collision_model(chain)
         # Candidates are screened at the validator's resolution (most parkings fail, and fail
         # fast there); the one kept must hold at fine resolution, as certificates do.
         coarse, fine = model.motion_steps(self.resolution), model.motion_steps(FINE_RESOLUTION)
-        old_order, order = old_chain.joint_order, chain.joint_order
-        old_path = [dict(zip(old_order, state, strict=True)) for state in self._solved[objects[:prefix]]]
+        order = chain.joint_order
+        # The old certificate's states with the new joints parked, after its start with them at 0.0.
+        old = np.asarray(self._solved[objects[:prefix]], dtype=np.float64)
+        old_columns = [order.index(j) for j in old_chain.joint_order]
+        new_columns = [order.index(j) for j in new_joints]
+        replayed = np.empty((len(old) + 1, len(order)))
+        replayed[0, old_columns] = old[0]
+        replayed[1:, old_columns] = old
+        replayed[0, new_columns] = 0.0
         for value in _parking_values(chain, new_joints):
-            rows = [{**old_path[0], **{j: 0.0 for j in new_joints}}]
-            rows += [{**state, **{j: value for j in new_joints}} for state in old_path]
-            path = np.array([[row[j] for j in order] for row in rows])
+            path = replayed.copy()
+            path[1:, new_columns] = value
             if not goal.is_reached(chain.state_dict(path[-1])):
                 return None
             self.checks += len(path)
