@@ -24,7 +24,7 @@ from pathlib import Path
 JIT_SOURCES = ("collision/kernels.py", "collision/raster.py", "collision/skipping_move.py",
                "planning/_judge_loop.py", "planning/_judge_motion.py", "planning/_isolated_step.py",
                "planning/_paper_loop.py", "planning/_goal_stream.py", "planning/_leg_connect.py",
-               "validation/cell_pairs.py", "validation/cell_reach.py",
+               "validation/_repair_screen.py", "validation/cell_pairs.py", "validation/cell_reach.py",
                "validation/region_blocks.py", "validation/region_proof.py", "validation/route_grid.py")
 """Every file of :mod:`solver` with cached compiled functions, relative to the package."""
 SOLVER_ROOT = Path(__file__).resolve().parent.parent

@@ -67,6 +67,7 @@ from solver.planning.problem import (
     problem_for_chain,
     segment_points,
 )
+from solver.validation._repair_screen import screen
 
 JUDGE_BUDGET = 4000
 """Collision queries (motions and batches of states) one judge run may spend in the Maker; the
@@ -97,9 +98,6 @@ GOAL_REPAIR_DRAWS = 512
 SHIFT_REPAIR_POINTS = 24
 """Points of a colliding run of the rung above's witness checked per offset before the run is checked whole
 (:func:`shift_repair`)."""
-SCREEN_CHUNKS = 4
-"""Pieces the screened points of a run are checked in by :func:`shift_repair` (draws failing one piece skip the
-rest; which draws pass does not depend on it)."""
 GOAL_REPAIR_ROOTS = 8
 """Goal roots :func:`goal_repair` gives at most: the valid goal states of a batch can lie in pockets of slack
 apart, of which only one may connect."""
@@ -240,16 +238,9 @@ def shift_repair(problem: Problem, points: np.ndarray, free: np.ndarray, shrink:
             offsets = rng.standard_normal((GOAL_REPAIR_DRAWS, len(moved))) * (scale * max(shrink, FINE_RESOLUTION)
                                                                              / reach) * moved
             queries += 1
-            # The run's middle point first, for every draw; the rest of the screened points for those it passes.
-            alive = np.flatnonzero(_valid(problem, screened[len(screened) // 2] + offsets))
-            # The rest a few points at a time, for the draws still passing: the same draws pass as when every
-            # point of every draw is checked at once, at a fraction of the checks where most fail.
-            for chunk in np.array_split(np.arange(len(screened)), SCREEN_CHUNKS):
-                if len(alive) and len(chunk):
-                    valid = _valid(problem, (screened[chunk][None] + offsets[alive, None]).reshape(-1, len(moved)))
-                    alive = alive[valid.reshape(len(alive), len(chunk)).all(axis=1)]
-            passed = np.zeros(GOAL_REPAIR_DRAWS, dtype=bool)
-            passed[alive] = True
+            # Each draw's screened points checked in turn, the run's middle point first, until one fails
+            # (_repair_screen): the draws that pass are those passing every point, at a fraction of the checks.
+            passed = _screen(problem, screened, offsets)
             found = None
             for k in np.flatnonzero(passed)[np.argsort(np.abs(offsets[passed] * reach).sum(axis=1), kind="stable")][:4]:
                 run = np.vstack([points[a - 1:a], points[a:b + 1] + offsets[k], points[b + 1:b + 2]])
@@ -266,10 +257,12 @@ def shift_repair(problem: Problem, points: np.ndarray, free: np.ndarray, shrink:
     return points, queries
 
 
-def _valid(problem: Problem, states: np.ndarray) -> np.ndarray:
-    """Which rows of ``states`` are within the limits of ``problem`` and collision-free."""
-    inside = np.all((states >= problem.lower) & (states <= problem.upper), axis=1)
-    return problem.model.check_prepared(np.ascontiguousarray(states)) & inside
+def _screen(problem: Problem, points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Which ``offsets`` keep every row of ``points`` within the limits of ``problem`` and collision-free."""
+    model = problem.model
+    return screen(np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(offsets, dtype=np.float64),
+                  np.asarray(problem.lower, dtype=np.float64), np.asarray(problem.upper, dtype=np.float64),
+                  *model._arguments)
 
 
 def goal_repair(problem: Problem, state: np.ndarray, shrink: float,
