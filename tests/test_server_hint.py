@@ -43,13 +43,20 @@ def test_the_hint_is_in_the_environment_only_while_the_server_starts(monkeypatch
     assert pool.SERVER_HINT not in os.environ
 
 
-def test_only_a_puzzle_cheaper_than_the_whole_warm_up_is_hinted():
-    hint = _server_hint([_task("simple_slider", {"n_objects": "4"})])
-    assert isinstance(hint, str)
-    # The control: Move N Times with n = 8 (nine objects, several CPU s a puzzle) is left to the warm-up.
+def test_only_a_puzzle_cheaper_than_the_whole_warm_up_is_generated_for_a_hint():
+    hint = generation.read_hint(_server_hint([_task("simple_slider", {"n_objects": "4"})]))
+    assert hint.generator == "simple_slider" and hint.generate
+    # The control: Move N Times with n = 8 (nine objects, several CPU s a puzzle) is not generated: the server
+    # loads its record, or else warms every kernel up.
     task = _task("move_n_times", {"n": "8"})
     assert get_generator("move_n_times").build(task.seed, task.params).n_objects > REFERENCE_OBJECTS
-    assert _server_hint([task]) is None
+    hint = generation.read_hint(_server_hint([task]))
+    assert hint.generator == "move_n_times" and not hint.generate
+
+
+def test_a_hint_names_the_requests_other_generators():
+    task = EntryTask(0, "simple_slider", 9987001, SLIDER, "unused", generators=("simple_slider", "rooms"))
+    assert generation.read_hint(_server_hint([task])).also == ("simple_slider", "rooms")
 
 
 def test_a_hint_names_the_puzzle_it_generates_and_a_failed_seed_is_no_error(monkeypatch):
@@ -82,6 +89,10 @@ import probe_helper  # (also the servers' first preload: it keeps their record i
 
 hint = {"generator": lambda item: warm_hint("simple_slider", 9987001, get_generator("simple_slider").parse_params(
             {"n_objects": "4"})),
+        "move_n_times": lambda item: warm_hint("move_n_times", 9987002, get_generator("move_n_times").parse_params(
+            {"n": "3"})),
+        "two": lambda item: warm_hint("simple_slider", 9987001, get_generator("simple_slider").parse_params(
+            {"n_objects": "4"}), also=("simple_slider", "move_n_times")),
         "none": None, "garbage": lambda item: "not a hint", "crash": probe_helper.crashing_hint,
         "crash-no-retry": probe_helper.crashing_hint}[sys.argv[2]]
 if sys.argv[2] == "crash-no-retry":
@@ -171,6 +182,15 @@ def test_a_later_server_loads_the_record_of_the_first_instead_of_generating_a_pu
     (tmp_path / "record.json").write_text(json.dumps({**record, "key": "other code"}))
     unhinted, everything = _probe(tmp_path, "generator", no_puzzle=True)
     assert not unhinted and everything > loaded
+
+
+def test_a_server_loads_the_records_of_the_requests_other_generators_too(tmp_path):
+    _, slider = _probe(tmp_path, "generator")  # (records Simple Slider's signatures)
+    _, moves = _probe(tmp_path, "move_n_times")  # (and Move N Times')
+    hinted, both = _probe(tmp_path, "two", no_puzzle=True, recorded=True)
+    assert hinted and both > max(slider, moves)  # (Move N Times calls kernels Simple Slider does not)
+    # The control: the first generator's record alone.
+    assert _probe(tmp_path, "generator", no_puzzle=True, recorded=True) == (True, slider)
 
 
 def test_the_server_imports_its_preload_without_collecting_garbage_and_its_workers_collect(tmp_path):

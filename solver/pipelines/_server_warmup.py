@@ -15,7 +15,10 @@ puzzle once and throws it away, which loads exactly what that generator's puzzle
 Slider of four objects: 10 signatures, about 0.15 CPU s), and records what it loaded; a later server of
 the same code loads that record instead of generating a puzzle (:mod:`solver.pipelines._warm_record`:
 the puzzle's own cost saved, 0.01-0.05 CPU s, 0.5 for a Continuous Space seed of the heavy tail, and a
-crash in it can no longer take the server down). Without a hint, or when that fails, it calls
+crash in it can no longer take the server down). It also loads the records of the request's other
+generators (a dataset of several), whose workers would otherwise each load those signatures again; a
+puzzle too large to generate here is not, and without a record the server warms every kernel up as
+without a hint. Without a hint, or when that fails, it calls
 every kernel on small models and loads every signature that numba's cache holds for the kernels the
 solver calls (31, about 0.45 CPU s). A server started again after one died preparing (a crash in compiled
 code) prepares nothing (:data:`solver.parallel.pool.COLD_SERVER`).
@@ -43,8 +46,9 @@ def _warm_up_every_kernel() -> None:
 
 
 def _warm_up_for(hint: str | None) -> bool:
-    """Load what the hint's generator recorded (:mod:`solver.pipelines._warm_record`), or generate the hint's
-    puzzle once and record what it loaded (see the module docstring); whether either ran to its end. The
+    """Prepare for the hint's generators: load what each recorded (:mod:`solver.pipelines._warm_record`) and,
+    when its first generator has no record and the hint allows it, generate that generator's puzzle once and
+    record what it loaded (see the module docstring). Whether the first generator was prepared for. The
     puzzle's output goes nowhere: the server shares the command's terminal."""
     global RECORDED
     if not hint:
@@ -52,26 +56,32 @@ def _warm_up_for(hint: str | None) -> bool:
     import sys
 
     from solver.pipelines import _warm_record
-    from solver.pipelines.generation import generate_for_hint, hint_generator
+    from solver.pipelines.generation import generate_for_hint, read_hint
 
     try:
-        generator = hint_generator(hint)
+        read = read_hint(hint)
         key = _warm_record.record_key()
-        entry = _warm_record.recorded(generator, key)
+        entry = _warm_record.recorded(read.generator, key)
         if entry is not None:
             _warm_record.load(entry)
             RECORDED = True
-            return True
-        before = set(sys.modules)
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            generate_for_hint(hint)
+        elif read.generate:
+            before = set(sys.modules)
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+                generate_for_hint(hint)
+            # (Before any other generator's record is loaded: this one records what its own puzzle loaded.)
+            with contextlib.suppress(Exception):  # (unwritable: the next server generates the puzzle again)
+                modules = [name for name in set(sys.modules) - before if name.partition(".")[0] in
+                           ("solver", "phyrogen_core") and sys.modules.get(name) is not None]
+                _warm_record.record(read.generator, key,
+                                    _warm_record.loaded_signatures(_kernels_called_from_python()), modules)
+        for generator in dict.fromkeys(read.also):  # (one without a record: its puzzles load what they call)
+            other = _warm_record.recorded(generator, key) if generator != read.generator else None
+            if other is not None:
+                _warm_record.load(other)
     except Exception:  # (a generator only the caller's script registers, a bug: the workers report it)
         return False
-    with contextlib.suppress(Exception):  # (an unwritable record: the next server generates the puzzle again)
-        modules = [name for name in set(sys.modules) - before
-                   if name.partition(".")[0] in ("solver", "phyrogen_core") and sys.modules.get(name) is not None]
-        _warm_record.record(generator, key, _warm_record.loaded_signatures(_kernels_called_from_python()), modules)
-    return True
+    return entry is not None or read.generate
 
 
 def _kernels_called_from_python() -> list:

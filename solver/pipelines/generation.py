@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 import traceback
-from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sized
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence, Sized
 from dataclasses import dataclass, field, replace
 from functools import cache, partial
 from pathlib import Path
@@ -61,36 +61,45 @@ def _versions() -> dict[str, str]:
     return out
 
 
-def warm_hint(generator: str, seed: int, params: Any) -> str:
+def warm_hint(generator: str, seed: int, params: Any, *, also: Sequence[str] = (), generate: bool = True) -> str:
     """The text a fresh-process pool hands its server (:data:`solver.parallel.pool.SERVER_HINT`) for it to
-    generate the puzzle ``seed`` of ``generator`` once, and throw it away, before it forks any worker
-    (:mod:`solver.pipelines._server_warmup`): the workers then start with what that generator's puzzles
-    load on first use (its compiled kernels' signatures, above all), and nothing else."""
+    prepare the workers for puzzles of ``generator`` (and of the generators ``also``), before it forks any
+    (:mod:`solver.pipelines._server_warmup`): it loads what those generators' puzzles loaded before
+    (:mod:`solver.pipelines._warm_record`) or, with ``generate``, generates the puzzle ``seed`` of
+    ``generator`` once and throws it away: the workers then start with what that generator's puzzles load on
+    first use (its compiled kernels' signatures, above all), and nothing else."""
     import base64
     import pickle
 
-    return base64.b64encode(pickle.dumps((generator, seed, params))).decode("ascii")
+    return base64.b64encode(pickle.dumps((generator, seed, params, tuple(also), bool(generate)))).decode("ascii")
 
 
-def hint_generator(hint: str) -> str:
-    """The generator of a :func:`warm_hint`'s puzzle."""
-    return str(_read_hint(hint)[0])
+@dataclass(frozen=True)
+class WarmHint:
+    """A :func:`warm_hint` read back."""
+
+    generator: str
+    seed: int
+    params: Any
+    also: tuple[str, ...] = ()
+    generate: bool = True
 
 
-def _read_hint(hint: str) -> tuple[str, int, Any]:
+def read_hint(hint: str) -> WarmHint:
+    """The :func:`warm_hint` that made ``hint``; raises what reading a text that is none raises."""
     import base64
     import pickle
 
-    generator, seed, params = pickle.loads(base64.b64decode(hint.encode("ascii")))
-    return generator, seed, params
+    generator, seed, params, also, generate = pickle.loads(base64.b64decode(hint.encode("ascii")))
+    return WarmHint(str(generator), seed, params, tuple(str(name) for name in also), bool(generate))
 
 
 def generate_for_hint(hint: str) -> None:
     """Generate, in this process, the puzzle named by a :func:`warm_hint`, and discard it; it writes
     nothing. Raises what the hint's reading or the generation raises."""
-    generator, seed, params = _read_hint(hint)
+    read = read_hint(hint)
     try:
-        generate_here(generator, seed, params)
+        generate_here(read.generator, read.seed, read.params)
     except GenerationError:  # a failed seed: it has loaded what it needed on its way
         pass
 

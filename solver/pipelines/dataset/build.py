@@ -103,6 +103,7 @@ class EntryTask:
     mjcf: bool = False  # also write the puzzle's MJCF
     difficulty: DifficultySettings | None = None  # measure it into puzzle.json
     shard: int | None = None  # the shard's number: the worker then sends the puzzle's manifest row back
+    generators: tuple[str, ...] = ()  # the request's: the workers' server prepares for them all (_server_hint)
 
     @property
     def name(self) -> str:
@@ -297,15 +298,15 @@ def _batch_length(size: int, objects: int) -> int:
 
 
 def _server_hint(batch: list[EntryTask]) -> str | None:
-    """What the workers' server prepares for: the first batch's first puzzle, generated there once
-    (:func:`~solver.pipelines.generation.warm_hint`), when it costs less than the server's warm-up of
-    every kernel (about 0.45 CPU s); a larger puzzle (more than :data:`REFERENCE_OBJECTS` objects, whose
-    cost grows with their square) leaves the server to that warm-up."""
+    """What the workers' server prepares for (:func:`~solver.pipelines.generation.warm_hint`): the request's
+    generators, whose records it loads (:mod:`solver.pipelines._warm_record`), and the first batch's first
+    puzzle, generated there once when its generator has no record and it costs less than the server's
+    warm-up of every kernel (about 0.45 CPU s); a larger puzzle (more than :data:`REFERENCE_OBJECTS`
+    objects, whose cost grows with their square) leaves the server to that warm-up."""
     task = batch[0]
-    if _cost_hint(task)[1] > REFERENCE_OBJECTS:
-        return None
     try:
-        return warm_hint(task.generator, task.seed, task.params)
+        return warm_hint(task.generator, task.seed, task.params, also=task.generators,
+                         generate=_cost_hint(task)[1] <= REFERENCE_OBJECTS)
     except Exception:  # (parameters that do not pickle: the workers get them otherwise, or report it)
         return None
 
@@ -542,7 +543,7 @@ def _scan_shard(request: DatasetRequest, root: Path, shard: int,
         else:
             state.waiting.add(entry.index)
             todo.append(EntryTask(entry.index, entry.generator, entry.seed, entry.params, str(shard_dir),
-                                  request.mjcf, request.difficulty, shard))
+                                  request.mjcf, request.difficulty, shard, tuple(request.generators)))
     return state, todo
 
 
