@@ -255,10 +255,12 @@ def connect(rng, start, goal_columns, goal_values, lower, upper, steps, budget, 
 @njit(cache=True, nogil=True)
 def _shortcut_kept(states, steps, ints, floats, pair_columns, rho):
     """The rows :meth:`OmplValidator._shortcut` keeps (from each kept state, the farthest later one a free
-    motion reaches, tried farthest first) and the motions it checks, in one compiled call."""
+    motion reaches, tried farthest first) and the motions it checks, in one compiled call (``states``: a
+    leg's path, every state valid)."""
     model = _unpacked(ints, floats)
     d = states.shape[1]
     scratch = (np.empty((1, d)), np.empty((1, d)), np.empty((1, d)), np.empty(1))
+    centres = np.empty((2, ints[2]))
     kept = np.empty(states.shape[0], dtype=np.int64)
     kept[0] = 0
     count, checks, i = 1, 0, 0
@@ -266,7 +268,9 @@ def _shortcut_kept(states, steps, ints, floats, pair_columns, rho):
         j = states.shape[0] - 1
         while j > i + 1:
             checks += 1
-            if _skipping_free(states[i], states[j], steps, model, ints[0], pair_columns, rho, scratch):
+            # A path's states are valid: the motion's middle sample first, as an extension asks.
+            if _extension_free(states[i], states[j], True, steps, model, ints[0], pair_columns, centres, rho,
+                               scratch):
                 break
             j -= 1
         kept[count] = j
