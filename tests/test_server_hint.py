@@ -111,6 +111,7 @@ COLLECTING_DURING_PRELOAD = gc.isenabled()  # (imported by the server, first of 
 from solver.pipelines import _warm_record
 
 _warm_record.RECORD_FILE = Path(os.environ["PROBE_RECORD"])
+_warm_record.record_key = lambda: "this test's code"  # (the checkout's files may change between its servers)
 if os.environ.get("PROBE_NO_PUZZLE"):  # a puzzle generated in the server fails its warm-up
     from solver.pipelines import generation
 
@@ -176,12 +177,36 @@ def test_a_later_server_loads_the_record_of_the_first_instead_of_generating_a_pu
     assert hinted and loaded > 0 and (tmp_path / "record.json").is_file()
     # A server that would fail any puzzle it generated prepares the same from the record.
     assert _probe(tmp_path, "generator", no_puzzle=True, recorded=True) == (True, loaded)
-    # The control: a record made for other code is not used; that server generates the puzzle (which fails
-    # here: it warms every kernel instead).
+    # The controls: a record made for other code is not used; that server generates the puzzle (which fails
+    # here: it warms every kernel instead). Nor is one naming a signature that numba's cache does not hold
+    # (every worker would compile it).
     record = json.loads((tmp_path / "record.json").read_text())
     (tmp_path / "record.json").write_text(json.dumps({**record, "key": "other code"}))
     unhinted, everything = _probe(tmp_path, "generator", no_puzzle=True)
     assert not unhinted and everything > loaded
+    kernel = record["generators"]["simple_slider"]["signatures"][0]
+    record["generators"]["simple_slider"]["signatures"].append([kernel[0], kernel[1], "(uncached, signature)"])
+    (tmp_path / "record.json").write_text(json.dumps(record))
+    unhinted, everything = _probe(tmp_path, "generator", no_puzzle=True)
+    assert not unhinted and everything > loaded
+
+
+def test_a_record_is_for_the_code_it_was_made_with(tmp_path, monkeypatch):
+    from solver.pipelines import _warm_record
+
+    package = tmp_path / "package"
+    (package / "sub").mkdir(parents=True)
+    (package / "sub" / "module.py").write_text("x = 1\n")
+    monkeypatch.setattr(_warm_record, "_SOURCE_PACKAGES", (package,))
+    key = _warm_record.record_key()
+    assert _warm_record.record_key() == key  # the control: the same code, the same key
+    os.utime(package / "sub" / "module.py", ns=(0, 0))
+    assert _warm_record.record_key() != key
+    monkeypatch.setattr(_warm_record, "RECORD_FILE", tmp_path / "record.json")
+    _warm_record.record("grid_world", key, [("m", "f", "(int64,)")], ["solver.x"])
+    assert _warm_record.recorded("grid_world", key) == {"signatures": [("m", "f", "(int64,)")], "modules": ["solver.x"]}
+    assert _warm_record.recorded("grid_world", "another key") is None
+    assert _warm_record.recorded("rooms", key) is None
 
 
 def test_a_server_loads_the_records_of_the_requests_other_generators_too(tmp_path):

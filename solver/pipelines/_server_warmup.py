@@ -62,8 +62,7 @@ def _warm_up_for(hint: str | None) -> bool:
         read = read_hint(hint)
         key = _warm_record.record_key()
         entry = _warm_record.recorded(read.generator, key)
-        if entry is not None:
-            _warm_record.load(entry)
+        if entry is not None and _warm_record.load(entry):
             RECORDED = True
         elif read.generate:
             before = set(sys.modules)
@@ -81,7 +80,7 @@ def _warm_up_for(hint: str | None) -> bool:
                 _warm_record.load(other)
     except Exception:  # (a generator only the caller's script registers, a bug: the workers report it)
         return False
-    return entry is not None or read.generate
+    return RECORDED or read.generate
 
 
 def _kernels_called_from_python() -> list:

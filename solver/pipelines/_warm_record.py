@@ -97,16 +97,18 @@ def loaded_signatures(kernels: list) -> list[tuple[str, str, str]]:
             for kernel in kernels for signature in kernel.overloads]
 
 
-def load(entry: dict[str, Any]) -> int:
-    """Import the record's modules and load its signatures from numba's cache (never compiling one: a
-    signature the cache does not hold is left to the call that needs it); how many were loaded."""
+def load(entry: dict[str, Any]) -> bool:
+    """Import the record's modules and load its signatures from numba's cache, never compiling one; whether
+    every signature is loaded now. One that the cache does not hold (its folder emptied, NUMBA_CACHE_DIR
+    elsewhere) or that does not load would be compiled by every worker that calls it: the caller then
+    generates the puzzle instead, which compiles it once, here."""
     for name in entry["modules"]:
         with contextlib.suppress(Exception):  # (a module gone: the workers import what they need)
             importlib.import_module(name)
     wanted: dict[tuple[str, str], set[str]] = {}
     for module, qualname, signature in entry["signatures"]:
         wanted.setdefault((module, qualname), set()).add(signature)
-    count = 0
+    complete = True
     for (module, qualname), signatures in sorted(wanted.items()):
         try:
             kernel = sys.modules[module]
@@ -118,7 +120,7 @@ def load(entry: dict[str, Any]) -> int:
                 if str(types) in signatures and types not in kernel.overloads \
                         and index_key == cache._index_key(index_key[0], codegen):
                     kernel.compile(index_key[0])
-                    count += 1
-        except Exception:  # (numba's internals differ, a kernel gone: the workers load what they call)
-            continue
-    return count
+            complete = complete and signatures <= {str(tuple(types)) for types in kernel.overloads}
+        except Exception:  # (numba's internals differ, a kernel gone)
+            complete = False
+    return complete
