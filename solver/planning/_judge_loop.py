@@ -18,10 +18,26 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from solver.collision.kernels import check_states, nearest_l1, pair_hits
+from solver.collision.kernels import check_states, pair_hits
 from solver.planning._judge_motion import motion_hit
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2  # as in solver.planning.la_rrt
+
+
+@njit(cache=True, nogil=True)
+def nearest_node(states, tree, size, query, weights):
+    """:func:`~solver.collision.kernels.nearest_l1` of ``states[tree][:size]``: the lowest index of the nodes
+    nearest ``query`` in weighted L1, each distance the same sum in the same order. Every node's sum is taken
+    whole: nearest_l1 stops a sum once it reaches the best, which never changes the answer (the partial sums
+    only grow) but costs a mispredicted branch a node, and the scan was a third of a failing search's time."""
+    best, best_distance = 0, np.inf
+    for i in range(size):
+        distance = 0.0
+        for j in range(query.shape[0]):
+            distance += weights[j] * abs(states[tree, i, j] - query[j])
+        if distance < best_distance:
+            best, best_distance = i, distance
+    return best
 
 
 @njit(cache=True, nogil=True)
@@ -147,7 +163,7 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
         if sizes[1] == 0:
             growing = 0
         sample = _draw(rng, lower, upper, limit_probability)
-        near = nearest_l1(states[growing], sizes[growing], sample, weights)
+        near = nearest_node(states, growing, sizes[growing], sample, weights)
         single = rng.random() < single_probability
         status, new, queries = _staircase(
             rng, states, parents, sizes, growing, near, sample, extension_range, single, lower, upper, weights, steps,
@@ -157,7 +173,7 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
         if new != near and sizes[other] > 0:
             target = states[growing, new].copy()
             status, reached, queries = _staircase(
-                rng, states, parents, sizes, other, nearest_l1(states[other], sizes[other], target, weights),
+                rng, states, parents, sizes, other, nearest_node(states, other, sizes[other], target, weights),
                 target, np.inf, False, lower, upper, weights, steps, factor_columns, factor_sizes, pair_objects,
                 object_factor, max_pushes, push_attempts, queries, kin_int, kin_float, n_links, shape_link,
                 shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,

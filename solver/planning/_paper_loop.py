@@ -26,9 +26,9 @@ import math
 import numpy as np
 from numba import njit
 
-from solver.collision.kernels import _unpacked, motion_collision, nearest_l1
+from solver.collision.kernels import _unpacked, motion_collision
 from solver.planning._isolated_step import _REACHED, _motion_length, compiled_piece, isolated_moves
-from solver.planning._judge_loop import connection_path
+from solver.planning._judge_loop import connection_path, nearest_node
 
 # Why a call returned (its first value).
 STOPPED, GOAL_WANTED, NEED_ROOM, FOUND = range(4)
@@ -103,7 +103,7 @@ def resume(rng, states, parents, sizes, counters, stop, budget, goals_exhausted,
         for j in range(d):
             if u[d + j] < limit_probability:
                 sample[j] = upper[j] if u[2 * d + j] < 0.5 else lower[j]
-        near = nearest_l1(states[growing], sizes[growing], sample, weights)
+        near = nearest_node(states, growing, sizes[growing], sample, weights)
         _, new, checks = _isolate(rng, states, parents, sizes, growing, near, sample, extension_range, weights,
                                   random_order, by_length, factor_columns, factor_sizes, steps, ints, floats,
                                   pair_columns)
@@ -112,7 +112,7 @@ def resume(rng, states, parents, sizes, counters, stop, budget, goals_exhausted,
             target = states[growing, new].copy()
             status, reached = 1, -1
             while status == 1:  # RRT-Connect's connect: step until reached or trapped
-                node = nearest_l1(states[other], sizes[other], target, weights)
+                node = nearest_node(states, other, sizes[other], target, weights)
                 status, reached, checks = _isolate(rng, states, parents, sizes, other, node, target, extension_range,
                                                    weights, random_order, by_length, factor_columns, factor_sizes,
                                                    steps, ints, floats, pair_columns)
