@@ -327,10 +327,15 @@ class AnytimeRecorder:
         """
         if not self.improves(path):
             return Offer.NO_GAIN
-        if not path_is_valid(self._referee, np.asarray(path, dtype=float), self.fine_steps):
+        if not self._holds(np.asarray(path, dtype=float)):
             self.clip()
             return Offer.CLIPPED
         return Offer.BEST if self.offer(path, found_at) else Offer.NO_GAIN
+
+    def _holds(self, states: np.ndarray) -> bool:
+        """Whether a path holds at fine resolution (:meth:`offer_checked`, and the best path again in
+        :meth:`result`)."""
+        return path_is_valid(self._referee, states, self.fine_steps)
 
     def clip(self) -> None:
         """Count a solution path the planner dropped because it failed the fine-resolution check."""
@@ -356,7 +361,7 @@ class AnytimeRecorder:
         elapsed = self.elapsed()
         rejected = self.clipped
         kept = list(self.improvements)
-        while kept and not path_is_valid(self._referee, kept[-1][2], self.fine_steps):
+        while kept and not self._holds(kept[-1][2]):
             kept.pop()
             rejected += 1
         progress = []

@@ -69,7 +69,7 @@ from solver.planning.la_rrt_settings import (  # noqa: F401 (the settings, impor
     SEGMENT_CHECK_SETTINGS,
     LaRrtSettings,
 )
-from solver.planning.problem import FINE_RESOLUTION, Problem, in_goal, problem_factors
+from solver.planning.problem import FINE_RESOLUTION, Problem, in_goal, path_is_valid, problem_factors
 from solver.planning.tree_run import TreeRun
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2
@@ -517,6 +517,13 @@ class _BudgetRecorder(AnytimeRecorder):
 
     def expired(self) -> bool:
         return self.model.queries >= self.budget
+
+    def _holds(self, states: np.ndarray) -> bool:
+        # One query where the path has a motion, as the counting model's batch of the path's fine points counted
+        # it, checked by the model itself: path_is_valid's skipping check of the same points, the same verdict
+        # at a fraction of the tests.
+        self.model.queries += len(states) >= 2
+        return path_is_valid(self.model._model, states, self.fine_steps)
 
 
 def la_rrt_within(problem: Problem, budget: int, rng: np.random.Generator, settings: LaRrtSettings | None = None,
