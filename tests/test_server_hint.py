@@ -12,6 +12,7 @@ import json
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -20,7 +21,7 @@ from phyrogen_core.maker import GenerationError
 from phyrogen_core.registry import get_generator
 from solver.parallel import pool
 from solver.pipelines import generation
-from solver.pipelines.dataset.build import REFERENCE_OBJECTS, EntryTask, _server_hint
+from solver.pipelines.dataset.build import RECORD_ONLY_ENTRIES, REFERENCE_OBJECTS, EntryTask, _server_hint
 
 ROOT = Path(__file__).resolve().parents[1]
 SLIDER = get_generator("simple_slider").parse_params({"n_objects": "4"})
@@ -52,6 +53,13 @@ def test_only_a_puzzle_cheaper_than_the_whole_warm_up_is_generated_for_a_hint():
     assert get_generator("move_n_times").build(task.seed, task.params).n_objects > REFERENCE_OBJECTS
     hint = generation.read_hint(_server_hint([task]))
     assert hint.generator == "move_n_times" and not hint.generate
+
+
+def test_only_a_large_requests_server_generates_its_puzzle_beside_a_record():
+    small = EntryTask(0, "simple_slider", 9987001, SLIDER, "unused", entries=RECORD_ONLY_ENTRIES)
+    assert not generation.read_hint(_server_hint([small])).always
+    large = replace(small, entries=RECORD_ONLY_ENTRIES + 1)  # the control
+    assert generation.read_hint(_server_hint([large])).always
 
 
 def test_a_hint_names_the_requests_other_generators():

@@ -61,17 +61,20 @@ def _versions() -> dict[str, str]:
     return out
 
 
-def warm_hint(generator: str, seed: int, params: Any, *, also: Sequence[str] = (), generate: bool = True) -> str:
+def warm_hint(generator: str, seed: int, params: Any, *, also: Sequence[str] = (), generate: bool = True,
+              always: bool = False) -> str:
     """The text a fresh-process pool hands its server (:data:`solver.parallel.pool.SERVER_HINT`) for it to
     prepare the workers for puzzles of ``generator`` (and of the generators ``also``), before it forks any
     (:mod:`solver.pipelines._server_warmup`): it loads what those generators' puzzles loaded before
     (:mod:`solver.pipelines._warm_record`) or, with ``generate``, generates the puzzle ``seed`` of
     ``generator`` once and throws it away: the workers then start with what that generator's puzzles load on
-    first use (its compiled kernels' signatures, above all), and nothing else."""
+    first use (its compiled kernels' signatures, above all), and nothing else. ``always``: generate it even
+    when a record holds its signatures, for what the puzzle warms beyond them (see :func:`read_hint`)."""
     import base64
     import pickle
 
-    return base64.b64encode(pickle.dumps((generator, seed, params, tuple(also), bool(generate)))).decode("ascii")
+    return base64.b64encode(pickle.dumps((generator, seed, params, tuple(also), bool(generate),
+                                          bool(generate and always)))).decode("ascii")
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,10 @@ class WarmHint:
     params: Any
     also: tuple[str, ...] = ()
     generate: bool = True
+    always: bool = False
+    """Generate the puzzle even after loading its generator's record: a worker's first puzzle costs about
+    3 ms more after a server that only loaded signatures (Python's bytecode specialised and the caches filled
+    by the server's puzzle are shared by every worker), which a request of many batches pays many times."""
 
 
 def read_hint(hint: str) -> WarmHint:
@@ -90,8 +97,8 @@ def read_hint(hint: str) -> WarmHint:
     import base64
     import pickle
 
-    generator, seed, params, also, generate = pickle.loads(base64.b64decode(hint.encode("ascii")))
-    return WarmHint(str(generator), seed, params, tuple(str(name) for name in also), bool(generate))
+    generator, seed, params, also, generate, always = pickle.loads(base64.b64decode(hint.encode("ascii")))
+    return WarmHint(str(generator), seed, params, tuple(str(name) for name in also), bool(generate), bool(always))
 
 
 def generate_for_hint(hint: str) -> None:

@@ -104,6 +104,7 @@ class EntryTask:
     difficulty: DifficultySettings | None = None  # measure it into puzzle.json
     shard: int | None = None  # the shard's number: the worker then sends the puzzle's manifest row back
     generators: tuple[str, ...] = ()  # the request's: the workers' server prepares for them all (_server_hint)
+    entries: int = 0  # the request's: a large one's server generates the hint's puzzle even with a record
 
     @property
     def name(self) -> str:
@@ -297,16 +298,25 @@ def _batch_length(size: int, objects: int) -> int:
     return max(1, min(2 * size, size * REFERENCE_OBJECTS ** 2 // max(1, objects) ** 2))
 
 
+RECORD_ONLY_ENTRIES = 4 * LONGEST_BATCH
+"""The most entries of a request whose server prepares from a record alone (:func:`_server_hint`): at most a
+few batches per worker (each a few ms dearer than after a server that generated a puzzle), fewer than a
+puzzle costs."""
+
+
 def _server_hint(batch: list[EntryTask]) -> str | None:
     """What the workers' server prepares for (:func:`~solver.pipelines.generation.warm_hint`): the request's
     generators, whose records it loads (:mod:`solver.pipelines._warm_record`), and the first batch's first
     puzzle, generated there once when its generator has no record and it costs less than the server's
     warm-up of every kernel (about 0.45 CPU s); a larger puzzle (more than :data:`REFERENCE_OBJECTS`
-    objects, whose cost grows with their square) leaves the server to that warm-up."""
+    objects, whose cost grows with their square) leaves the server to that warm-up. A request of more than
+    :data:`RECORD_ONLY_ENTRIES` entries has the puzzle generated even when its generator has a record: what the
+    puzzle warms beyond the signatures saves each worker about 3 ms, worth a puzzle (0.01-0.05 CPU s) at
+    that many batches."""
     task = batch[0]
     try:
         return warm_hint(task.generator, task.seed, task.params, also=task.generators,
-                         generate=_cost_hint(task)[1] <= REFERENCE_OBJECTS)
+                         generate=_cost_hint(task)[1] <= REFERENCE_OBJECTS, always=task.entries > RECORD_ONLY_ENTRIES)
     except Exception:  # (parameters that do not pickle: the workers get them otherwise, or report it)
         return None
 
@@ -543,7 +553,7 @@ def _scan_shard(request: DatasetRequest, root: Path, shard: int,
         else:
             state.waiting.add(entry.index)
             todo.append(EntryTask(entry.index, entry.generator, entry.seed, entry.params, str(shard_dir),
-                                  request.mjcf, request.difficulty, shard, tuple(request.generators)))
+                                  request.mjcf, request.difficulty, shard, tuple(request.generators), request.size))
     return state, todo
 
 
