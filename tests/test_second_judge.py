@@ -38,6 +38,7 @@ from solver.validation.judge import (
     attempt_second,
     judge,
 )
+from solver.validation.staged import STAGED
 from solver.validation.validator import OmplValidator
 
 CUBE = (Geometry(Box((1.0, 1.0, 1.0))),)
@@ -61,7 +62,8 @@ def test_a_verdict_tells_an_empty_goal_region_from_a_blocked_path(blocker_x, rea
         verdict = judge(chain, goal, ["obj_01"], 0.0, 500, np.random.default_rng(second_seed),
                         second_budget=3000, second_seed=second_seed)
         assert verdict.necessary and verdict.reason == reason, verdict.describe()
-        second = verdict.attempts[-1]
+        *_, second, staged = verdict.attempts  # the staged judge (solver/validation/staged.py) last, failed too
+        assert staged.judge == STAGED and not staged.solved
         assert second.judge == SECOND_JUDGE and not second.solved and second.goals is not None
         assert (second.goals.states == 0) == (reason == NO_GOAL_STATE), second.goals
         assert second.goals.checks > 0
@@ -139,7 +141,7 @@ def test_a_necessary_blocker_passes_both_judges(slider):
                         second_budget=SECOND_JUDGE_BUDGET)
         assert verdict.necessary, f"{name}: {verdict.describe()}"
         judges = [a.judge for a in verdict.attempts if a.shrink == verdict.margin]
-        assert judges == ["la_rrt_push", SECOND_JUDGE], verdict.attempts  # both ran at the deciding rung
+        assert judges == ["la_rrt_push", SECOND_JUDGE, STAGED], verdict.attempts  # all ran at the deciding rung
         assert not any(a.solved for a in verdict.attempts if a.shrink == verdict.margin)
     # Control: the second judge solves the same puzzle with nothing fixed, within the audit's budget.
     assert attempt_second(slider.planning_chain, slider.goal, [], margin, 25 * SECOND_JUDGE_BUDGET, 7).solved
@@ -175,7 +177,7 @@ def test_the_maker_keeps_each_verdict_with_its_goal_accounting(slider):
     assert validator.necessity(slider.objects, slider.goal, [blocker], margin) is not None
     superfluous, necessary = validator.verdicts
     assert not superfluous.necessary and necessary.necessary
-    assert necessary.reason in (NO_GOAL_STATE, NO_PATH) and necessary.attempts[-1].goals is not None
+    assert necessary.reason in (NO_GOAL_STATE, NO_PATH) and necessary.attempts[-2].goals is not None
     assert validator.checks >= superfluous.queries + necessary.queries + necessary.second_checks > 0
     # With the proof (as the Maker runs): the same verdict and margin, settled by geometry, no second judge.
     proven = OmplValidator(np.random.default_rng(0)).necessity(slider.objects, slider.goal, [blocker], margin)

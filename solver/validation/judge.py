@@ -25,6 +25,11 @@ are two judges, and a rung counts as unsolved only when **both** fail:
    an OMPL planner here would draw seeds from OMPL's global seed generator
    and shift every later OMPL run of the Maker.
 
+Where both failed at a rung (and no proof settled it), a third, the staged judge
+(:mod:`solver.validation.staged`, :func:`attempt_staged`), must fail too: the free objects moved one at a
+time until they collide, then the target straight to its goal, with no random draws. It catches paths
+that thread a sliver random states seldom land in (Continuous Space 4410009).
+
 The second judge also says whether the goal region itself had valid states
 (:class:`~solver.planning.goal_sampling.GoalAccount`). A necessary verdict
 whose second judge found no goal state at all is recorded as
@@ -68,6 +73,7 @@ from solver.planning.problem import (
     segment_points,
 )
 from solver.validation._repair_screen import screen
+from solver.validation.staged import STAGED, staged_solution
 
 JUDGE_BUDGET = 4000
 """Collision queries (motions and batches of states) one judge run may spend in the Maker; the
@@ -325,6 +331,13 @@ def attempt_second(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shri
     return Attempt(fixed, shrink, result.solved, path, result.checks, SECOND_JUDGE, goals.account())
 
 
+def attempt_staged(chain: KinematicChain, goal: Goal, fixed: Sequence[str], shrink: float) -> Attempt:
+    """The staged judge's try (:func:`~solver.validation.staged.staged_solution`), its path valid at
+    :data:`FINE_RESOLUTION` and at the first judge's resolution (so that it carries as the first judge's do)."""
+    path, queries = staged_solution(chain, goal, fixed, shrink, (FINE_RESOLUTION, JUDGE_SETTINGS.resolution))
+    return Attempt(tuple(fixed), shrink, bool(path), path, queries, STAGED)
+
+
 def question_seed(chain: KinematicChain, fixed: Sequence[str]) -> int:
     """A seed for the second judge from the question itself (the chain and the objects fixed): the
     same question gets the same run in any process, and it draws nothing from the Maker's rng."""
@@ -369,8 +382,9 @@ class Necessity:
 
     @property
     def _deciding(self) -> Attempt | None:
-        """The last run other than a warm start's (those only ever solve; a verdict's reason is the judges')."""
-        return next((a for a in reversed(self.attempts) if a.judge != WARM_JUDGE), None)
+        """The last run other than a warm start's or the staged judge's (those only ever solve; a verdict's reason
+        is the searching judges' or the proof's)."""
+        return next((a for a in reversed(self.attempts) if a.judge not in (WARM_JUDGE, STAGED)), None)
 
     def describe(self) -> str:
         """One line: the verdict, its reason and the goal accounting behind it."""
@@ -400,6 +414,10 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
     from ``rng``, and the first of them mends most slivers in a few hundred queries. Only where none solves do
     the first judge (``budget`` times :data:`MARGINAL_BUDGET_SCALE`) and the second run, as they did before, so
     a necessary verdict rests on the same searches with the same budgets, and its reason stays the judges'.
+
+    Where every search at a rung failed and no proof settled it, with a second judge, the staged judge
+    (:func:`attempt_staged`: blockers moved one at a time until they collide, then the target straight to its goal;
+    no draws, a few queries) must fail too before the rung counts as unsolved; where it solves, the rung is solved.
 
     ``proof(shrink)``, when given (with a second judge), is asked at every rung *before* any search, and
     asked again (the prover then tries finer cells, :meth:`~solver.validation.blocking.BlockingProver.proves`)
@@ -462,6 +480,15 @@ def judge(chain: KinematicChain, goal: Goal, fixed: Sequence[str], margin: float
                                      stable_seed(second_seed, level))
             attempts.append(attempt)
             second_checks += attempt.queries
+        if not attempt.solved and attempt.judge != GEOMETRY and second_budget:
+            # The staged judge last, only where every search failed: it draws nothing, so bytes change only where
+            # it solves, i.e. where the searches' verdict at this rung was wrong (Continuous Space 4410009). With
+            # no second judge (a caller's "first judge alone") it stays out too.
+            staged = attempt_staged(chain, goal, fixed, level * margin)
+            attempts.append(staged)
+            queries += staged.queries
+            if staged.solved:
+                attempt = staged
         if not attempt.solved:
             return Necessity(True, level * margin, queries, None, tuple(attempts), second_checks)
         above = attempt
