@@ -17,7 +17,10 @@ same questions of the exported folder, harder, and with a second referee:
    queries) and the second judge, the paper's LA-RRT with goal states from
    its own goal sampler (:func:`solver.validation.judge.attempt_second`,
    :func:`second_budget` checks, goal sampling included). An object that
-   EITHER judge solves the puzzle without is superfluous; the path is kept and
+   EITHER judge solves the puzzle without is superfluous, and so is one that the
+   Maker's staged try solves where both failed
+   (:func:`solver.validation.judge.attempt_staged`: blockers moved aside one by
+   one, then the target to its goal); the path is kept and
    replayed by the referee, judged twice: at the exact geometry and at the
    shrunk geometry it was planned for. Each object's record carries the
    second judge's goal accounting: a necessary object whose fixing left no
@@ -65,6 +68,7 @@ from solver.validation.judge import (
     SECOND_JUDGE,
     attempt_fixed,
     attempt_second,
+    attempt_staged,
 )
 
 BUDGET_FACTOR = 25
@@ -362,14 +366,18 @@ def audit_certificate(chain: KinematicChain, goal, start, certificate, urdf: str
 def audit_object(chain: KinematicChain, goal, obj: str, puzzle: str, margin: float, budget: int,
                  urdf: str | Path, referee: Referee) -> ObjectAudit:
     """Both judges try to solve the puzzle with ``obj`` fixed, shapes shrunk by ``margin`` (the second
-    with :func:`second_budget` checks, always, so every object has its goal accounting); replay a
-    found path (the first judge's when both found one)."""
+    with :func:`second_budget` checks, always, so every object has its goal accounting), and the staged
+    try where neither did; replay a found path (the first judge's when both found one)."""
     seed = attempt_seed(puzzle, obj)
     first = attempt_fixed(chain, goal, [obj], margin, budget, np.random.default_rng(seed))
     checks = second_budget(budget)
     second = attempt_second(chain, goal, [obj], margin, checks, second_attempt_seed(puzzle, obj))
     solved_by = tuple(a.judge for a in (first, second) if a.solved)
     path = first.path if first.solved else second.path
+    if not solved_by:  # the Maker's staged try (plain moves the searches can miss): no rng, a few ms
+        staged = attempt_staged(chain, goal, [obj], margin)
+        if staged.solved:
+            solved_by, path = (staged.judge,), staged.path
     replay = referee.replay(urdf, chain, path) if solved_by else None
     return ObjectAudit(obj, seed, budget, margin, first.queries, bool(solved_by), path, replay,
                        referee.tolerance, referee.tolerance + 2.0 * margin, None, solved_by, checks, second.queries,
