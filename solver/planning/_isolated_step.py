@@ -19,6 +19,7 @@ from numba import njit
 
 from solver.collision.kernels import _unpacked, motion_collision
 from solver.collision.model import CollisionModel
+from solver.planning._judge_motion import motion_hit_in
 from solver.planning.anytime import CheckCounter
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2  # as in solver.planning.la_rrt
@@ -47,6 +48,17 @@ def isolated_moves(rng, states, parents, size, node, end, reach, random_order, b
     :class:`~solver.planning.anytime.CheckCounter` charges the motions (their length with ``by_length``,
     else one each); ``reach`` says whether ``end`` is the step's target (reached) or short of it. The
     collision model comes packed (``CollisionModel._pack``: the same numbers, fewer arguments to pass)."""
+    return isolated_moves_in(rng, states, parents, size, node, end, reach, random_order, by_length, factor_columns,
+                             factor_sizes, steps, ints, floats, pair_columns, floats[:0], False, floats[:0], ints[:0],
+                             np.empty(0, dtype=np.bool_))
+
+
+@njit(cache=True, nogil=True)
+def isolated_moves_in(rng, states, parents, size, node, end, reach, random_order, by_length, factor_columns,
+                      factor_sizes, steps, ints, floats, pair_columns, shape_rho, skipping, mf, mi, ml):
+    """:func:`isolated_moves`; with ``skipping`` each motion checked by
+    :func:`~solver.planning._judge_motion.motion_hit_in` (``shape_rho``, buffers ``mf``, ``mi``, ``ml``): the
+    colliding sample motion_collision finds, or none, so the same verdicts with fewer pair tests."""
     (kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
      shape_extent, pairs, tol, _) = _unpacked(ints, floats)
     n_links = ints[0]
@@ -72,8 +84,15 @@ def isolated_moves(rng, states, parents, size, node, end, reach, random_order, b
             c = factor_columns[f, k]
             following[c] = end[c]
         checks += _motion_length(state, following, steps) if by_length else 1
-        if motion_collision(state, following, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
-                            shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol, pair_columns) >= 0:
+        if skipping:
+            hit = motion_hit_in(mf, mi, ml, state, following, steps, kin_int, kin_float, n_links, shape_link,
+                                shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs,
+                                tol, pair_columns, shape_rho)
+        else:
+            hit = motion_collision(state, following, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                                   shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
+                                   pair_columns)
+        if hit >= 0:
             return _TRAPPED, node, size, checks
         corners[i] = following
         state = following

@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from solver.collision.kernels import check_states, pair_hits
-from solver.planning._judge_motion import motion_hit
+from solver.collision.kernels import _pair_collides, _poses, _state_valid, check_states
+from solver.planning._judge_motion import count_bound, motion_buffers, motion_hit_in
 
 _REACHED, _ADVANCED, _TRAPPED = 0, 1, 2  # as in solver.planning.la_rrt
 
@@ -134,6 +134,15 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
     between pieces (a Ctrl-C is then handled at once, not after the whole run)."""
     d = states.shape[2]
     candidates = np.empty((goal_attempts, d))
+    # One set of buffers for every motion check and push test of this call (a motion beyond count_bound's
+    # samples, a fine path check, gets its own): allocations were a fifth of a push's time.
+    mf, mi, ml = motion_buffers(count_bound(lower, upper, steps), d, n_links, pairs.shape[0], shape_link.shape[0])
+    work = np.empty((5, n_links))
+    centres = np.empty((2, shape_link.shape[0]))
+    n_objects = object_factor.shape[0]
+    touched = np.empty(n_objects, dtype=np.bool_)
+    pushable = np.empty(n_objects, dtype=np.int64)
+    blocked = np.empty(d)
     while queries < stop:
         iterations += 1
         # -- a goal root (LaRrt._wants_goal_root, _add_goal_root without a goal source)
@@ -169,7 +178,8 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
             rng, states, parents, sizes, growing, near, sample, extension_range, single, lower, upper, weights, steps,
             factor_columns, factor_sizes, pair_objects, object_factor, max_pushes, push_attempts, queries,
             kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
-            shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho)
+            shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho, mf, mi, ml, work, centres, touched,
+            pushable, blocked)
         if new != near and sizes[other] > 0:
             target = states[growing, new].copy()
             status, reached, queries = _staircase(
@@ -177,15 +187,15 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
                 target, np.inf, False, lower, upper, weights, steps, factor_columns, factor_sizes, pair_objects,
                 object_factor, max_pushes, push_attempts, queries, kin_int, kin_float, n_links, shape_link,
                 shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
-                pair_columns, shape_rho)
+                pair_columns, shape_rho, mf, mi, ml, work, centres, touched, pushable, blocked)
             if status == _REACHED:
                 path = connection_path(states, parents, growing, new, other, reached)
                 holds = True
                 for i in range(path.shape[0] - 1):
                     queries += 1
-                    if motion_hit(path[i], path[i + 1], fine_steps, kin_int, kin_float, n_links, shape_link,
-                                        shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
-                                        shape_extent, pairs, tol, pair_columns, shape_rho) >= 0:
+                    if motion_hit_in(mf, mi, ml, path[i], path[i + 1], fine_steps, kin_int, kin_float, n_links,
+                                     shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
+                                     shape_extent, pairs, tol, pair_columns, shape_rho) >= 0:
                         holds = False
                         break
                 if holds:
@@ -200,8 +210,11 @@ def resume(rng, states, parents, sizes, iterations, clipped, growing, other, sto
 def _staircase(rng, states, parents, sizes, tree, node, target, budget, single, lower, upper, weights, steps,
                factor_columns, factor_sizes, pair_objects, object_factor, max_pushes, push_attempts, queries,
                kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
-               shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho):
-    """LaRrt._staircase with LaRrt._push_blocker: returns (status, last node added or ``node``, queries)."""
+               shape_normals, shape_extent, pairs, tol, pair_columns, shape_rho, mf, mi, ml, work, centres, touched,
+               candidates, blocked):
+    """LaRrt._staircase with LaRrt._push_blocker: returns (status, last node added or ``node``, queries).
+    ``mf``, ``mi``, ``ml``: motion_hit_in's buffers; ``work`` (5, links), ``centres``, ``touched``,
+    ``candidates`` (per object) and ``blocked`` (a state): the push's, every entry written before it is read."""
     n_factors = factor_sizes.shape[0]
     current = states[tree, node].copy()
     order = rng.permutation(n_factors)
@@ -232,25 +245,20 @@ def _staircase(rng, states, parents, sizes, tree, node, target, budget, single, 
         for k in range(count):
             following[factor_columns[f, k]] = values[k]
         queries += 1
-        hit = motion_hit(current, following, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
-                               shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
-                               pair_columns, shape_rho)
+        hit = motion_hit_in(mf, mi, ml, current, following, steps, kin_int, kin_float, n_links, shape_link,
+                            shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs,
+                            tol, pair_columns, shape_rho)
         if hit >= 0:
             if pushes >= max_pushes:
                 return _TRAPPED, node, queries
             # -- LaRrt._push_blocker: move aside the movable object the move hits
-            blocked = np.empty((1, current.shape[0]))
             for j in range(current.shape[0]):
-                blocked[0, j] = current[j] + hit * (following[j] - current[j])
+                blocked[j] = current[j] + hit * (following[j] - current[j])
             queries += 1
-            hits = pair_hits(blocked, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center,
-                             shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol)
-            touched = np.zeros(object_factor.shape[0], dtype=np.bool_)
-            for p in range(hits.shape[0]):
-                if hits[p]:
-                    touched[pair_objects[p, 0]] = True
-                    touched[pair_objects[p, 1]] = True
-            candidates = np.empty(object_factor.shape[0], dtype=np.int64)
+            if _touches_static(blocked, f, moved, pair_objects, object_factor, touched, work, kin_int,
+                               kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+                               shape_normals, shape_extent, pairs, tol):
+                return _TRAPPED, node, queries
             n_candidates = 0
             static = False
             for o in range(object_factor.shape[0]):  # objects are numbered in name order, as sorted() sees them
@@ -280,19 +288,19 @@ def _staircase(rng, states, parents, sizes, tree, node, target, budget, single, 
                 freed = aside.copy()
                 for k in range(count):
                     freed[factor_columns[f, k]] = values[k]
-                if not check_states(aside.reshape((1, aside.shape[0])), kin_int, kin_float, n_links, shape_link,
-                                    shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
-                                    shape_extent, pairs, tol)[0]:
+                if not _state_valid(aside, kin_int, kin_float, work[0], work[1], work[2], work[3], work[4], centres,
+                                    True, shape_link, shape_nv, shape_center, shape_radius, shape_verts,
+                                    shape_normals, shape_extent, pairs, tol):
                     continue  # (an unmoved check, not a query: LaRrt's is_valid is not counted either)
                 queries += 1
-                if motion_hit(aside, freed, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
-                                    shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs,
-                                    tol, pair_columns, shape_rho) >= 0:
+                if motion_hit_in(mf, mi, ml, aside, freed, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                                 shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
+                                 pair_columns, shape_rho) >= 0:
                     continue
                 queries += 1
-                if motion_hit(current, aside, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
-                                    shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs,
-                                    tol, pair_columns, shape_rho) >= 0:
+                if motion_hit_in(mf, mi, ml, current, aside, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                                 shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
+                                 pair_columns, shape_rho) >= 0:
                     continue
                 pushed = True
                 break
@@ -320,3 +328,32 @@ def _staircase(rng, states, parents, sizes, tree, node, target, budget, single, 
             return _ADVANCED, node, queries
         budget -= distance
     return _REACHED, node, queries
+
+
+@njit(cache=True, nogil=True)
+def _touches_static(q, f, moved, pair_objects, object_factor, touched, work, kin_int, kin_float, shape_link,
+                    shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol):
+    """LaRrt._push_blocker's colliding pairs at ``q`` (pair_hits'), as far as they decide the push: True where
+    one touches a static object (the push is trapped, whatever else collides); else ``touched`` marks every
+    object a colliding pair touches among those that could be pushed (a factor other than ``f``, not
+    ``moved``). Only those objects' marks are read after, so a pair is tested only while one of its objects
+    is static or such an object not yet marked, by pair_hits' own test."""
+    _poses(q, kin_int, kin_float, work[0], work[1], work[2], work[3], work[4], True)
+    touched[:] = False
+    for p in range(pairs.shape[0]):
+        oa, ob = pair_objects[p, 0], pair_objects[p, 1]
+        ga, gb = object_factor[oa], object_factor[ob]
+        wanted = ga < 0 or gb < 0
+        if not wanted and not touched[oa] and ga != f and not moved[ga]:
+            wanted = True
+        if not wanted and not touched[ob] and gb != f and not moved[gb]:
+            wanted = True
+        if not wanted:
+            continue
+        if _pair_collides(pairs[p, 0], pairs[p, 1], work[0], work[1], work[2], work[3], shape_link, shape_nv,
+                          shape_center, shape_radius, shape_verts, shape_normals, shape_extent, tol, tol):
+            if ga < 0 or gb < 0:
+                return True
+            touched[oa] = True
+            touched[ob] = True
+    return False

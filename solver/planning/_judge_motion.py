@@ -33,25 +33,60 @@ from solver.collision.kernels import FAR_MARGIN, _near_pair_collides, _poses
 from solver.collision.skipping_move import SKIP_MARGIN, _pair_gap
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _sample_count(a, b, steps):
+    """motion_collision's number of samples of a -> b (the end included, the start not)."""
+    count = 1
+    for j in range(a.shape[0]):
+        need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
+        if need > count:
+            count = need
+    return count
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _buffer_sizes(count, d, n_links, n_all, n_shapes):
+    """The lengths of :func:`motion_hit_in`'s float and int buffers for a motion of ``count`` samples."""
+    return 7 * n_links + n_all * (count + 2) + 2 * n_shapes + d, 2 * n_all + 4 * (count + 1)
+
+
+@njit(cache=True, nogil=True)
+def motion_buffers(count, d, n_links, n_all, n_shapes):
+    """Buffers (floats, ints, link flags) for :func:`motion_hit_in` of motions of up to ``count`` samples."""
+    n_floats, n_ints = _buffer_sizes(count, d, n_links, n_all, n_shapes)
+    return np.empty(n_floats), np.empty(n_ints, dtype=np.int64), np.empty(n_links, dtype=np.bool_)
+
+
 @njit(cache=True, nogil=True)
 def motion_hit(a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv, shape_center, shape_radius,
                shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns, shape_rho):
     """:func:`~solver.collision.kernels.motion_collision` (``a`` valid): the fraction along a -> b of the
     colliding sample it finds, or -1 if none; ``shape_rho`` each shape's farthest point from its joint."""
+    floats, ints, link_moves = motion_buffers(_sample_count(a, b, steps), a.shape[0], n_links, all_pairs.shape[0],
+                                              shape_link.shape[0])
+    return motion_hit_in(floats, ints, link_moves, a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                         shape_center, shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol,
+                         pair_columns, shape_rho)
+
+
+@njit(cache=True, nogil=True)
+def motion_hit_in(floats, ints, link_moves, a, b, steps, kin_int, kin_float, n_links, shape_link, shape_nv,
+                  shape_center, shape_radius, shape_verts, shape_normals, shape_extent, all_pairs, tol, pair_columns,
+                  shape_rho):
+    """:func:`motion_hit` in the caller's buffers (:func:`motion_buffers`; a loop making thousands of motion
+    checks allocates them once): every entry it reads it writes first in this call, so the answer is the same
+    whatever they held. Buffers too short for this motion are replaced by new ones for this call."""
     d = a.shape[0]
-    count = 1
-    for j in range(d):
-        need = int(math.ceil(abs(b[j] - a[j]) / steps[j]))
-        if need > count:
-            count = need
+    count = _sample_count(a, b, steps)
     # Per link: how far its origin slides and how far it turns between consecutive samples (slide -1: unknown),
     # as motion_ends bounds them.
     # Two buffers carved into every array below: a motion check is a few microseconds, and each allocation
     # of its own would add a tenth of one.
     n_all, n_shapes = all_pairs.shape[0], shape_link.shape[0]
-    floats = np.empty(7 * n_links + n_all * (count + 2) + 2 * n_shapes + d)
-    ints = np.empty(2 * n_all + 4 * (count + 1), dtype=np.int64)
-    link_moves = np.zeros(n_links, dtype=np.bool_)
+    n_floats, n_ints = _buffer_sizes(count, d, n_links, n_all, n_shapes)
+    if floats.shape[0] < n_floats or ints.shape[0] < n_ints or link_moves.shape[0] < n_links:
+        floats, ints, link_moves = motion_buffers(count, d, n_links, n_all, n_shapes)
+    link_moves[:] = False
     slide, turn = floats[:n_links], floats[n_links:2 * n_links]
     slide[:] = 0.0
     turn[:] = 0.0
@@ -211,3 +246,22 @@ def _proven(low, high, n_pairs, move, bound):
         elif not right > ((n - 1) * m + SKIP_MARGIN) * (1.0 + BOUND_SLACK) + ROUNDING_ROOM:
             return False
     return True
+
+
+COUNT_CAP = 4096
+"""The most samples a motion may have for :func:`count_bound`'s buffers (a longer one gets its own)."""
+
+
+@njit(cache=True, nogil=True)
+def count_bound(lower, upper, steps):
+    """The most samples of a motion inside [lower, upper] at ``steps`` (at most :data:`COUNT_CAP`): the size
+    to make a loop's buffers for; a motion beyond it is still answered, in buffers of its own."""
+    count = 1
+    for j in range(lower.shape[0]):
+        span = (upper[j] - lower[j]) / steps[j]
+        if not span < COUNT_CAP:
+            return COUNT_CAP
+        need = int(math.ceil(span))
+        if need > count:
+            count = need
+    return count

@@ -26,9 +26,10 @@ import math
 import numpy as np
 from numba import njit
 
-from solver.collision.kernels import _unpacked, motion_collision
-from solver.planning._isolated_step import _REACHED, _motion_length, compiled_piece, isolated_moves
+from solver.collision.kernels import _unpacked
+from solver.planning._isolated_step import _REACHED, _motion_length, compiled_piece, isolated_moves_in
 from solver.planning._judge_loop import connection_path, nearest_node
+from solver.planning._judge_motion import count_bound, motion_buffers, motion_hit_in
 
 # Why a call returned (its first value).
 STOPPED, GOAL_WANTED, NEED_ROOM, FOUND = range(4)
@@ -48,7 +49,7 @@ def _distance(a, b, weights):
 
 @njit(cache=True, nogil=True)
 def _isolate(rng, states, parents, sizes, tree, node, target, extension_range, weights, random_order, by_length,
-             factor_columns, factor_sizes, steps, ints, floats, pair_columns):
+             factor_columns, factor_sizes, steps, ints, floats, pair_columns, shape_rho, mf, mi, ml):
     """LaRrt._isolate: (status, last node added or ``node``, checks)."""
     if sizes[tree] + factor_sizes.shape[0] > states.shape[1]:
         raise RuntimeError("an LA-RRT tree outgrew the room made for one iteration")
@@ -64,9 +65,9 @@ def _isolate(rng, states, parents, sizes, tree, node, target, extension_range, w
         end = np.empty(current.shape[0])
         for j in range(current.shape[0]):
             end[j] = current[j] + (target[j] - current[j]) * scale
-    status, node, size, checks = isolated_moves(rng, states[tree], parents[tree], sizes[tree], node, end, reach,
-                                                random_order, by_length, factor_columns, factor_sizes, steps, ints,
-                                                floats, pair_columns)
+    status, node, size, checks = isolated_moves_in(rng, states[tree], parents[tree], sizes[tree], node, end, reach,
+                                                   random_order, by_length, factor_columns, factor_sizes, steps, ints,
+                                                   floats, pair_columns, shape_rho, True, mf, mi, ml)
     sizes[tree] = size
     return status, node, checks
 
@@ -74,7 +75,7 @@ def _isolate(rng, states, parents, sizes, tree, node, target, extension_range, w
 @njit(cache=True, nogil=True)
 def resume(rng, states, parents, sizes, counters, stop, budget, goals_exhausted, room, lower, upper,
            limit_probability, weights, extension_range, random_order, by_length, factor_columns, factor_sizes,
-           steps, fine_steps, ints, floats, pair_columns):
+           steps, fine_steps, ints, floats, pair_columns, shape_rho):
     """The loop of LaRrt.solve (isolated steps, half-tree goal roots, until the first path that holds at
     ``fine_steps``) from where a call before left it (``counters``; trees ``states``, ``parents``, ``sizes``,
     the start tree 0), until ``counters[SPENT]`` reaches ``stop`` at the top of an iteration (the budget, or a
@@ -83,6 +84,8 @@ def resume(rng, states, parents, sizes, counters, stop, budget, goals_exhausted,
     it and resumes mid-iteration); NEED_ROOM, a tree might outgrow ``room`` nodes this iteration; FOUND."""
     d = states.shape[2]
     growing = counters[GROWING]
+    # motion_hit_in's buffers, once a call (a longer motion, a fine path check, gets its own)
+    mf, mi, ml = motion_buffers(count_bound(lower, upper, steps), d, ints[0], ints[4], ints[2])
     while counters[MID_ITERATION] or counters[SPENT] < min(stop, budget):
         if not counters[MID_ITERATION]:
             counters[GROWING] = growing  # (for the call that resumes)
@@ -106,7 +109,7 @@ def resume(rng, states, parents, sizes, counters, stop, budget, goals_exhausted,
         near = nearest_node(states, growing, sizes[growing], sample, weights)
         _, new, checks = _isolate(rng, states, parents, sizes, growing, near, sample, extension_range, weights,
                                   random_order, by_length, factor_columns, factor_sizes, steps, ints, floats,
-                                  pair_columns)
+                                  pair_columns, shape_rho, mf, mi, ml)
         counters[SPENT] += checks
         if new != near and sizes[other] > 0:
             target = states[growing, new].copy()
@@ -115,12 +118,12 @@ def resume(rng, states, parents, sizes, counters, stop, budget, goals_exhausted,
                 node = nearest_node(states, other, sizes[other], target, weights)
                 status, reached, checks = _isolate(rng, states, parents, sizes, other, node, target, extension_range,
                                                    weights, random_order, by_length, factor_columns, factor_sizes,
-                                                   steps, ints, floats, pair_columns)
+                                                   steps, ints, floats, pair_columns, shape_rho, mf, mi, ml)
                 counters[SPENT] += checks
             if status == _REACHED:
                 counters[CONNECTIONS] += 1
                 path = connection_path(states, parents, growing, new, other, reached)
-                if _holds(path, fine_steps, by_length, ints, floats, pair_columns, counters):
+                if _holds(path, fine_steps, by_length, ints, floats, pair_columns, shape_rho, mf, mi, ml, counters):
                     counters[GROWING] = growing
                     return FOUND, path
                 counters[CLIPPED] += 1
@@ -131,17 +134,18 @@ def resume(rng, states, parents, sizes, counters, stop, budget, goals_exhausted,
 
 
 @njit(cache=True, nogil=True)
-def _holds(path, fine_steps, by_length, ints, floats, pair_columns, counters):
+def _holds(path, fine_steps, by_length, ints, floats, pair_columns, shape_rho, mf, mi, ml, counters):
     """Whether each segment of ``path`` holds at ``fine_steps``, checked in order until one fails (each check
-    paid into ``counters[SPENT]``, as a :class:`~solver.planning.anytime.CheckCounter` pays it)."""
+    paid into ``counters[SPENT]``, as a :class:`~solver.planning.anytime.CheckCounter` pays it): motion_hit_in,
+    motion_collision's verdict with fewer pair tests."""
     (kin_int, kin_float, shape_link, shape_nv, shape_center, shape_radius, shape_verts, shape_normals,
      shape_extent, pairs, tol, _) = _unpacked(ints, floats)
     n_links = ints[0]
     for i in range(path.shape[0] - 1):
         counters[SPENT] += _motion_length(path[i], path[i + 1], fine_steps) if by_length else 1
-        if motion_collision(path[i], path[i + 1], fine_steps, kin_int, kin_float, n_links, shape_link, shape_nv,
-                            shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
-                            pair_columns) >= 0:
+        if motion_hit_in(mf, mi, ml, path[i], path[i + 1], fine_steps, kin_int, kin_float, n_links, shape_link,
+                         shape_nv, shape_center, shape_radius, shape_verts, shape_normals, shape_extent, pairs, tol,
+                         pair_columns, shape_rho) >= 0:
             return False
     return True
 
@@ -190,8 +194,10 @@ def run(planner, recorder):
     from solver.planning import la_rrt
 
     problem, settings, counter = planner.problem, planner.settings, recorder.counter
-    _, random_order, by_length, factor_columns, factor_sizes, steps, ints, floats, pair_columns = \
+    counter_model, random_order, by_length, factor_columns, factor_sizes, steps, ints, floats, pair_columns = \
         planner._compiled_step
+    # the collision model the packed arrays are of (step_arguments'): its shapes' reach for motion_hit_in
+    shape_rho = (counter_model._model if counter_model is not None else planner.model)._shape_rho
     d = len(problem.start)
     room = room_per_iteration(len(factor_sizes), settings.range_fraction)
     states = np.empty((2, max(1024, 4 * room), d))
@@ -215,7 +221,7 @@ def run(planner, recorder):
             resume, planner.rng, states, parents, sizes, counters, stop, recorder.budget_checks,
             bool(getattr(goals, "exhausted", False)), room, lower, upper, settings.limit_probability, weights,
             planner.range, random_order, by_length, factor_columns, factor_sizes, steps, planner.fine_steps, ints,
-            floats, pair_columns)
+            floats, pair_columns, shape_rho)
         counter.checks = before + int(counters[SPENT])
         if why == GOAL_WANTED:  # LaRrt._add_goal_root with a goal source
             counters[GOAL_DRAWS] += 1
