@@ -2,8 +2,9 @@
 seeds drawn fresh each run (printed in every assertion message).
 
 Every leg a generation plans is captured and re-checked here at 2 mm; the same leg planned twice from the
-same random numbers is the same path; and the controls: a leg whose goal lies inside a wall, or past the
-door the leg may not move, is given up within its budget, and a motion through a wall is refused.
+same random numbers is the same path; and the controls: a leg whose goal lies inside a wall is given up
+within its budget, a leg that fails with the door held stays within its budget (and whatever a longer run
+finds is free), and a motion through a wall is refused.
 
 The certificate's length: the legs' raw certificate of n = 3 defragments to 2n actions at 2 mm (the
 control: undefragmented it has more); seed 6120348's kept 17 because the defragmenter checks its
@@ -25,7 +26,7 @@ from phyrogen_core.actions import count_actions
 from phyrogen_core.registry import get_generator
 from solver.pipelines.generation import generate_here
 from solver.planning._leg_connect import _motion_free, _unpacked, rrt_connect_leg
-from solver.planning.problem import FINE_RESOLUTION, verify_certificate
+from solver.planning.problem import FINE_RESOLUTION, densify, verify_certificate
 
 
 def fresh_seed() -> int:
@@ -119,14 +120,21 @@ def test_a_leg_whose_goal_is_walled_off_is_given_up_within_its_budget(generated)
     assert rrt_connect_leg(problem, 300, np.random.default_rng(seed), resolution, held).solved, f"seed {seed}"
 
 
-def test_a_leg_past_the_held_door_fails_and_the_whole_leg_then_succeeds(generated):
+def test_a_leg_that_fails_with_the_door_held_is_given_up_within_its_budget(generated):
     seed, _, legs = generated
     failed = [leg for leg in legs if not leg[4].solved and leg[3]]
     assert failed, f"seed {seed}: every leg went through with the door held"
     for problem, budget, resolution, held, result in failed:
         assert result.checks <= budget + 10, f"seed {seed}: {result.checks} queries of {budget}"
+        # A leg given up within its budget is not proven blocked by the door: a longer run from other numbers
+        # may find a way round it (seed 943038398: one of its 4 such legs, in 149 queries). Whatever a longer
+        # run finds must keep the held joints still and be free at every state 0.2 mm apart.
         again = rrt_connect_leg(problem, 4 * budget, np.random.default_rng(seed), resolution, held)
-        assert not again.solved, f"seed {seed}: a leg through the held door was found"
+        if again.solved:
+            path = np.array(again.path)
+            assert (path[:, list(held)] == problem.start[list(held)]).all(), f"seed {seed}: a held joint moved"
+            dense = densify(path, problem.model.motion_steps(0.0002))
+            assert problem.model.check(dense).all(), f"seed {seed}: a leg through the held door was found"
 
 
 def test_a_motion_through_a_wall_is_refused(generated):
